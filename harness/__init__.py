@@ -1,0 +1,3 @@
+"""harness: a cross-check harness for rigid-body dynamics (in-house Newton-Euler, MuJoCo, Pinocchio)."""
+
+__version__ = "0.1.0"

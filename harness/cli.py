@@ -1,0 +1,171 @@
+"""Command-line interface: ``harness scenes | simulate | validate``.
+
+Exit codes: 0 success (for ``validate``: every check holds), 1 a check fails, 2 bad input or a
+model that will not load (one line on stderr, no traceback, no report touched).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from harness.errors import InputError
+
+EXIT_OK, EXIT_FAIL, EXIT_INPUT = 0, 1, 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error and exit code 2."""
+
+    def error(self, message: str):  # noqa: D401 - argparse API
+        raise InputError(message)
+
+
+def _float(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def _overrides(items: list[str] | None) -> dict[str, str]:
+    from harness.scene import parse_set
+
+    return dict(parse_set(item) for item in items or [])
+
+
+def _csv_list(text: str) -> list[str]:
+    return [s for s in (p.strip() for p in text.split(",")) if s]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="harness", description="Cross-check rigid-body dynamics: in-house, MuJoCo, Pinocchio.")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    sub.add_parser("scenes", help="list the scenes with their parameters")
+
+    s = sub.add_parser("simulate", help="run one scene on one engine, write the common trajectory as CSV")
+    s.add_argument("scene")
+    s.add_argument("--engine", required=True)
+    s.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene parameter (repeatable)")
+    s.add_argument("--t-end", type=_float)
+    s.add_argument("--dt", type=_float)
+    s.add_argument("--integrator")
+    s.add_argument("--save-every", type=_float)
+    s.add_argument("--rtol", type=_float, default=1e-10)
+    s.add_argument("--atol", type=_float, default=1e-12)
+    s.add_argument("--out", required=True, type=Path)
+    s.add_argument("--models-dir", type=Path, help="folder of scene folders (default: the project's models/)")
+
+    v = sub.add_parser("validate", help="run every scene on every engine, check, write reports/")
+    v.add_argument("--scenes", type=_csv_list, help="comma-separated scene names (default: all)")
+    v.add_argument("--engines", type=_csv_list, help="comma-separated engines (default: all)")
+    v.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter in every selected scene that has it")
+    v.add_argument("--out-dir", type=Path, default=Path("reports"))
+    v.add_argument("--models-dir", type=Path, help="folder of scene folders (default: the project's models/)")
+    return p
+
+
+def cmd_scenes(args) -> int:
+    from harness.scene import available_scenes, load_scene
+
+    for name in available_scenes():
+        scene = load_scene(name)
+        print(f"{name}: {scene.title} [{'; '.join(scene.textbook)}]")
+        for p in scene.parameters.values():
+            value = ",".join(f"{x:g}" for x in p.value) if isinstance(p.value, tuple) else f"{p.value:g}"
+            print(f"  {p.name} = {value} {p.unit}  -- {p.doc}")
+    return EXIT_OK
+
+
+def cmd_simulate(args) -> int:
+    from harness import atomic
+    from harness.engines import get_engine
+    from harness.engines.base import RunSettings
+    from harness.scene import load_scene
+    from harness.trajectory import to_frame
+
+    scene = load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir)
+    engine = get_engine(args.engine)
+    settings = RunSettings(
+        t_end=args.t_end if args.t_end is not None else scene.t_end,
+        dt=args.dt if args.dt is not None else scene.dt,
+        save_every=args.save_every if args.save_every is not None else scene.save_every,
+        integrator=args.integrator or scene.integrators[args.engine],
+        rtol=args.rtol,
+        atol=args.atol,
+    )
+    if args.engine not in scene.integrators:
+        raise InputError(f"scene {scene.name!r} has no default integrator for {args.engine}")
+    traj = engine.simulate(scene, settings)
+    frame = to_frame(traj, scene.multibody())
+    atomic.write_text(args.out, frame.to_csv(index=False))
+    print(f"{args.out}: {len(frame)} samples, {traj.engine}/{traj.integrator}, status {traj.status}"
+          + (f" ({traj.message})" if traj.message else ""))
+    return EXIT_OK if traj.ok else EXIT_FAIL
+
+
+def preflight(scene) -> None:
+    """Reject non-physical parameters and models that do not load, before any run."""
+    from harness.engines.mujoco_model import load_mjcf
+    from harness.engines.pinocchio_model import load_urdf
+
+    model = scene.multibody()
+    load_mjcf(scene.mjcf, model)
+    load_urdf(scene.urdf, scene.urdf_root_joint, model)
+
+
+def cmd_validate(args) -> int:
+    from harness.engines import ENGINE_NAMES, get_engine
+    from harness.provenance import provenance
+    from harness.report import write_reports
+    from harness.scene import available_scenes, load_scene
+    from harness.validate import validate_scene
+
+    names = args.scenes or available_scenes(args.models_dir)
+    engines = args.engines or list(ENGINE_NAMES)
+    for e in engines:
+        get_engine(e)
+    overrides = _overrides(args.set)
+    scenes = []
+    for name in names:
+        scene = load_scene(name, models_dir=args.models_dir)
+        own = {k: v for k, v in overrides.items() if k in scene.parameters}
+        scenes.append(scene.with_params(**own))
+    unused = set(overrides) - {k for s in scenes for k in s.parameters}
+    if unused:
+        raise InputError(f"unknown parameter {sorted(unused)[0]!r} for the selected scenes")
+    for scene in scenes:
+        preflight(scene)
+    results = []
+    for scene in scenes:
+        result = validate_scene(scene, engines)
+        bad = sum(not c.passed for c in result.checks)
+        print(f"{scene.name}: {'PASS' if result.passed else 'FAIL'} ({len(result.checks) - bad}/{len(result.checks)} checks hold)")
+        for c in result.checks:
+            if not c.passed:
+                print(f"  FAIL {c.engine} {c.check}: {c.value:.3e} > {c.tolerance:.1e} {c.unit} {c.detail}")
+        results.append(result)
+    paths = write_reports(results, provenance(), args.out_dir)
+    print("wrote " + ", ".join(str(p) for p in paths))
+    return EXIT_OK if all(r.passed for r in results) else EXIT_FAIL
+
+
+COMMANDS = {"scenes": cmd_scenes, "simulate": cmd_simulate, "validate": cmd_validate}
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        args = build_parser().parse_args(argv)
+        return COMMANDS[args.command](args)
+    except InputError as err:
+        print(f"harness: error: {err}", file=sys.stderr)
+        return EXIT_INPUT
+    except KeyboardInterrupt:
+        print("harness: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

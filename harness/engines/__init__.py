@@ -1,0 +1,21 @@
+"""Registry of engines: name -> engine object with ``simulate(scene, settings)``."""
+
+from __future__ import annotations
+
+import importlib
+
+from harness.errors import InputError
+
+ENGINE_MODULES = {
+    "inhouse": "harness.engines.inhouse",
+    "mujoco": "harness.engines.mujoco_engine",
+    "pinocchio": "harness.engines.pinocchio_engine",
+}
+ENGINE_NAMES = tuple(ENGINE_MODULES)
+
+
+def get_engine(name: str):
+    """The engine registered under ``name``; InputError if there is none."""
+    if name not in ENGINE_MODULES:
+        raise InputError(f"unknown engine {name!r} (known: {', '.join(ENGINE_NAMES)})")
+    return importlib.import_module(ENGINE_MODULES[name]).ENGINE

@@ -1,0 +1,78 @@
+"""The engine contract: run a scene with given settings, return a common ``Trajectory``.
+
+Every engine (``inhouse``, ``mujoco``, ``pinocchio``) implements ``simulate``. Saved samples are
+at ``t = k * save_every`` for k = 0 .. round(t_end / save_every); fixed-step methods take
+``round(save_every / dt)`` steps between samples.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+from harness.errors import InputError
+from harness.scene import Scene
+from harness.trajectory import Trajectory
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """How to run a scene.
+
+    Attributes:
+        t_end: horizon (s), > 0.
+        dt: fixed step (s), > 0; for adaptive methods, the initial step hint.
+        save_every: interval between saved samples (s); a whole multiple of ``dt``.
+        integrator: name from the engine's ``integrators``.
+        rtol, atol: tolerances of adaptive methods (ignored by fixed-step ones).
+    """
+
+    t_end: float
+    dt: float
+    save_every: float
+    integrator: str
+    rtol: float = 1e-10
+    atol: float = 1e-12
+
+    @property
+    def n_saves(self) -> int:
+        """Number of saved intervals (samples are n_saves + 1, including t = 0)."""
+        return int(round(self.t_end / self.save_every))
+
+    @property
+    def steps_per_save(self) -> int:
+        return int(round(self.save_every / self.dt))
+
+
+def check_settings(settings: RunSettings, integrators: tuple[str, ...], engine: str) -> None:
+    """Raise InputError for a non-positive or non-finite step/horizon, an incommensurate save
+    interval, or an integrator the engine does not have."""
+    for label in ("t_end", "dt", "save_every"):
+        value = getattr(settings, label)
+        if not (math.isfinite(value) and value > 0.0):
+            name = {"t_end": "horizon t_end", "dt": "timestep dt", "save_every": "save interval"}[label]
+            raise InputError(f"{name} must be positive and finite, got {value!r}")
+    ratio = settings.save_every / settings.dt
+    if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio) or round(ratio) < 1:
+        raise InputError(f"save interval {settings.save_every!r} s is not a whole multiple of dt {settings.dt!r} s")
+    ratio = settings.t_end / settings.save_every
+    if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio) or round(ratio) < 1:
+        raise InputError(f"horizon {settings.t_end!r} s is not a whole multiple of the save interval {settings.save_every!r} s")
+    if settings.integrator not in integrators:
+        raise InputError(f"unknown integrator {settings.integrator!r} for engine {engine} (known: {', '.join(integrators)})")
+
+
+class Engine(Protocol):
+    """What every engine provides."""
+
+    name: str
+    integrators: tuple[str, ...]
+
+    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
+        """Run ``scene`` and return its trajectory in maximal coordinates.
+
+        A numerical failure (non-finite state, solver failure) is returned as a trajectory with
+        ``status`` "failed" or "blowup", not raised; bad input raises ``InputError``.
+        """
+        ...

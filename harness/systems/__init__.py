@@ -1,0 +1,1 @@
+"""One module per scene: ``build(params) -> Multibody`` turns parameter values into physics."""

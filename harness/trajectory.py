@@ -1,0 +1,102 @@
+"""The common trajectory: every engine's run in maximal coordinates, and its CSV schema.
+
+Arrays are indexed ``[time, body, component]``; frames and units as in ``harness.kinematics``.
+CSV columns (one row per saved time, starting at t = 0):
+``t, kinetic, potential, energy, px, py, pz, Lx, Ly, Lz`` then, per body B,
+``B.x B.y B.z B.qw B.qx B.qy B.qz B.vx B.vy B.vz B.wx B.wy B.wz``,
+then optional engine-reported columns ``engine_kinetic, engine_potential``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from harness import invariants
+from harness.multibody import Multibody
+
+BODY_FIELDS = ("x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """One run of one engine on one scene, in maximal coordinates.
+
+    Attributes:
+        engine, integrator: what produced it.
+        body_names: order of the body axis.
+        t: saved times (s), shape (n,).
+        p_WCm_W, v_WCm_W, w_WB_W: shape (n, nbody, 3); quat_WB: (n, nbody, 4) ``wxyz``.
+        engine_energy: energies as the engine itself reports them, ``{"kinetic": (n,),
+            "potential": (n,)}`` (J), or empty where the engine gives none.
+        stats: counters of the run (``steps``, ``rhs_evals``, ``wall_s``, ...).
+        status: ``"ok"``, or ``"failed"``/``"blowup"`` with ``message``; a failed run keeps
+            what was computed up to the failure.
+    """
+
+    engine: str
+    integrator: str
+    body_names: tuple[str, ...]
+    t: np.ndarray
+    p_WCm_W: np.ndarray
+    quat_WB: np.ndarray
+    v_WCm_W: np.ndarray
+    w_WB_W: np.ndarray
+    engine_energy: dict[str, np.ndarray] = field(default_factory=dict)
+    stats: dict[str, float] = field(default_factory=dict)
+    status: str = "ok"
+    message: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    def body_index(self, name: str) -> int:
+        return self.body_names.index(name)
+
+
+def failed(engine: str, integrator: str, body_names, status: str, message: str) -> Trajectory:
+    """An empty trajectory that records why a run produced nothing."""
+    nb = len(body_names)
+    return Trajectory(
+        engine=engine,
+        integrator=integrator,
+        body_names=tuple(body_names),
+        t=np.zeros(0),
+        p_WCm_W=np.zeros((0, nb, 3)),
+        quat_WB=np.zeros((0, nb, 4)),
+        v_WCm_W=np.zeros((0, nb, 3)),
+        w_WB_W=np.zeros((0, nb, 3)),
+        status=status,
+        message=message,
+    )
+
+
+def to_frame(traj: Trajectory, model: Multibody) -> pd.DataFrame:
+    """The trajectory as a table with the documented CSV columns (energies recomputed here)."""
+    energy = invariants.energies(traj, model)
+    p_W = invariants.linear_momentum(traj, model)
+    L_W = invariants.angular_momentum(traj, model)
+    cols: dict[str, np.ndarray] = {
+        "t": traj.t,
+        "kinetic": energy["kinetic"],
+        "potential": energy["potential"],
+        "energy": energy["energy"],
+        "px": p_W[:, 0],
+        "py": p_W[:, 1],
+        "pz": p_W[:, 2],
+        "Lx": L_W[:, 0],
+        "Ly": L_W[:, 1],
+        "Lz": L_W[:, 2],
+    }
+    for i, name in enumerate(traj.body_names):
+        block = np.concatenate(
+            [traj.p_WCm_W[:, i], traj.quat_WB[:, i], traj.v_WCm_W[:, i], traj.w_WB_W[:, i]], axis=1
+        )
+        for j, f in enumerate(BODY_FIELDS):
+            cols[f"{name}.{f}"] = block[:, j]
+    for key, values in traj.engine_energy.items():
+        cols[f"engine_{key}"] = values
+    return pd.DataFrame(cols)
