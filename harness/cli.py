@@ -64,6 +64,9 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter in every selected scene that has it")
     v.add_argument("--out-dir", type=Path, default=Path("reports"))
     v.add_argument("--models-dir", type=Path, help="folder of scene folders (default: the project's models/)")
+    v.add_argument("--tolerances", type=Path, help="TOML file tightening or loosening checks per scene and quantity")
+    v.add_argument("--jobs", type=int, default=0, help="worker processes (default: all cores)")
+    v.add_argument("--timeout", type=_float, default=300.0, help="seconds allowed per scene x engine case")
     return p
 
 
@@ -121,7 +124,8 @@ def cmd_validate(args) -> int:
     from harness.provenance import provenance
     from harness.report import write_reports
     from harness.scene import available_scenes, load_scene
-    from harness.validate import validate_scene
+    from harness.tolerances import apply_tolerances, check_scenes_known, read_tolerances
+    from harness.validate import validate
 
     names = args.scenes or available_scenes(args.models_dir)
     engines = args.engines or list(ENGINE_NAMES)
@@ -136,17 +140,23 @@ def cmd_validate(args) -> int:
     unused = set(overrides) - {k for s in scenes for k in s.parameters}
     if unused:
         raise InputError(f"unknown parameter {sorted(unused)[0]!r} for the selected scenes")
+    changes = {}
+    if args.tolerances is not None:
+        table = read_tolerances(args.tolerances)
+        check_scenes_known(table, available_scenes(args.models_dir), args.tolerances)
+        for i, scene in enumerate(scenes):
+            scenes[i], changes[scene.name] = apply_tolerances(scene, table, args.tolerances)
+    if not (args.timeout > 0):
+        raise InputError(f"--timeout must be positive, got {args.timeout!r}")
     for scene in scenes:
         preflight(scene)
-    results = []
-    for scene in scenes:
-        result = validate_scene(scene, engines)
+    results = validate(scenes, engines, jobs=args.jobs or None, timeout=args.timeout, tolerance_changes=changes)
+    for result in results:
         bad = sum(not c.passed for c in result.checks)
-        print(f"{scene.name}: {'PASS' if result.passed else 'FAIL'} ({len(result.checks) - bad}/{len(result.checks)} checks hold)")
+        print(f"{result.scene}: {'PASS' if result.passed else 'FAIL'} ({len(result.checks) - bad}/{len(result.checks)} checks hold)")
         for c in result.checks:
             if not c.passed:
                 print(f"  FAIL {c.engine} {c.check}: {c.value:.3e} > {c.tolerance:.1e} {c.unit} {c.detail}")
-        results.append(result)
     paths = write_reports(results, provenance(), args.out_dir)
     print("wrote " + ", ".join(str(p) for p in paths))
     return EXIT_OK if all(r.passed for r in results) else EXIT_FAIL

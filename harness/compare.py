@@ -45,6 +45,20 @@ def trajectory_error(a: Trajectory, b: Trajectory) -> dict[str, float]:
     return out
 
 
+def motion_scales(traj: Trajectory, model: Multibody) -> dict[str, float]:
+    """Scales that make trajectory errors comparable across parameter sets.
+
+    ``length`` (m): the largest of max_t |p_WCm_W| over bodies and every body's largest radius
+    of gyration sqrt(I_max/m). ``angular_velocity`` (rad/s): max_t |w_WB_W| (1 if the run never
+    rotates). ``velocity`` (m/s): the larger of max_t |v_WCm_W| and length x angular_velocity.
+    """
+    gyration = max(float(np.sqrt(np.linalg.eigvalsh(b.I_Cm_B)[-1] / b.mass)) for b in model.bodies)
+    length = max(float(np.max(np.linalg.norm(traj.p_WCm_W, axis=-1), initial=0.0)), gyration)
+    w = float(np.max(np.linalg.norm(traj.w_WB_W, axis=-1), initial=0.0)) or 1.0
+    v = max(float(np.max(np.linalg.norm(traj.v_WCm_W, axis=-1), initial=0.0)), length * w)
+    return {"length": length, "velocity": v, "angular_velocity": w}
+
+
 def energy_scale(traj: Trajectory, model: Multibody) -> float:
     """Energy scale (J) for relative drifts: max kinetic energy plus the range of potential."""
     e = invariants.energies(traj, model)

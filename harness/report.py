@@ -1,10 +1,12 @@
 """Validation report: ``validation.md`` (read by a person), ``validation.csv`` (one row per
-check) and ``validation.json`` (everything, with provenance). All written atomically."""
+check), ``validation.json`` (everything, with provenance) and ``validation.junit.xml`` (one
+test case per scene x engine x check, for CI systems). All written atomically."""
 
 from __future__ import annotations
 
 import json
 import math
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pandas as pd
@@ -44,10 +46,15 @@ def markdown(results: list[SceneValidation], prov: dict) -> str:
     for v in results:
         lines += [f"## {v.scene} — {'PASS' if v.passed else 'FAIL'}", ""]
         params = ", ".join(f"{k} = {val}" for k, val in v.parameters.items())
-        lines += [f"Parameters: {params}", "", "| run | integrator | dt (s) | status | steps | wall (s) |", "|---|---|---|---|---|---|"]
+        lines += [f"Parameters: {params}", ""]
+        if v.tolerance_changes:
+            lines += ["Tolerances changed by the tolerance file: " + "; ".join(v.tolerance_changes), ""]
+        lines += ["| run | integrator | dt (s) | status | steps | wall (s) | settings |", "|---|---|---|---|---|---|---|"]
         for r in v.runs:
             step = f"rtol {r.rtol:g}" if r.rtol else f"{r.dt:g}"
-            lines.append(f"| {r.engine} | {r.integrator} | {step} | {r.status}{': ' + r.message if r.message else ''} | {r.steps:.0f} | {r.wall_s:.2f} |")
+            steps = "—" if r.steps != r.steps else f"{r.steps:.0f}"
+            lines.append(f"| {r.engine} | {r.integrator} | {step} | {r.status}{': ' + r.message if r.message else ''} | "
+                         f"{steps} | {r.wall_s:.2f} | {r.settings} |")
         lines += ["", "| engine | check | value | tolerance | unit | result | note |", "|---|---|---|---|---|---|---|"]
         for c in v.checks:
             lines.append(f"| {c.engine} | {c.check} | {_fmt(c.value)} | {_fmt(c.tolerance)} | {c.unit} | "
@@ -73,10 +80,34 @@ def write_reports(results: list[SceneValidation], prov: dict, out_dir: Path) -> 
         "scenes": [as_dict(v) for v in results],
     }
     js = json.dumps(payload, indent=2, default=_json_default, allow_nan=True)
-    paths = [out_dir / "validation.md", out_dir / "validation.csv", out_dir / "validation.json"]
-    for path, text in zip(paths, (md, csv, js)):
+    xml = junit_xml(results, prov)
+    paths = [out_dir / "validation.md", out_dir / "validation.csv", out_dir / "validation.json",
+             out_dir / "validation.junit.xml"]
+    for path, text in zip(paths, (md, csv, js, xml)):
         atomic.write_text(path, text)
     return paths
+
+
+def junit_xml(results: list[SceneValidation], prov: dict) -> str:
+    """JUnit XML: a test suite per scene, a test case per engine x check (``classname`` =
+    ``scene.engine``), a failure element carrying value, tolerance and detail."""
+    suites = ET.Element("testsuites", name="harness validate")
+    for v in results:
+        failures = sum(not c.passed for c in v.checks)
+        wall = sum(r.wall_s for r in v.runs)
+        suite = ET.SubElement(suites, "testsuite", name=v.scene, tests=str(len(v.checks)),
+                              failures=str(failures), errors="0", time=f"{wall:.3f}", timestamp=prov["date_utc"])
+        props = ET.SubElement(suite, "properties")
+        for key in ("mujoco", "pinocchio", "numpy", "scipy", "python", "machine"):
+            ET.SubElement(props, "property", name=key, value=str(prov[key]))
+        for c in v.checks:
+            case = ET.SubElement(suite, "testcase", classname=f"{v.scene}.{c.engine}", name=c.check)
+            if not c.passed:
+                failure = ET.SubElement(case, "failure", message=f"{_fmt(c.value)} > {_fmt(c.tolerance)} {c.unit}".strip(),
+                                        type="tolerance" if c.check != "run" else "run")
+                failure.text = c.detail
+    ET.indent(suites)
+    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(suites, encoding="unicode") + "\n"
 
 
 def _json_default(o):

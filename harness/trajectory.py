@@ -10,6 +10,7 @@ then optional engine-reported columns ``engine_kinetic, engine_potential``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -45,7 +46,7 @@ class Trajectory:
     v_WCm_W: np.ndarray
     w_WB_W: np.ndarray
     engine_energy: dict[str, np.ndarray] = field(default_factory=dict)
-    stats: dict[str, float] = field(default_factory=dict)
+    stats: dict[str, Any] = field(default_factory=dict)
     status: str = "ok"
     message: str = ""
 

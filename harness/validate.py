@@ -12,27 +12,32 @@ in ``[checks.*]`` of its ``scene.toml``):
 * ``engine_energy``: the engine's own energy against the harness's recomputation.
 
 The reference run is itself checked (engine ``reference``) for conservation and against the
-exact solution before it judges anything. A run that crashes or blows up is recorded as a
-failed check with its reason; the other engines' results are kept.
+exact solution before it judges anything. Every run (reference, and each scene x engine) is
+made in its own worker process (``harness.workers``): cases run in parallel, and a crash, hang
+or blow-up is recorded as that case's failed ``run`` check while every other result is kept.
 """
 
 from __future__ import annotations
 
+import os
 import time
-import traceback
 from dataclasses import asdict, dataclass, field
+from typing import Any
 
 import numpy as np
 
 from harness import compare, exact
 from harness.engines import get_engine
 from harness.engines.base import RunSettings
+from harness.errors import InputError
 from harness.scene import Scene
-from harness.trajectory import Trajectory, failed
+from harness.trajectory import Trajectory
+from harness.workers import Outcome, run_cases
 
 REFERENCE_METHOD = "DOP853"
 REFERENCE_TOL = 1e-12
 ENGINE_ENERGY_TOL = 1e-9  # relative; a larger mismatch means the engine's mass model differs
+DEFAULT_TIMEOUT = 300.0   # s per case
 
 
 @dataclass(frozen=True)
@@ -51,7 +56,8 @@ class CheckResult:
 
 @dataclass(frozen=True)
 class RunRecord:
-    """How one run was made and how it ended."""
+    """How one run was made and how it ended (``settings``: the engine's own description of
+    its integrator and solver settings)."""
 
     scene: str
     engine: str
@@ -63,6 +69,7 @@ class RunRecord:
     message: str
     wall_s: float
     steps: float
+    settings: str = ""
 
 
 @dataclass
@@ -74,79 +81,128 @@ class SceneValidation:
     checks: list[CheckResult] = field(default_factory=list)
     runs: list[RunRecord] = field(default_factory=list)
     cross: dict[str, dict[str, float]] = field(default_factory=dict)
+    tolerance_changes: list[str] = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
         return all(c.passed for c in self.checks)
 
 
+def save_interval(scene: Scene) -> float:
+    """The scene's save interval, or its step when a force acts: the energy balance integrates
+    the force's power over the saved samples (Simpson, error ~ interval^4), so a forced run is
+    saved at every step."""
+    return scene.dt if scene.multibody().forces else scene.save_every
+
+
 def reference_settings(scene: Scene) -> RunSettings:
     """The in-house high-accuracy run that judges the engines' trajectories."""
-    return RunSettings(scene.t_end, scene.save_every, scene.save_every, REFERENCE_METHOD, rtol=REFERENCE_TOL, atol=REFERENCE_TOL)
+    save = save_interval(scene)
+    return RunSettings(scene.t_end, save, save, REFERENCE_METHOD, rtol=REFERENCE_TOL, atol=REFERENCE_TOL)
 
 
 def default_settings(scene: Scene, engine: str) -> RunSettings:
-    return RunSettings(scene.t_end, scene.dt, scene.save_every, scene.integrators[engine])
+    """The engine's default integrator and the scene's step, horizon and save interval."""
+    return RunSettings(scene.t_end, scene.dt, save_interval(scene), scene.integrators[engine])
 
 
-def run_engine(scene: Scene, engine: str, settings: RunSettings) -> Trajectory:
-    """Run one engine; an exception inside the engine becomes a ``failed`` trajectory."""
-    from harness.errors import InputError
-
-    try:
-        return get_engine(engine).simulate(scene, settings)
-    except InputError:
-        raise
-    except Exception as err:  # a crash in one engine must not take the others down
-        last = traceback.extract_tb(err.__traceback__)[-1]
-        return failed(engine, settings.integrator, scene.multibody().body_names, "failed",
-                      f"{type(err).__name__}: {err} ({last.filename.rsplit('/', 1)[-1]}:{last.lineno})")
-
-
-def validate_scene(scene: Scene, engines: list[str]) -> SceneValidation:
-    """Run and check ``scene`` on ``engines``; see the module docstring."""
-    model = scene.multibody()
-    result = SceneValidation(scene=scene.name, parameters={k: _jsonable(v) for k, v in scene.params.items()})
-    ref_settings = reference_settings(scene)
+def reference_case(scene: Scene) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
+    """Worker body: the reference run and its own checks."""
+    settings = reference_settings(scene)
     t0 = time.perf_counter()
-    ref = run_engine(scene, "inhouse", ref_settings)
-    result.runs.append(_record(scene, "reference", ref_settings, ref, time.perf_counter() - t0))
-    _check_run(scene, model, "reference", "inhouse", ref, None, ref_settings, result)
-
-    trajectories = {}
-    for engine in engines:
-        settings = default_settings(scene, engine)
-        t0 = time.perf_counter()
-        traj = run_engine(scene, engine, settings)
-        result.runs.append(_record(scene, engine, settings, traj, time.perf_counter() - t0))
-        trajectories[engine] = traj
-        _check_run(scene, model, engine, engine, traj, ref, settings, result)
-
-    names = list(trajectories)
-    for i, a in enumerate(names):
-        for b in names[i + 1:]:
-            if trajectories[a].ok and trajectories[b].ok:
-                result.cross[f"{a} vs {b}"] = compare.trajectory_error(trajectories[a], trajectories[b])
-    return result
+    traj = get_engine("inhouse").simulate(scene, settings)
+    record = _record(scene, "reference", settings, traj, time.perf_counter() - t0)
+    return traj, record, check_run(scene, "reference", "inhouse", traj, None, settings)
 
 
-def _check_run(scene, model, label, engine, traj, ref, settings, result: SceneValidation) -> None:
-    """Append the checks of one run to ``result``; ``label`` names it in the report."""
+def engine_case(scene: Scene, engine: str, ref: Trajectory | None) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
+    """Worker body: one engine's run at the scene's defaults and its checks."""
+    settings = default_settings(scene, engine)
+    t0 = time.perf_counter()
+    traj = get_engine(engine).simulate(scene, settings)
+    record = _record(scene, engine, settings, traj, time.perf_counter() - t0)
+    return traj, record, check_run(scene, engine, engine, traj, ref, settings)
+
+
+def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None,
+             timeout: float = DEFAULT_TIMEOUT, tolerance_changes: dict[str, list[str]] | None = None) -> list[SceneValidation]:
+    """Validate ``scenes`` on ``engines``, each run isolated in a worker process.
+
+    Raises InputError if any case reports bad input (e.g. a model that does not load).
+    """
+    jobs = jobs or os.cpu_count() or 1
+    refs = run_cases([(s.name, reference_case, (s,)) for s in scenes], jobs, timeout)
+    _raise_input_errors(refs)
+    cases = []
+    for s in scenes:
+        ref_outcome = refs[s.name]
+        ref = ref_outcome.value[0] if ref_outcome.status == "ok" else None
+        cases += [((s.name, e), engine_case, (s, e, ref)) for e in engines]
+    outcomes = run_cases(cases, jobs, timeout)
+    _raise_input_errors(outcomes)
+
+    results = []
+    for s in scenes:
+        v = SceneValidation(scene=s.name, parameters={k: _jsonable(x) for k, x in s.params.items()},
+                            tolerance_changes=list((tolerance_changes or {}).get(s.name, [])))
+        _collect(v, s, "reference", refs[s.name], reference_settings(s))
+        trajectories = {}
+        for e in engines:
+            outcome = outcomes[(s.name, e)]
+            _collect(v, s, e, outcome, default_settings(s, e))
+            if outcome.status == "ok" and outcome.value[0].ok:
+                trajectories[e] = outcome.value[0]
+            if refs[s.name].status != "ok" and "trajectory" in s.checks:
+                v.checks.append(CheckResult(s.name, e, "trajectory", float("nan"), 0.0, "", False,
+                                            f"no reference: reference run {refs[s.name].status}: {refs[s.name].message}"))
+        names = list(trajectories)
+        for i, a in enumerate(names):
+            for b in names[i + 1:]:
+                v.cross[f"{a} vs {b}"] = compare.trajectory_error(trajectories[a], trajectories[b])
+        results.append(v)
+    return results
+
+
+def validate_scene(scene: Scene, engines: list[str], **kwargs) -> SceneValidation:
+    """Validate one scene (see ``validate``)."""
+    return validate([scene], engines, **kwargs)[0]
+
+
+def _raise_input_errors(outcomes: dict[Any, Outcome]) -> None:
+    for outcome in outcomes.values():
+        if outcome.status == "input_error":
+            raise InputError(outcome.message)
+
+
+def _collect(v: SceneValidation, scene: Scene, label: str, outcome: Outcome, settings: RunSettings) -> None:
+    """Add one case's run record and checks; a case that died becomes a failed ``run`` check."""
+    if outcome.status == "ok":
+        _, record, checks = outcome.value
+        v.runs.append(record)
+        v.checks.extend(checks)
+        return
+    v.runs.append(RunRecord(scene.name, label, settings.integrator, settings.dt, None, settings.t_end,
+                            outcome.status, outcome.message, outcome.wall_s, float("nan")))
+    v.checks.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False, f"{outcome.status}: {outcome.message}"))
+
+
+def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Trajectory | None,
+              settings: RunSettings) -> list[CheckResult]:
+    """The checks of one run; ``label`` names it in the report, ``engine`` picks tolerances."""
+    model = scene.multibody()
     checks = scene.checks
-    tol_key = engine
+    out: list[CheckResult] = []
 
     def add(check, value, tol, unit, detail=""):
         ok = bool(np.isfinite(value) and value <= tol)
-        result.checks.append(CheckResult(scene.name, label, check, float(value), float(tol), unit, ok, detail))
+        out.append(CheckResult(scene.name, label, check, float(value), float(tol), unit, ok, detail))
 
     if not traj.ok:
-        result.checks.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False,
-                                         f"{traj.status}: {traj.message}"))
-        return
-    forced = bool(model.forces)
+        out.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False, f"{traj.status}: {traj.message}"))
+        return out
     if "energy_drift" in checks:
-        tol = checks["energy_drift"][tol_key]
-        if forced:
+        tol = checks["energy_drift"][engine]
+        if model.forces:
             balance, quad = compare.energy_balance(traj, model)
             add("energy_balance", balance, tol, "rel", f"E - E0 - W(t) over the energy scale; quadrature error of W ~{quad:.1e}")
         else:
@@ -154,40 +210,53 @@ def _check_run(scene, model, label, engine, traj, ref, settings, result: SceneVa
     if "momentum_drift" in checks:
         spec = checks["momentum_drift"]
         for comp, value in compare.momentum_drift(traj, model, spec["components"]).items():
-            add(f"momentum_drift.{comp}", value, spec[tol_key], "rel", "max |c - c0| / momentum scale")
+            add(f"momentum_drift.{comp}", value, spec[engine], "rel", "max |c - c0| / momentum scale")
     if "trajectory" in checks and ref is not None:
         if not ref.ok:
-            result.checks.append(CheckResult(scene.name, label, "trajectory", float("nan"), 0.0, "", False,
-                                             f"reference run {ref.status}: {ref.message}"))
+            out.append(CheckResult(scene.name, label, "trajectory", float("nan"), 0.0, "", False,
+                                   f"reference run {ref.status}: {ref.message}"))
         else:
             err = compare.trajectory_error(traj, ref)
+            scale = compare.motion_scales(ref, model)
             tol = checks["trajectory"]
-            add("trajectory.position", err["position_max"], tol["position"], "m", "max over bodies and samples")
-            add("trajectory.orientation", err["orientation_max"], tol["orientation"], "rad", "geodesic angle on SO(3)")
-            add("trajectory.velocity", err["velocity_max"], tol["velocity"], "m/s", "centre-of-mass velocity")
-            add("trajectory.angular_velocity", err["angular_velocity_max"], tol["velocity"], "rad/s", "world frame")
+            for key, tol_key, unit, scale_key, what in (
+                ("position", "position", "m", "length", "centre of mass"),
+                ("orientation", "orientation", "rad", None, "geodesic angle on SO(3)"),
+                ("velocity", "velocity", "m/s", "velocity", "centre-of-mass velocity"),
+                ("angular_velocity", "velocity", "rad/s", "angular_velocity", "world frame"),
+            ):
+                value = err[f"{key}_max"]
+                if scale_key is None:
+                    add(f"trajectory.{key}", value, tol[tol_key], unit, f"max over bodies and samples; {what}")
+                else:
+                    add(f"trajectory.{key}", value / scale[scale_key], tol[tol_key], "rel",
+                        f"{value:.2e} {unit} over {scale_key} scale {scale[scale_key]:.3g} {unit}; {what}")
     if "constraint" in checks:
         viol = compare.constraint_violation(traj, model)
-        tol = checks["constraint"][tol_key]
+        tol = checks["constraint"][engine]
         add("constraint.position", viol["position"], tol, "m", "joint points coincide")
         if any(b.joint == "hinge" for b in model.bodies):
             add("constraint.axis", viol["axis"], tol, "rad", "hinge axes stay aligned")
     if "exact" in checks:
-        tol = checks["exact"][tol_key]
+        tol = checks["exact"][engine]
         try:
             value, unit, detail = exact.exact_error(scene, engine, traj, settings)
+        except InputError:
+            raise
         except Exception as err:  # a failing modal run etc. is a failed check, not a crash
             value, unit, detail = float("nan"), "", f"{type(err).__name__}: {err}"
         add("exact", value, tol, unit, detail)
     mismatch = compare.engine_energy_mismatch(traj, model)
     if mismatch is not None:
         add("engine_energy", mismatch, ENGINE_ENERGY_TOL, "rel", "engine's own energy vs harness recomputation")
+    return out
 
 
 def _record(scene, engine, settings, traj, wall) -> RunRecord:
+    adaptive = settings.integrator in ("RK45", "DOP853", "Radau", "BDF", "LSODA")
     return RunRecord(scene.name, engine, settings.integrator, settings.dt,
-                     settings.rtol if settings.integrator[0].isupper() and engine in ("inhouse", "reference") else None,
-                     settings.t_end, traj.status, traj.message, wall, float(traj.stats.get("steps", float("nan"))))
+                     settings.rtol if adaptive else None, settings.t_end, traj.status, traj.message, wall,
+                     float(traj.stats.get("steps", float("nan"))), str(traj.stats.get("settings", "")))
 
 
 def _jsonable(value):
@@ -199,6 +268,7 @@ def as_dict(v: SceneValidation) -> dict:
         "scene": v.scene,
         "passed": v.passed,
         "parameters": v.parameters,
+        "tolerance_changes": v.tolerance_changes,
         "runs": [asdict(r) for r in v.runs],
         "checks": [asdict(c) for c in v.checks],
         "cross_engine": v.cross,

@@ -33,10 +33,10 @@ Ex. 5.3.2  (4/3) θ̈ + ½ φ̈ + (3g/2L) θ = F0 L cos ωt,  (1/3) φ̈ + ½ θ
            force).  Ex. 6.2.1 then uses the undivided M and Q consistently.
 Ex. 6.1.1  M = [[4/3, 1/2], [1/2, 1/3]] m L²,  K = [[3/2, 0], [0, 1/2]] m g L;
            ω² = (g/L)(3 ± 6/√7): ω1 = 0.86 √(g/L), ω2 = 2.30 √(g/L)  — correct
-           (0.85557, 2.29525); u2/u1 = 1.43 and −2.10 — correct (1.4305, −2.0972); unit
-           mode vectors (0.57, 0.82), (0.43, −0.90) — correct (0.5728, 0.8197),
-           (0.4304, −0.9027).
-Ex. 6.2.1  modal masses m1 = 1.12 m L², m2 = 0.13 m L²  — m2 correct (0.1302); **m1 is 1.1312
+           (0.855695, 2.295166); u2/u1 = 1.43 and −2.10 — correct (1.43050, −2.09717);
+           unit mode vectors (0.57, 0.82), (0.43, −0.90) — correct (0.57294, 0.81960),
+           (0.43041, −0.90264).
+Ex. 6.2.1  modal masses m1 = 1.12 m L², m2 = 0.13 m L²  — m2 correct (0.13008); **m1 is 1.13118
            m L², printed 1.12** (the value obtained by inserting the 2-digit rounded vector
            (0.57, 0.82); rounding error carried into a printed result, 1 % off).
            Y_k = L F0 u1^k (cos ωt − cos ω_k t)/(m_k (ω_k² − ω²))  — correct (from rest).

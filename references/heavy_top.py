@@ -5,7 +5,7 @@ Textbook location
 Boström, *Rigid body dynamics*: the closed-form Lagrange top is **not** worked in the book.
 The ingredients are: Ex. 2.2.1 (angular velocity of a top in the non-spinning frame,
 ``ω = −φ̇ sin θ e_x + θ̇ e_y + (ψ̇ + φ̇ cos θ) e_z``, text line ~1117-1140), the 3-2-3 Euler
-angles precession φ / nutation θ / spin ψ of §2.3 (line ~1534), Euler's equations about a
+angles precession φ / nutation θ / spin ψ of §3.2 (line ~1521-1534), Euler's equations about a
 fixed point (4.35)-(4.37), and cyclic coordinates / first integrals (5.24) of §5.2.
 Status of the printed pieces: Ex. 2.2.1's ω and angular acceleration re-derived and correct.
 Everything below is derived here (standard result, e.g. Goldstein §5.7, Landau §35) and
@@ -46,6 +46,8 @@ For β > 0:
 point: w0 = 0 at u1, w0 = K at u2).  Derivation: with u = u1 + (u2−u1) sn², u − u1 =
 (u2−u1) sn², u − u2 = −(u2−u1) cn², u − u3 = −(u3−u1) dn², so f = β(u−u1)(u−u2)(u−u3) =
 β (u2−u1)²(u3−u1) sn² cn² dn² while u̇² = 4 (u2−u1)² λ² sn² cn² dn².
+For β < 0 (centre of mass below the tip, l < 0) the mirror v = −u gives the same form with
+β → −β, a → −a (and v̇0 = −u̇0), so the formulas apply to v; then u3 <= −1.
 For β = 0 (g = 0 or l = 0) the cubic degenerates to the quadratic c2 x² + c1 x + q² and u is
 exactly harmonic: ü = f'(u)/2 is linear, u(t) = u0 + x_e (1 − cos Ω t) + (q/Ω) sin Ω t with
 Ω² = −c2 = ω1² + ω2² + a², x_e = −c1/(2 c2); u3 = +inf (the β → 0 limit of the sn² form).
@@ -171,28 +173,33 @@ def _quad_roots(A2, A1, A0):
 
 
 def _roots_x(params, R0, omega0):
-    """Shifted roots x1 <= 0 <= x2 <= x3 (x3 = inf when β = 0), plus u0, q, β and c's."""
+    """Roots of the shifted cubic in the (possibly mirrored) variable v = σ u, σ = sgn(β)
+    (σ = +1 for β >= 0).  Mirroring u → −u maps f to the same form with β → −β, a → −a, so the
+    analysis below always has β >= 0.  Returns (x1, x2, x3, v0, q, beta, c2, c1, rest, σ) with
+    x1 <= 0 <= x2 <= x3 roots of f(σ(v0 + x)) (x3 = inf when β = 0), v̇0 = q."""
     beta, c2, c1, q, u0, w2 = _shifted_cubic(params, R0, omega0)
+    sigma = 1.0
+    if beta < 0.0:  # centre of mass below the tip (l < 0) or g < 0: mirror u → −u
+        sigma, beta, c1, q, u0 = -1.0, -beta, -c1, -q, -u0
     sleeping = abs(u0) == 1.0 and w2 == 0.0
     if sleeping:
-        return 0.0, 0.0, (np.inf if beta == 0.0 else 0.0), u0, q, beta, c2, c1, True
+        return 0.0, 0.0, (np.inf if beta == 0.0 else 0.0), u0, q, beta, c2, c1, True, sigma
     if beta == 0.0:
         if c2 == 0.0:  # ω = 0 and no gravity: rest
-            return 0.0, 0.0, np.inf, u0, q, beta, c2, c1, True
+            return 0.0, 0.0, np.inf, u0, q, beta, c2, c1, True, sigma
         # −c2 x² − c1 x − q² = 0 with −c2 > 0 and −q² <= 0
         x1, x2 = _quad_roots(-c2, -c1, -q * q)
-        return x1, x2, np.inf, u0, q, beta, c2, c1, False
+        return x1, x2, np.inf, u0, q, beta, c2, c1, False, sigma
     coeffs = np.array([beta, c2, c1, q * q])
-    r = np.roots(coeffs)
-    x3 = float(np.max(r.real))
+    dcoeffs = np.polyder(coeffs)
+    x3 = float(np.max(np.roots(coeffs).real))
     x3 = max(x3, 1.0 - u0)  # u3 >= 1
     for _ in range(4):  # Newton polish of the (simple) largest root
         fx = np.polyval(coeffs, x3)
-        dfx = np.polyval(np.polyder(coeffs), x3)
+        dfx = np.polyval(dcoeffs, x3)
         if dfx <= 0.0:
             break
-        step = fx / dfx
-        x3n = x3 - step
+        x3n = x3 - fx / dfx
         if not np.isfinite(x3n) or abs(np.polyval(coeffs, x3n)) > abs(fx):
             break
         x3 = x3n
@@ -202,14 +209,18 @@ def _roots_x(params, R0, omega0):
         x1, x2 = _quad_roots(beta, c2, c1)
         x1, x2 = min(x1, 0.0), 0.0
     x1, x2 = min(x1, 0.0), max(x2, 0.0)
-    return x1, x2, x3, u0, q, beta, c2, c1, False
+    return x1, x2, x3, u0, q, beta, c2, c1, False, sigma
 
 
 def nutation_roots(params, R0, omega0) -> tuple[float, float, float]:
-    """Roots u1 <= u0 <= u2 <= 1 <= u3 of f(u) (u3 = inf when g l = 0).  For a sleeping top
-    (axis vertical, no transverse ω) returns (u0, u0, u0) (u0, u0, inf if g l = 0)."""
-    x1, x2, x3, u0, *_ = _roots_x(params, R0, omega0)
-    return u0 + x1, u0 + x2, u0 + x3
+    """Roots (u1, u2, u3) of f(u), u1 <= u0 <= u2 the nutation range.  For m g l > 0:
+    u2 <= 1 <= u3 (u3 = inf when g l = 0); for m g l < 0 (centre of mass below the tip) the
+    third root lies below: u3 <= −1.  Sleeping top (axis vertical, no transverse ω): all three
+    equal u0 (u3 = ±inf if g l = 0)."""
+    x1, x2, x3, v0, *_, sigma = _roots_x(params, R0, omega0)
+    if sigma > 0:
+        return v0 + x1, v0 + x2, v0 + x3
+    return -(v0 + x2), -(v0 + x1), -(v0 + x3)
 
 
 def nutation_bounds(params, R0, omega0) -> tuple[float, float]:
@@ -222,21 +233,21 @@ def nutation_bounds(params, R0, omega0) -> tuple[float, float]:
 def cos_theta(t, params, R0, omega0) -> np.ndarray:
     """Exact u(t) = cos θ(t) = e3(t)·ẑ for the Lagrange top (t in s, scalar or array)."""
     t = np.atleast_1d(np.asarray(t, dtype=float)).ravel()
-    x1, x2, x3, u0, q, beta, c2, c1, rest = _roots_x(params, R0, omega0)
+    x1, x2, x3, v0, q, beta, c2, c1, rest, sigma = _roots_x(params, R0, omega0)
     if rest:
-        return np.full(t.shape, u0)
+        return np.full(t.shape, sigma * v0)
     if beta == 0.0:
         Om = np.sqrt(-c2)
         xe = -c1 / (2.0 * c2)
-        return u0 + xe * (1.0 - np.cos(Om * t)) + (q / Om) * np.sin(Om * t)
+        return sigma * (v0 + xe * (1.0 - np.cos(Om * t)) + (q / Om) * np.sin(Om * t))
     span = x2 - x1
     if span <= 1e-14:
-        return np.full(t.shape, u0)
+        return np.full(t.shape, sigma * v0)
     p = TopParams.coerce(params)
     d31 = x3 - x1  # u3 − u1
     k2 = span / d31
     k2c = (x3 - x2) / d31  # 1 − k²
-    lam = np.sqrt(p.mass * p.g * p.l * d31 / (2.0 * p.I1_tip))
+    lam = np.sqrt(abs(p.mass * p.g * p.l) * d31 / (2.0 * p.I1_tip))
     s2 = min(max(-x1 / span, 0.0), 1.0)  # sn²(w0)
     c2_ = min(max(x2 / span, 0.0), 1.0)  # cn²(w0) = 1 − sn²
     d2 = x3 / d31  # dn²(w0) = 1 − k² sn² = (u3 − u0)/(u3 − u1)
@@ -246,7 +257,7 @@ def cos_theta(t, params, R0, omega0) -> np.ndarray:
     if q < 0.0:
         w0 = -w0
     sn, _, _ = ellipj(lam * t + w0, k2, k2c)
-    return u0 + x1 + span * sn * sn
+    return sigma * (v0 + x1 + span * sn * sn)
 
 
 def azimuth_rate_from_u(u, params, L_z: float, L_3: float) -> np.ndarray:

@@ -83,10 +83,19 @@ class MujocoEngine:
             v_WCm_W=out["v"][:saved],
             w_WB_W=out["w"][:saved],
             engine_energy={"kinetic": e_kin[:saved], "potential": e_pot[:saved]},
-            stats={"steps": settings.n_saves * settings.steps_per_save, "wall_s": wall},
+            stats={"steps": settings.n_saves * settings.steps_per_save, "wall_s": wall, "settings": _describe(m)},
             status=status,
             message=message,
         )
+
+
+def _describe(m: mujoco.MjModel) -> str:
+    """The integrator and solver options this run used, for the report's provenance."""
+    o = m.opt
+    contact = "off" if o.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT else "on"
+    return (f"mj_step {mujoco.mjtIntegrator(o.integrator).name[6:]}, timestep {o.timestep:g} s, "
+            f"solver {mujoco.mjtSolver(o.solver).name[6:]} (iterations {o.iterations}, tolerance {o.tolerance:g}), "
+            f"cone {mujoco.mjtCone(o.cone).name[7:]}, contact {contact}")
 
 
 def _force_controller(m: mujoco.MjModel, model, scene: Scene):

@@ -75,7 +75,9 @@ class PinocchioEngine:
             v_WCm_W=out["v"][:saved],
             w_WB_W=out["w"][:saved],
             engine_energy={"kinetic": e_kin[:saved], "potential": e_pot[:saved]},
-            stats={"steps": steps, "wall_s": wall},
+            stats={"steps": steps, "wall_s": wall,
+                   "settings": f"aba, {settings.integrator} on the configuration Lie group (integrate/dIntegrate), "
+                               f"step {h:g} s, root joint {scene.urdf_root_joint}"},
             status=status,
             message=message,
         )

@@ -82,15 +82,9 @@ def quat_rate(q_wxyz: np.ndarray, w_B: np.ndarray) -> np.ndarray:
     return outer.reshape(outer.shape[:-2] + (12,)) @ _QUAT_RATE
 
 
-def quat_exp(rotvec: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``[..., 4]`` (wxyz) of rotation vectors ``[..., 3]`` (rad)."""
-    angle = np.linalg.norm(rotvec, axis=-1, keepdims=True)
-    half = 0.5 * angle
-    # sin(x)/x written with np.sinc (sinc(u) = sin(pi u)/(pi u)) stays exact at zero.
-    scale = 0.5 * np.sinc(half / np.pi)
-    return np.concatenate([np.cos(half), scale * rotvec], axis=-1)
-
-
 def normalized(q: np.ndarray) -> np.ndarray:
     """Quaternions ``[..., 4]`` divided by their norm."""
-    return q / np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
+    return q / np.sqrt((q * q) @ _ONES4)[..., None]
+
+
+_ONES4 = np.ones(4)

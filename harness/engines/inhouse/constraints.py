@@ -26,8 +26,8 @@ to the change of C, which the Gauss-Newton projection uses.
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg.lapack import dposv
 
-from harness import rotations
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.model import NEModel
 
@@ -37,25 +37,39 @@ class DynamicsError(ArithmeticError):
     not converge. The integrators report it as a failed run."""
 
 
-_EYE = np.eye(3)[None]
+_IDENTITY_QUAT = np.array([[1.0, 0.0, 0.0, 0.0]])
 _ZERO = np.zeros((1, 3))
 
 
-def extend(P: np.ndarray, R: np.ndarray, w_W: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Append the world (index nb: at the origin, identity orientation, at rest) to per-body
-    stacks of positions (nb,3), rotations (nb,3,3) and world angular velocities (nb,3)."""
-    return (
-        np.concatenate([P, _ZERO]),
-        np.concatenate([R, _EYE]),
-        np.concatenate([w_W, _ZERO]) if w_W is not None else None,
-    )
+def spd_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Solve ``A x = b`` for a symmetric positive definite ``A`` (Cholesky, LAPACK dposv).
+    Raises DynamicsError when ``A`` is not positive definite (singular constraints)."""
+    _, x, info = dposv(A, b)
+    if info != 0:
+        raise DynamicsError("constraint matrix J M^-1 J^T is singular or not positive definite")
+    return x
+
+
+def frames(nb: int, y: np.ndarray, with_velocity: bool = True):
+    """World-extended frames of state ``y``: unit quaternions (nb, 4), rotations (nb+1, 3, 3),
+    positions (nb+1, 3) and world angular velocities (nb+1, 3) (None unless asked), the world
+    (at rest, at the origin, identity orientation) appended as index nb."""
+    Q = algebra.normalized(y[3 * nb : 7 * nb].reshape(nb, 4))
+    R_ext = algebra.quat_matrix(np.concatenate([Q, _IDENTITY_QUAT]))
+    P_ext = np.concatenate([y[: 3 * nb].reshape(nb, 3), _ZERO])
+    w_ext = None
+    if with_velocity:
+        W_ext = np.concatenate([y[10 * nb :].reshape(nb, 3), _ZERO])
+        w_ext = (R_ext @ W_ext[:, :, None])[:, :, 0]
+    return Q, R_ext, P_ext, w_ext
 
 
 def evaluate(nem: NEModel, P_ext: np.ndarray, R_ext: np.ndarray, w_ext: np.ndarray | None):
     """Constraint rows at one configuration.
 
     Args:
-        P_ext, R_ext: centre-of-mass positions (nb+1, 3) m and rotations (nb+1, 3, 3), world last.
+        P_ext, R_ext: centre-of-mass positions (nb+1, 3) m and rotations body -> world
+            (nb+1, 3, 3), the world last.
         w_ext: world-frame angular velocities (nb+1, 3) rad/s, or None to skip the bias.
 
     Returns:
@@ -63,42 +77,58 @@ def evaluate(nem: NEModel, P_ext: np.ndarray, R_ext: np.ndarray, w_ext: np.ndarr
         ``u = [v_WCm_W..., w_WB_B...]``, and the bias (nc,) with ``d2C/dt2 = J du/dt + gamma``
         (None when ``w_ext`` is None).
     """
-    nj, nh, nb = nem.nj, nem.nh, nem.nb
+    nj, nb = nem.nj, nem.nb
     ends = nem.ends
-    R_end = R_ext[ends]
-    s = (R_end @ nem.r_end[:, :, None])[:, :, 0]
-    x = P_ext[ends] + s
-    C_ball = x[:nj] - x[nj:]
-    Jw_ball = (-nem.end_sign)[:, None, None] * (algebra.skew(s) @ R_end)
+    R_end = R_ext.take(ends, axis=0)
+    X = R_end @ nem.D_end  # world columns: s (joint-point offset), a | n_1, 0 | n_2
+    S = X[:, :, 0]
+    x = P_ext.take(ends, axis=0) + S
+    C = x[:nj] - x[nj:]
+    # Body-frame rotational blocks of the ball rows: child -R_c [r_c]x, parent +R_p [r_p]x
+    # (constant K_end = -+[r]x), identical to the world rows -+[s]x times R.
+    ball = R_end @ nem.K_end
+    gamma = None
     if w_ext is not None:
-        w_end = w_ext[ends]
-        X = algebra.cross(w_end, algebra.cross(w_end, s))
-        gamma_ball = X[:nj] - X[nj:]
-    if nh:
-        Rc = R_ext[nem.hinge_child]
-        Rp = R_ext[nem.hinge_parent]
-        a = (Rc @ nem.a_c[:, :, None])[:, :, 0]  # (nh, 3)
-        n = nem.b_p @ np.swapaxes(Rp, -1, -2)  # (nh, 2, 3): rows R_p b_k
-        a2 = a[:, None, :]
-        C_h = np.sum(a2 * n, axis=-1)
-        c = algebra.cross(a2, n)  # (nh, 2, 3)
-        values = np.concatenate([Jw_ball.ravel(), (c @ Rc).ravel(), (-(c @ Rp)).ravel()])
-        C = np.concatenate([C_ball.ravel(), C_h.ravel()])
+        w_end = w_ext.take(ends, axis=0)
+        Sk = algebra.skew(w_end)
+        Y = Sk @ X  # w x (each column)
+        Z = (Sk @ Y[:, :, :1])[:, :, 0]  # w x (w x s)
+        gamma = Z[:nj] - Z[nj:]
+    if nem.has_hinge:
+        a = X[:nj, :, 1]  # child axis, world (nj, 3); zero for a ball joint
+        N = X[nj:, :, 1:]  # columns n_1, n_2, world (nj, 3, 2)
+        Ska = algebra.skew(a)
+        c = Ska @ N  # columns c_k = a x n_k
+        cT = c.transpose(0, 2, 1)
+        hinge = np.concatenate([cT, -cT]) @ R_end  # body-frame rows: child c_k^T R_c, parent -c_k^T R_p
+        C = np.concatenate([C, (a[:, None, :] @ N)[:, 0, :]], axis=1)
         if w_ext is not None:
-            wc = w_ext[nem.hinge_child]
-            wp = w_ext[nem.hinge_parent]
-            cdot = algebra.cross(algebra.cross(wc, a)[:, None, :], n) + algebra.cross(a2, algebra.cross(wp[:, None, :], n))
-            gamma_h = np.sum(cdot * (wc - wp)[:, None, :], axis=-1)
-            gamma = np.concatenate([gamma_ball.ravel(), gamma_h.ravel()])
-        else:
-            gamma = None
+            # dc_k/dt = (w_c x a) x n_k + a x (w_p x n_k); gamma_k = dc_k/dt . (w_c - w_p)
+            cdot = algebra.skew(Y[:nj, :, 1]) @ N + Ska @ Y[nj:, :, 1:]
+            dw = w_end[:nj] - w_end[nj:]
+            gamma = np.concatenate([gamma, (dw[:, None, :] @ cdot)[:, 0, :]], axis=1)
+        values = np.concatenate([ball, hinge], axis=1).ravel()
     else:
-        values = Jw_ball.ravel()
-        C = C_ball.ravel()
-        gamma = gamma_ball.ravel() if w_ext is not None else None
+        values = ball.ravel()
+    if nem.J_take is not None:
+        values = values.take(nem.J_take)
     J = nem.J_template.copy()
     J[nem.J_rows, nem.J_cols] = values
+    C = C.ravel()
+    if nem.keep is not None:
+        C = C.take(nem.keep)
+        if gamma is not None:
+            gamma = gamma.ravel().take(nem.keep)
+    if gamma is not None:
+        gamma = gamma.ravel()
     return C, J[:, : 6 * nb], gamma
+
+
+def rows(nem: NEModel, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(C, J, gamma)`` of ``evaluate`` at state vector ``y`` (any state, on the constraint
+    manifold or not)."""
+    _, R_ext, P_ext, w_ext = frames(nem.nb, np.asarray(y, dtype=float))
+    return evaluate(nem, P_ext, R_ext, w_ext)
 
 
 def violation(nem: NEModel, y: np.ndarray) -> tuple[float, float]:
@@ -107,17 +137,21 @@ def violation(nem: NEModel, y: np.ndarray) -> tuple[float, float]:
     if nem.nc == 0:
         return 0.0, 0.0
     nb = nem.nb
-    P = y[: 3 * nb].reshape(nb, 3)
-    R = algebra.quat_matrix(algebra.normalized(y[3 * nb : 7 * nb].reshape(nb, 4)))
-    P_ext, R_ext, _ = extend(P, R, None)
+    _, R_ext, P_ext, _ = frames(nb, y, with_velocity=False)
     C, J, _ = evaluate(nem, P_ext, R_ext, None)
     return float(np.max(np.abs(C))), float(np.max(np.abs(J @ y[7 * nb :])))
 
 
 def project(nem: NEModel, y: np.ndarray, tol: float = 1e-13, max_iter: int = 8) -> np.ndarray:
     """A copy of state ``y`` with unit quaternions, positions on the constraint manifold
-    (mass-weighted Gauss-Newton until max |C| <= tol) and velocities in the null space of J
-    (mass-weighted orthogonal projection). Raises DynamicsError when it does not converge.
+    (mass-weighted Gauss-Newton until max |C| <= tol; m for ball rows, dimensionless for hinge
+    rows) and velocities in the null space of J (mass-weighted orthogonal projection
+    ``u -= M^-1 J^T (J M^-1 J^T)^-1 J u``). Raises DynamicsError when it does not converge.
+
+    A Gauss-Newton step from a tiny error (max |C| <= ``_QUADRATIC``) leaves an error of order
+    |C|^2 / length, far below ``tol``: it is not re-evaluated, and the velocity projection uses
+    the Jacobian of the step's start (it differs by O(|C|)). So the usual call after a fixed
+    step costs one constraint evaluation and two small Cholesky solves.
     """
     nb = nem.nb
     y = np.array(y, dtype=float)
@@ -127,28 +161,28 @@ def project(nem: NEModel, y: np.ndarray, tol: float = 1e-13, max_iter: int = 8) 
         return y
     Minv = nem.Minv
     for _ in range(max_iter):
-        P = y[: 3 * nb].reshape(nb, 3)
-        R = algebra.quat_matrix(Q)
-        P_ext, R_ext, _ = extend(P, R, None)
+        _, R_ext, P_ext, _ = frames(nb, y, with_velocity=False)
         C, J, _ = evaluate(nem, P_ext, R_ext, None)
         JM = J @ Minv
         A = JM @ J.T
-        if not np.all(np.isfinite(C)):
+        err = np.max(np.abs(C))
+        if not np.isfinite(err):
             raise DynamicsError("non-finite constraint error in the projection")
-        if np.max(np.abs(C)) <= tol:
+        if err <= tol:
             break
-        try:
-            dx = -(JM.T @ np.linalg.solve(A, C))
-        except np.linalg.LinAlgError:
-            raise DynamicsError("singular constraint matrix in the position projection") from None
+        dx = -(spd_solve(A, C) @ JM)
         y[: 3 * nb] += dx[: 3 * nb]
-        Q = algebra.normalized(rotations.multiply(Q, algebra.quat_exp(dx[3 * nb :].reshape(nb, 3))))
+        # R -> R exp([dtheta_B]x) to first order, q -> q (x) (1, dtheta_B / 2), renormalised:
+        # exact to O(|dtheta|^3), and Gauss-Newton iterates on any remainder.
+        Q = algebra.normalized(Q + algebra.quat_rate(Q, dx[3 * nb :].reshape(nb, 3)))
         y[3 * nb : 7 * nb] = Q.ravel()
+        if err <= _QUADRATIC:
+            break
     else:
-        raise DynamicsError(f"position projection did not converge (max |C| = {np.max(np.abs(C)):.3e})")
+        raise DynamicsError(f"position projection did not converge (max |C| = {err:.3e})")
     u = y[7 * nb :]
-    try:
-        u -= JM.T @ np.linalg.solve(A, J @ u)
-    except np.linalg.LinAlgError:
-        raise DynamicsError("singular constraint matrix in the velocity projection") from None
+    u -= spd_solve(A, J @ u) @ JM
     return y
+
+
+_QUADRATIC = 1e-9

@@ -37,12 +37,20 @@ from typing import Callable
 import numpy as np
 
 from harness import kinematics, rotations
+from harness.engines.inhouse import algebra
 from harness.multibody import Multibody
+from harness.trajectory import Trajectory
 
 
 @dataclass(frozen=True)
 class NEModel:
     """Constant data of the Newton-Euler model of one ``Multibody`` (SI units).
+
+    Constrained joints (ball or hinge) are numbered j = 0..nj-1 in body order; each has two
+    *ends*: its child body (ends 0..nj-1) and its parent body (ends nj..2nj-1, index nb for the
+    world). Each joint owns ``rpj`` candidate rows (3 ball rows, then, when the model has a
+    hinge, 2 orientation rows); ``keep`` selects the rows that exist (a ball joint has no
+    orientation rows).
 
     Attributes:
         body_names: body order of the state vector.
@@ -51,21 +59,26 @@ class NEModel:
         I_B, Iinv_B: (nb, 3, 3) inertia about the centre of mass in the body frame, and inverse.
         weight_W: (nb, 3) gravity force m g in world (N).
         Minv: (6nb, 6nb) inverse mass matrix for ``u = [v_WCm_W..., w_WB_B...]``.
-        joint_names: child body name of each constrained joint (ball or hinge), in body order.
+        joint_names: child body name of each constrained joint.
         joint_types: ``"ball"`` or ``"hinge"`` per constrained joint.
-        ends: (2*nj,) body index of the child ends then of the parent ends (nb = world).
-        r_end: (2*nj, 3) joint point relative to the end body's centre of mass, in that body's
-            frame (for a world parent: the joint point in world), m.
-        hinge_joint: (nh,) index into the constrained joints of each hinge.
-        hinge_child, hinge_parent: (nh,) body indices (nb = world).
-        a_c: (nh, 3) unit hinge axis, child frame. b_p: (nh, 2, 3) unit vectors perpendicular
-            to the axis, parent frame.
-        nc: number of constraint rows, 3 nj + 2 nh (ball rows first, joint by joint, then the
-            two orientation rows of each hinge).
-        J_template: (nc, 6(nb+1)) constant part of the Jacobian (the +-I3 translational blocks),
+        ends: (2nj,) body index of each end (child ends, then parent ends; nb = world).
+        K_end: (2nj, 3, 3) constant factor of the ball rows' body-frame rotational blocks,
+            ``-[r]x`` for a child end and ``+[r]x`` for a parent end (r = first column of D_end),
+            so that the block is ``R_end @ K_end``.
+        D_end: (2nj, 3, 3) per end, columns in the end body's frame: the joint point relative to
+            the body's centre of mass (m; for a world end the joint point in world), then for a
+            child end the unit hinge axis a and a zero column, for a parent end the two unit
+            vectors b_1, b_2 perpendicular to the axis (zero columns for a ball joint).
+        has_hinge: whether any joint is a hinge (rpj = 5, else 3).
+        rpj: candidate rows per joint.
+        keep: (nc,) indices of the existing rows among the nj * rpj candidates, or None when all
+            exist.
+        nc: number of constraint rows.
+        J_template: (nc, 6nb + 6) constant part of the Jacobian (the +-I3 translational blocks);
             columns ``[v bodies | w bodies | v world | w world]``.
-        J_rows, J_cols: index arrays of the configuration-dependent Jacobian entries, in the
-            order ``newton_euler`` writes their values.
+        J_rows, J_cols: where the configuration-dependent rotational entries go.
+        J_take: indices of those entries in the flattened (2nj, rpj, 3) per-end blocks, or None
+            when they are all of them, in order.
         forces: ``(body index, r_B, force_W)`` per prescribed point force, ``r_B`` the point
             relative to the centre of mass in the body frame (m).
     """
@@ -80,28 +93,22 @@ class NEModel:
     joint_names: tuple[str, ...]
     joint_types: tuple[str, ...]
     ends: np.ndarray
-    r_end: np.ndarray
-    end_sign: np.ndarray
-    hinge_joint: np.ndarray
-    hinge_child: np.ndarray
-    hinge_parent: np.ndarray
-    a_c: np.ndarray
-    b_p: np.ndarray
+    K_end: np.ndarray
+    D_end: np.ndarray
+    has_hinge: bool
+    rpj: int
+    keep: np.ndarray | None
     nc: int
     J_template: np.ndarray
     J_rows: np.ndarray
     J_cols: np.ndarray
+    J_take: np.ndarray | None
     forces: tuple[tuple[int, np.ndarray, Callable[[float], np.ndarray]], ...]
 
     @property
     def nj(self) -> int:
         """Number of constrained joints (ball or hinge)."""
         return len(self.joint_names)
-
-    @property
-    def nh(self) -> int:
-        """Number of hinges."""
-        return len(self.hinge_joint)
 
     @property
     def ny(self) -> int:
@@ -142,22 +149,31 @@ def build(model: Multibody) -> NEModel:
 
     joints = [b for b in model.bodies if b.joint in ("ball", "hinge")]
     nj = len(joints)
-    child = np.array([index[b.name] for b in joints], dtype=int)
-    parent = np.array([nb if b.parent is None else index[b.parent] for b in joints], dtype=int)
-    r_c = np.array([-np.asarray(b.p_BCm_B, dtype=float) for b in joints]).reshape(nj, 3)
-    r_p = []
-    for b in joints:
+    has_hinge = any(b.joint == "hinge" for b in joints)
+    rpj = 5 if has_hinge else 3
+    child = [index[b.name] for b in joints]
+    parent = [nb if b.parent is None else index[b.parent] for b in joints]
+    ends = np.array(child + parent, dtype=int)
+    D_end = np.zeros((2 * nj, 3, 3))
+    for j, b in enumerate(joints):
+        D_end[j, :, 0] = -np.asarray(b.p_BCm_B, dtype=float)
         p_PB_P = np.asarray(b.p_PB_P, dtype=float)
         if b.parent is None:
-            r_p.append(p_PB_P)
+            D_end[nj + j, :, 0] = p_PB_P
         else:
-            r_p.append(p_PB_P - np.asarray(model.body(b.parent).p_BCm_B, dtype=float))
-    r_p = np.array(r_p).reshape(nj, 3)
-    hinges = [k for k, b in enumerate(joints) if b.joint == "hinge"]
-    nh = len(hinges)
-    a_c = np.array([np.asarray(joints[k].axis_B, float) / np.linalg.norm(joints[k].axis_B) for k in hinges]).reshape(nh, 3)
-    b_p = np.array([perpendiculars(joints[k].axis_B) for k in hinges]).reshape(nh, 2, 3)
-    nc = 3 * nj + 2 * nh
+            D_end[nj + j, :, 0] = p_PB_P - np.asarray(model.body(b.parent).p_BCm_B, dtype=float)
+        if b.joint == "hinge":
+            axis = np.asarray(b.axis_B, dtype=float)
+            D_end[j, :, 1] = axis / np.linalg.norm(axis)
+            D_end[nj + j, :, 1:] = perpendiculars(axis).T
+    exists = np.ones((nj, rpj), dtype=bool)
+    if has_hinge:
+        for j, b in enumerate(joints):
+            exists[j, 3:] = b.joint == "hinge"
+    keep_all = np.flatnonzero(exists.ravel())
+    nc = len(keep_all)
+    row_of = -np.ones(nj * rpj, dtype=int)
+    row_of[keep_all] = np.arange(nc)
 
     # Columns [v bodies (3nb) | w bodies (3nb) | v world (3) | w world (3)].
     def vcol(body: int) -> int:
@@ -166,28 +182,24 @@ def build(model: Multibody) -> NEModel:
     def wcol(body: int) -> int:
         return 3 * nb + 3 * body if body < nb else 6 * nb + 3
 
-    ends = np.concatenate([child, parent])
-    end_sign = np.concatenate([np.ones(nj), -np.ones(nj)])
     J_template = np.zeros((nc, 6 * nb + 6))
-    rows, cols = [], []
-    # Ball rows: +I3 on the child's v, -I3 on the parent's v (constant); the rotational blocks
-    # (3x3 per end, entries [row i, column k]) vary with the configuration.
+    sign = np.concatenate([np.ones(nj), -np.ones(nj)])
     for e, body in enumerate(ends):
         j = e % nj
-        J_template[3 * j : 3 * j + 3, vcol(body) : vcol(body) + 3] += end_sign[e] * np.eye(3)
+        rows3 = row_of[j * rpj : j * rpj + 3]
+        J_template[rows3, vcol(body) : vcol(body) + 3] += sign[e] * np.eye(3)
+    rows, cols, take = [], [], []
     for e, body in enumerate(ends):
         j = e % nj
-        for i in range(3):
+        for r in range(rpj):
+            if row_of[j * rpj + r] < 0:
+                continue
             for k in range(3):
-                rows.append(3 * j + i)
+                rows.append(row_of[j * rpj + r])
                 cols.append(wcol(body) + k)
-    # Hinge rows: a 1x3 rotational block per end (child, then parent) and per row k = 1, 2.
-    for end_of in (child, parent):
-        for h, j in enumerate(hinges):
-            for kk in range(2):
-                for k in range(3):
-                    rows.append(3 * nj + 2 * h + kk)
-                    cols.append(wcol(end_of[j]) + k)
+                take.append((e * rpj + r) * 3 + k)
+    take = np.array(take, dtype=int)
+    all_taken = len(take) == 2 * nj * rpj * 3 and np.array_equal(take, np.arange(len(take)))
 
     forces = []
     for f in model.forces:
@@ -206,17 +218,16 @@ def build(model: Multibody) -> NEModel:
         joint_names=tuple(b.name for b in joints),
         joint_types=tuple(b.joint for b in joints),
         ends=ends,
-        r_end=np.concatenate([r_c, r_p]).reshape(2 * nj, 3),
-        end_sign=end_sign,
-        hinge_joint=np.array(hinges, dtype=int),
-        hinge_child=child[hinges] if nh else np.zeros(0, dtype=int),
-        hinge_parent=parent[hinges] if nh else np.zeros(0, dtype=int),
-        a_c=a_c,
-        b_p=b_p,
+        K_end=-sign[:, None, None] * np.array([rotations.skew(r) for r in D_end[:, :, 0]]).reshape(2 * nj, 3, 3),
+        D_end=D_end,
+        has_hinge=has_hinge,
+        rpj=rpj,
+        keep=None if nc == nj * rpj else keep_all,
         nc=nc,
         J_template=J_template,
         J_rows=np.array(rows, dtype=int),
         J_cols=np.array(cols, dtype=int),
+        J_take=None if all_taken else take,
         forces=tuple(forces),
     )
 
@@ -251,3 +262,36 @@ def initial_state(model: Multibody, nem: NEModel | None = None) -> np.ndarray:
     R = rotations.matrix(q).reshape(len(names), 3, 3)
     w_B = np.einsum("nji,nj->ni", R, np.stack([states[n].w_WB_W for n in names]))
     return join(p, q, v, w_B)
+
+
+def to_trajectory(nem: NEModel, t: np.ndarray, ys: np.ndarray, engine: str = "inhouse", integrator: str = "") -> Trajectory:
+    """A ``Trajectory`` from state vectors ``ys`` (n, 13 nb) at times ``t`` (n,) s: quaternions
+    renormalised, body-frame angular velocities rotated to world (``w_WB_W = R w_WB_B``)."""
+    n = len(t)
+    ys = np.asarray(ys, dtype=float).reshape(n, nem.ny)
+    P, Q, V, W_B = split(nem, ys)
+    Q = Q / np.linalg.norm(Q, axis=-1, keepdims=True)
+    w_W = (algebra.quat_matrix(Q) @ W_B[..., None])[..., 0]
+    return Trajectory(
+        engine=engine,
+        integrator=integrator,
+        body_names=nem.body_names,
+        t=np.array(t, dtype=float),
+        p_WCm_W=P.copy(),
+        quat_WB=Q,
+        v_WCm_W=V.copy(),
+        w_WB_W=w_W,
+    )
+
+
+def from_trajectory(nem: NEModel, traj: Trajectory) -> np.ndarray:
+    """State vectors (n, 13 nb) of a trajectory's samples (bodies in the model's order; the
+    world-frame angular velocities rotated back into the body frames)."""
+    idx = [traj.body_index(name) for name in nem.body_names]
+    Q = traj.quat_WB[:, idx]
+    Q = Q / np.linalg.norm(Q, axis=-1, keepdims=True)
+    w_B = np.einsum("tbji,tbj->tbi", algebra.quat_matrix(Q), traj.w_WB_W[:, idx])
+    n = len(traj.t)
+    return np.concatenate(
+        [traj.p_WCm_W[:, idx].reshape(n, -1), Q.reshape(n, -1), traj.v_WCm_W[:, idx].reshape(n, -1), w_B.reshape(n, -1)], axis=1
+    )

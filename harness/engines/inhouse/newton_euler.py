@@ -29,10 +29,12 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from scipy.linalg.lapack import dposv
 
 from harness.engines.inhouse import algebra
-from harness.engines.inhouse.constraints import DynamicsError, evaluate, extend
-from harness.engines.inhouse.model import NEModel
+from harness.engines.inhouse.constraints import DynamicsError, evaluate, frames
+from harness.engines.inhouse.model import NEModel, build
+from harness.multibody import Multibody
 
 
 @dataclass(frozen=True)
@@ -63,48 +65,37 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
     n3, n7, n10 = 3 * nb, 7 * nb, 10 * nb
     no_lambda = np.zeros(0)
     cross, quat_matrix, quat_rate = algebra.cross, algebra.quat_matrix, algebra.quat_rate
-    solve = np.linalg.solve
 
     def dynamics(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        Q = y[n3:n7].reshape(nb, 4)
-        Q = Q / np.sqrt(np.sum(Q * Q, axis=1, keepdims=True))
         W = y[n10:].reshape(nb, 3)
-        u = y[n7:]
-        tau = -cross(W, (I_B @ W[:, :, None])[:, :, 0])
-        R = None
+        tau = -cross(W, (I_B @ W[:, :, None])[:, :, 0])  # gyroscopic moment, body frame
+        if nc:
+            Q, R_ext, P_ext, w_ext = frames(nb, y)
+        else:
+            Q = algebra.normalized(y[n3:n7].reshape(nb, 4))
+            R_ext = quat_matrix(Q) if forces else None
         if forces:
-            R = quat_matrix(Q)
             F = weight.copy()
             for i, r_B, force_W in forces:
                 f_W = np.asarray(force_W(t), dtype=float)
                 F[i] += f_W
-                tau[i] += cross(r_B, f_W @ R[i])  # r_B x (R^T f_W), body frame
+                tau[i] += cross(r_B, f_W @ R_ext[i])  # r_B x (R^T f_W), body frame
             f = np.concatenate([F.ravel(), tau.ravel()])
         else:
             f = np.concatenate([weight.ravel(), tau.ravel()])
         a = Minv @ f
         lam = no_lambda
         if nc:
-            if R is None:
-                R = quat_matrix(Q)
-            P = y[:n3].reshape(nb, 3)
-            w_W = (R @ W[:, :, None])[:, :, 0]
-            P_ext, R_ext, w_ext = extend(P, R, w_W)
             C, J, gamma = evaluate(nem, P_ext, R_ext, w_ext)
             JM = J @ Minv
             rhs = -gamma - J @ a
             if kd or kp:
-                rhs -= kd * (J @ u) + kp * C
-            try:
-                lam = solve(JM @ J.T, rhs)
-            except np.linalg.LinAlgError:
-                raise DynamicsError(f"singular constraint (KKT) matrix at t = {t!r} s") from None
+                rhs -= kd * (J @ y[n7:]) + kp * C
+            _, lam, info = dposv(JM @ J.T, rhs)
+            if info != 0:
+                raise DynamicsError(f"singular constraint (KKT) matrix at t = {t!r} s")
             a = a + lam @ JM
-        ydot = np.empty_like(y)
-        ydot[:n3] = y[n7:n10]
-        ydot[n3:n7] = quat_rate(Q, W).ravel()
-        ydot[n7:] = a
-        return ydot, lam
+        return np.concatenate([y[n7:n10], quat_rate(Q, W).ravel(), a]), lam
 
     return dynamics
 
@@ -119,36 +110,35 @@ def make_rhs(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[float, n
     return rhs
 
 
-def reactions(nem: NEModel, t: float, y: np.ndarray, gains: Baumgarte = Baumgarte()) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Joint reactions at state ``y`` and time ``t`` (s), per constrained joint (named by its
-    child body): ``(force_W, moment_W)``, the force (N) and couple (N m), both in world, that the
-    parent (or the world) exerts on the child; the force acts at the joint point, the couple is
-    the hinge's orientation reaction (zero for a ball). Pass the run's ``gains`` to get exactly
-    the multipliers the run used; off the constraint manifold they differ from the unstabilised
-    ones by the Baumgarte terms."""
-    _, lam = make_dynamics(nem, gains)(t, np.asarray(y, dtype=float))
-    nb, nj = nem.nb, nem.nj
-    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+def reactions(
+    model: NEModel | Multibody, t: float, y: np.ndarray, gains: Baumgarte = Baumgarte()
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Joint reactions (the constraint multipliers) at state vector ``y`` and time ``t`` (s).
+
+    Returns, per constrained joint (named by its child body), ``(force_W, moment_W)``: the force
+    (N) and the couple (N m), both in world, that the parent (or the world) exerts on the child;
+    the force acts at the joint point, the couple is the hinge's orientation reaction (zero for
+    a ball; perpendicular to the hinge axis). The parent feels the opposite. ``model`` is an
+    ``NEModel`` or a ``Multibody`` (built here). Pass a run's ``gains`` to get exactly the
+    multipliers it used; on the constraint manifold the Baumgarte terms vanish anyway.
+    Trajectory samples convert to state vectors with ``model.from_trajectory``
+    (``harness.engines.inhouse.model``).
+    """
+    nem = model if isinstance(model, NEModel) else build(model)
+    y = np.asarray(y, dtype=float)
+    _, lam = make_dynamics(nem, gains)(t, y)
+    nj, rpj = nem.nj, nem.rpj
+    full = np.zeros(nj * rpj)
+    if nem.keep is None:
+        full[:] = lam
+    else:
+        full[nem.keep] = lam
+    full = full.reshape(nj, rpj)
     moments = np.zeros((nj, 3))
-    if nem.nh:
-        R = algebra.quat_matrix(algebra.normalized(y[3 * nb : 7 * nb].reshape(nb, 4)))
-        R_ext = np.concatenate([R, np.eye(3)[None]])
-        a = (R_ext[nem.hinge_child] @ nem.a_c[:, :, None])[:, :, 0]
-        n = nem.b_p @ np.swapaxes(R_ext[nem.hinge_parent], -1, -2)
-        c = algebra.cross(a[:, None, :], n)
-        lam_h = lam[3 * nj :].reshape(nem.nh, 2)
-        moments[nem.hinge_joint] = np.einsum("hk,hki->hi", lam_h, c)
-    for j, name in enumerate(nem.joint_names):
-        out[name] = (lam[3 * j : 3 * j + 3].copy(), moments[j])
-    return out
-
-
-def energy(nem: NEModel, y: np.ndarray, gravity_W: np.ndarray) -> float:
-    """Kinetic plus gravitational potential energy (J) of state ``y`` (zero potential at the
-    world origin). ``gravity_W`` in m/s^2."""
-    nb = nem.nb
-    P = y[: 3 * nb].reshape(nb, 3)
-    V = y[7 * nb : 10 * nb].reshape(nb, 3)
-    W = y[10 * nb :].reshape(nb, 3)
-    kin = 0.5 * np.sum(nem.mass * np.sum(V * V, axis=1)) + 0.5 * np.einsum("ni,nij,nj->", W, nem.I_B, W)
-    return float(kin - np.sum(nem.mass * (P @ gravity_W)))
+    if nem.has_hinge:
+        _, R_ext, _, _ = frames(nem.nb, y, with_velocity=False)
+        X = R_ext.take(nem.ends, axis=0) @ nem.D_end
+        a, N = X[:nj, :, 1], X[nj:, :, 1:]
+        c = algebra.cross(a[:, None, :], N.transpose(0, 2, 1))  # (nj, 2, 3): a x n_k
+        moments = np.einsum("jk,jki->ji", full[:, 3:], c)
+    return {name: (full[j, :3].copy(), moments[j].copy()) for j, name in enumerate(nem.joint_names)}
