@@ -10,6 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from harness import cli_tools
 from harness.errors import InputError
 
 EXIT_OK, EXIT_FAIL, EXIT_INPUT = 0, 1, 2
@@ -67,6 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--tolerances", type=Path, help="TOML file tightening or loosening checks per scene and quantity")
     v.add_argument("--jobs", type=int, default=0, help="worker processes (default: all cores)")
     v.add_argument("--timeout", type=_float, default=300.0, help="seconds allowed per scene x engine case")
+    cli_tools.add_parsers(sub)  # inspect, debug, check
     return p
 
 
@@ -163,6 +165,7 @@ def cmd_validate(args) -> int:
 
 
 COMMANDS = {"scenes": cmd_scenes, "simulate": cmd_simulate, "validate": cmd_validate}
+COMMANDS.update(cli_tools.COMMANDS)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -199,8 +199,9 @@ def named_joint_map(m: mujoco.MjModel, pmodel: pin.Model) -> JointMap:
 def random_states(jmap: JointMap, n: int, seed: int = 0) -> list[tuple[np.ndarray, np.ndarray]]:
     """``n`` seeded random states (q, v) in common coordinates.
 
-    Hinge: angle uniform in its limits or in [-pi, pi], rate ~ N(0, 1) rad/s; slide: uniform in
-    its limits or in [-0.5, 0.5] m, rate ~ N(0, 0.5) m/s; ball: uniform random unit quaternion,
+    Hinge: angle uniform in [-pi, pi] intersected with its limits, rate ~ N(0, 1) rad/s; slide:
+    uniform in [-0.5, 0.5] m intersected with its limits, rate ~ N(0, 0.5) m/s (a range that
+    does not meet the default one is used as it is); ball: uniform random unit quaternion,
     rate ~ N(0, 1) rad/s per axis; free: position uniform in [-1, 1]^3 m, random quaternion,
     velocities ~ N(0, 1).
     """
@@ -210,7 +211,10 @@ def random_states(jmap: JointMap, n: int, seed: int = 0) -> list[tuple[np.ndarra
         q, v = np.zeros(jmap.nq), np.zeros(jmap.nv)
         for s in jmap.slots:
             if s.kind in ("hinge", "slide"):
-                lo, hi = s.limits if s.limits else ((-np.pi, np.pi) if s.kind == "hinge" else (-0.5, 0.5))
+                span = np.pi if s.kind == "hinge" else 0.5
+                lo, hi = s.limits if s.limits else (-span, span)
+                if max(lo, -span) < min(hi, span):  # very wide limits (1e16 for "unlimited"): the usual range
+                    lo, hi = max(lo, -span), min(hi, span)
                 q[s.qc] = rng.uniform(lo, hi)
                 v[s.vc] = rng.normal(0.0, 1.0 if s.kind == "hinge" else 0.5)
             elif s.kind == "ball":
@@ -278,11 +282,11 @@ def mujoco_state(m: mujoco.MjModel, jmap: JointMap, q: np.ndarray, v: np.ndarray
 
 
 def _mj_dofs(jmap: JointMap) -> np.ndarray:
-    return np.concatenate([np.arange(s.mj_v, s.mj_v + NV[s.kind]) for s in jmap.slots]).astype(int)
+    return np.array([i for s in jmap.slots for i in range(s.mj_v, s.mj_v + NV[s.kind])], dtype=int)
 
 
 def _pin_dofs(jmap: JointMap) -> np.ndarray:
-    return np.concatenate([np.arange(s.pin_v, s.pin_v + NV[s.kind]) for s in jmap.slots]).astype(int)
+    return np.array([i for s in jmap.slots for i in range(s.pin_v, s.pin_v + NV[s.kind])], dtype=int)
 
 
 def mujoco_terms(m: mujoco.MjModel, jmap: JointMap, q: np.ndarray, v: np.ndarray, d: mujoco.MjData | None = None) -> Terms:

@@ -4,6 +4,11 @@
 the body frame (m), inertia about the centre of mass in the body frame (kg m^2), the body
 frame's position in its parent (m), joint type and hinge axis (body frame).
 ``compare_bodies`` lists every disagreement with the ``Multibody`` beyond a relative tolerance.
+
+For any model file (no scene), ``mujoco_joint_bodies`` / ``pinocchio_joint_bodies`` read back,
+per joint, the rigid body it moves (fixed children merged) in the frame of its child link, and
+``compare_joint_bodies`` compares two engines joint by joint (matched by name);
+``check_joint_bodies_physical`` rejects non-positive masses and invalid inertia tensors.
 """
 
 from __future__ import annotations

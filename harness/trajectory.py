@@ -58,6 +58,39 @@ class Trajectory:
         return self.body_names.index(name)
 
 
+class SampleBuffer:
+    """Preallocated storage an engine fills sample by sample, then turns into a ``Trajectory``.
+
+    ``n`` samples of ``nbody`` bodies; unfilled samples are NaN and dropped by ``trajectory``.
+    """
+
+    def __init__(self, n: int, nbody: int):
+        self.p_WCm_W = np.full((n, nbody, 3), np.nan)
+        self.quat_WB = np.full((n, nbody, 4), np.nan)
+        self.v_WCm_W = np.full((n, nbody, 3), np.nan)
+        self.w_WB_W = np.full((n, nbody, 3), np.nan)
+        self.kinetic = np.full(n, np.nan)
+        self.potential = np.full(n, np.nan)
+
+    def trajectory(self, engine: str, integrator: str, body_names, save_every: float, saved: int,
+                   stats: dict, status: str = "ok", message: str = "") -> Trajectory:
+        """The first ``saved`` samples, at times ``k * save_every``, as a Trajectory."""
+        return Trajectory(
+            engine=engine,
+            integrator=integrator,
+            body_names=tuple(body_names),
+            t=np.arange(saved) * save_every,
+            p_WCm_W=self.p_WCm_W[:saved],
+            quat_WB=self.quat_WB[:saved],
+            v_WCm_W=self.v_WCm_W[:saved],
+            w_WB_W=self.w_WB_W[:saved],
+            engine_energy={"kinetic": self.kinetic[:saved], "potential": self.potential[:saved]},
+            stats=stats,
+            status=status,
+            message=message,
+        )
+
+
 def failed(engine: str, integrator: str, body_names, status: str, message: str) -> Trajectory:
     """An empty trajectory that records why a run produced nothing."""
     nb = len(body_names)

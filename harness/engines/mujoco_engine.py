@@ -20,7 +20,7 @@ from harness.engines.base import RunSettings, check_settings
 from harness.engines.mujoco_model import INTEGRATORS, load_mjcf, set_initial_state
 from harness.errors import InputError
 from harness.scene import Scene
-from harness.trajectory import Trajectory
+from harness.trajectory import SampleBuffer, Trajectory
 
 BLOWUP_SPEED = 1e8  # m/s or rad/s: beyond this a run is declared a blow-up
 
@@ -41,9 +41,7 @@ class MujocoEngine:
         control = _force_controller(m, model, scene)
 
         n = settings.n_saves + 1
-        nb = len(body_ids)
-        out = {k: np.full((n, nb, w), np.nan) for k, w in (("p", 3), ("q", 4), ("v", 3), ("w", 3))}
-        e_kin, e_pot = np.full(n, np.nan), np.full(n, np.nan)
+        buf = SampleBuffer(n, len(body_ids))
         res6 = np.zeros(6)
         status, message, saved = "ok", "", 0
         t0 = time.perf_counter()
@@ -62,31 +60,19 @@ class MujocoEngine:
                     status, message = "blowup", f"velocity beyond {BLOWUP_SPEED:g} at t = {d.time:.6g} s"
                     break
                 for i, bid in enumerate(body_ids):
-                    out["p"][k, i] = d.xipos[bid]
-                    out["q"][k, i] = d.xquat[bid]
+                    buf.p_WCm_W[k, i] = d.xipos[bid]
+                    buf.quat_WB[k, i] = d.xquat[bid]
                     mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, bid, res6, 0)
-                    out["w"][k, i] = res6[:3]
-                    out["v"][k, i] = res6[3:]
-                e_pot[k], e_kin[k] = d.energy[0], d.energy[1]
+                    buf.w_WB_W[k, i] = res6[:3]
+                    buf.v_WCm_W[k, i] = res6[3:]
+                buf.potential[k], buf.kinetic[k] = d.energy[0], d.energy[1]
                 saved = k + 1
         finally:
             mujoco.set_mjcb_control(None)
-        wall = time.perf_counter() - t0
-        t = np.arange(n) * settings.save_every
-        return Trajectory(
-            engine=self.name,
-            integrator=settings.integrator,
-            body_names=tuple(b.name for b in model.bodies),
-            t=t[:saved],
-            p_WCm_W=out["p"][:saved],
-            quat_WB=out["q"][:saved],
-            v_WCm_W=out["v"][:saved],
-            w_WB_W=out["w"][:saved],
-            engine_energy={"kinetic": e_kin[:saved], "potential": e_pot[:saved]},
-            stats={"steps": settings.n_saves * settings.steps_per_save, "wall_s": wall, "settings": _describe(m)},
-            status=status,
-            message=message,
-        )
+        stats = {"steps": settings.n_saves * settings.steps_per_save, "wall_s": time.perf_counter() - t0,
+                 "settings": _describe(m)}
+        return buf.trajectory(self.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
+                              saved, stats, status, message)
 
 
 def _describe(m: mujoco.MjModel) -> str:

@@ -18,7 +18,7 @@ from harness.engines.base import RunSettings, check_settings
 from harness.engines.lie_group_integrators import STEPPERS
 from harness.engines.pinocchio_model import initial_configuration, load_urdf
 from harness.scene import Scene
-from harness.trajectory import Trajectory
+from harness.trajectory import SampleBuffer, Trajectory
 
 BLOWUP_SPEED = 1e8
 
@@ -40,9 +40,7 @@ class PinocchioEngine:
         h = settings.dt
 
         n = settings.n_saves + 1
-        nb = len(ids)
-        out = {k: np.full((n, nb, w), np.nan) for k, w in (("p", 3), ("q", 4), ("v", 3), ("w", 3))}
-        e_kin, e_pot = np.full(n, np.nan), np.full(n, np.nan)
+        buf = SampleBuffer(n, len(ids))
         status, message, saved, steps = "ok", "", 0, 0
         t0 = time.perf_counter()
         try:
@@ -57,30 +55,17 @@ class PinocchioEngine:
                 if np.max(np.abs(v), initial=0.0) > BLOWUP_SPEED:
                     status, message = "blowup", f"velocity beyond {BLOWUP_SPEED:g} at t = {steps * h:.6g} s"
                     break
-                _read_maximal(pmodel, data, ids, model, q, v, k, out)
-                e_kin[k] = pin.computeKineticEnergy(pmodel, data, q, v)
-                e_pot[k] = pin.computePotentialEnergy(pmodel, data, q)
+                _read_maximal(pmodel, data, ids, model, q, v, k, buf)
+                buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
+                buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q)
                 saved = k + 1
         except (RuntimeError, ValueError, np.linalg.LinAlgError) as err:
             status, message = "failed", f"{type(err).__name__} at t = {steps * h:.6g} s: {err}"
-        wall = time.perf_counter() - t0
-        t = np.arange(n) * settings.save_every
-        return Trajectory(
-            engine=self.name,
-            integrator=settings.integrator,
-            body_names=tuple(b.name for b in model.bodies),
-            t=t[:saved],
-            p_WCm_W=out["p"][:saved],
-            quat_WB=out["q"][:saved],
-            v_WCm_W=out["v"][:saved],
-            w_WB_W=out["w"][:saved],
-            engine_energy={"kinetic": e_kin[:saved], "potential": e_pot[:saved]},
-            stats={"steps": steps, "wall_s": wall,
-                   "settings": f"aba, {settings.integrator} on the configuration Lie group (integrate/dIntegrate), "
-                               f"step {h:g} s, root joint {scene.urdf_root_joint}"},
-            status=status,
-            message=message,
-        )
+        stats = {"steps": steps, "wall_s": time.perf_counter() - t0,
+                 "settings": f"aba, {settings.integrator} on the configuration Lie group (integrate/dIntegrate), "
+                             f"step {h:g} s, root joint {scene.urdf_root_joint}"}
+        return buf.trajectory(self.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
+                              saved, stats, status, message)
 
 
 def _accel_function(pmodel, data, ids, model):
@@ -102,17 +87,17 @@ def _accel_function(pmodel, data, ids, model):
     return accel
 
 
-def _read_maximal(pmodel, data, ids, model, q, v, k, out) -> None:
-    """Fill sample ``k`` of ``out`` with each body's world pose and twist (centre of mass)."""
+def _read_maximal(pmodel, data, ids, model, q, v, k, buf: SampleBuffer) -> None:
+    """Fill sample ``k`` of ``buf`` with each body's world pose and twist (centre of mass)."""
     pin.forwardKinematics(pmodel, data, q, v)
     for i, (body, jid) in enumerate(zip(model.bodies, ids)):
         oMi = data.oMi[jid]
         r_W = oMi.rotation @ pmodel.inertias[jid].lever
         vel = pin.getVelocity(pmodel, data, jid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-        out["p"][k, i] = oMi.translation + r_W
-        out["q"][k, i] = rotations.from_matrix(oMi.rotation)
-        out["w"][k, i] = vel.angular
-        out["v"][k, i] = vel.linear + np.cross(vel.angular, r_W)
+        buf.p_WCm_W[k, i] = oMi.translation + r_W
+        buf.quat_WB[k, i] = rotations.from_matrix(oMi.rotation)
+        buf.w_WB_W[k, i] = vel.angular
+        buf.v_WCm_W[k, i] = vel.linear + np.cross(vel.angular, r_W)
 
 
 ENGINE = PinocchioEngine()
