@@ -8,7 +8,9 @@ Loads (``load_pair``):
 
 The robot is fixed-base (a URDF's root link is welded to the world in both engines) unless
 ``floating_base`` adds a free joint named ``root_joint`` to the root body in both. Joints are
-matched by name (MuJoCo's URDF import keeps the URDF joint names).
+matched by name (MuJoCo's URDF import keeps the URDF joint names). ``strip`` deletes geoms and
+meshes from MuJoCo's copy (mass properties come from the inertials; meshes need not be found);
+``keep_static`` turns off MuJoCo's ``fusestatic``, on by default for URDF.
 
 Then, in order: the models (per joint: the rigid body it moves with mass, centre of mass,
 inertia, placement in the parent, joint type and axis; gravity; importer differences such as
@@ -133,8 +135,13 @@ def add_root_joint(spec: mujoco.MjSpec, kind: str, source: Path) -> None:
     if not roots:
         raise InputError(f"{source}: no root body to attach a {kind} joint to")
     root = roots[0]
-    if root.first_joint() is not None:
-        raise InputError(f"{source}: root body {root.name!r} already has a joint")
+    joint = root.first_joint()
+    if joint is not None:
+        wanted = mujoco.mjtJoint.mjJNT_FREE if kind == "free" else mujoco.mjtJoint.mjJNT_BALL
+        if joint.type == wanted and root.next_joint(joint) is None:
+            joint.name = "root_joint"  # an MJCF that has the root joint already: match Pinocchio's name
+            return
+        raise InputError(f"{source}: root body {root.name!r} already has a joint that is not a single {kind} joint")
     if kind == "free":
         root.add_freejoint(name="root_joint")
     else:
@@ -247,7 +254,6 @@ class CheckResult:
     mujoco_bodies: list[JointBody] = field(default_factory=list)
     pinocchio_bodies: list[JointBody] = field(default_factory=list)
     gravity: tuple[np.ndarray, np.ndarray] | None = None
-    dof_names: list[str] = field(default_factory=list)
     dynamics: list[dc.TermDiff] = field(default_factory=list)
     free: list[FreeMotion] = field(default_factory=list)
     settings: dict = field(default_factory=dict)
@@ -319,10 +325,10 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
     g_mj, g_pin = np.array(m.opt.gravity), np.array(pmodel.gravity.linear)
     res.gravity = (g_mj, g_pin)
     if np.linalg.norm(g_mj - g_pin) > rtol * max(np.linalg.norm(g_mj), 1.0):
-        why = " (Pinocchio's MJCF parser ignores <option gravity>)" if file_format(pin_file) == "MJCF" else ""
+        why = (" (Pinocchio's MJCF parser ignores <option gravity>)" if file_format(pin_file) == "MJCF"
+               else " (a URDF cannot state gravity: Pinocchio's default)")
         res.model_problems.append(f"gravity {g_mj.tolist()} m/s^2 in MuJoCo, {g_pin.tolist()} m/s^2 in Pinocchio{why}")
     res.notes += importer_notes(m, pmodel, jmap, mj_file, pin_file)
-    res.dof_names = jmap.dof_names()
     states = dc.random_states(jmap, n_states, seed)
     d, data = mujoco.MjData(m), pmodel.createData()
     terms = dc.evaluate({"MuJoCo": lambda q, v: dc.mujoco_terms(m, jmap, q, v, d),
