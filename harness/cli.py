@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from harness import cli_tools
+from harness import cli_rolling, cli_stress, cli_tools, cli_workprecision
 from harness.errors import InputError
 
 EXIT_OK, EXIT_FAIL, EXIT_INPUT = 0, 1, 2
@@ -69,6 +69,9 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--jobs", type=int, default=0, help="worker processes (default: all cores)")
     v.add_argument("--timeout", type=_float, default=300.0, help="seconds allowed per scene x engine case")
     cli_tools.add_parsers(sub)  # inspect, debug, check
+    cli_workprecision.add_parser(sub)
+    cli_stress.add_parser(sub)
+    cli_rolling.add_parser(sub)
     return p
 
 
@@ -166,6 +169,9 @@ def cmd_validate(args) -> int:
 
 COMMANDS = {"scenes": cmd_scenes, "simulate": cmd_simulate, "validate": cmd_validate}
 COMMANDS.update(cli_tools.COMMANDS)
+COMMANDS["workprecision"] = cli_workprecision.run
+COMMANDS["stress"] = cli_stress.run
+COMMANDS["rolling-study"] = cli_rolling.run
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -60,9 +60,10 @@ def motion_scales(traj: Trajectory, model: Multibody) -> dict[str, float]:
 
 
 def energy_scale(traj: Trajectory, model: Multibody) -> float:
-    """Energy scale (J) for relative drifts: max kinetic energy plus the range of potential."""
+    """Energy scale (J) for relative drifts: max kinetic energy plus the range of potential
+    (gravitational plus elastic)."""
     e = invariants.energies(traj, model)
-    scale = float(np.max(e["kinetic"]) + np.ptp(e["potential"]))
+    scale = float(np.max(e["kinetic"]) + np.ptp(e["potential"] + e.get("elastic", 0.0)))
     return scale if scale > 0 else 1.0
 
 
@@ -139,8 +140,10 @@ def constraint_violation(traj: Trajectory, model: Multibody) -> dict[str, float]
     """Largest violation of the joints, recomputed from maximal coordinates.
 
     ``position``: max distance (m) between a joint's point as located from the child and from
-    the parent (or the world). ``axis``: max angle (rad) between a hinge's axis in the child and
-    in the parent. Free joints impose nothing.
+    the parent (or the world); for a slide joint, the distance of the child's point from the
+    parent's line along the axis. ``axis``: max angle (rad) between a hinge's axis in the child
+    and in the parent, and for a slide joint the geodesic angle of the child's orientation
+    relative to the parent's (the frames stay parallel). Free joints impose nothing.
     """
     pos, ang = 0.0, 0.0
     index = {name: i for i, name in enumerate(traj.body_names)}
@@ -158,7 +161,15 @@ def constraint_violation(traj: Trajectory, model: Multibody) -> dict[str, float]
             parent = model.body(body.parent)
             R_parent = R_all[:, j]
             origin_parent = traj.p_WCm_W[:, j] + R_parent @ (body.p_PB_P - parent.p_BCm_B)
-        pos = max(pos, float(np.max(np.linalg.norm(origin_child - origin_parent, axis=-1))))
+        gap = origin_child - origin_parent
+        if body.joint == "slide":
+            a_W = R_parent @ body.axis_B
+            gap = gap - np.einsum("ti,ti->t", gap, a_W)[:, None] * a_W
+            R_rel = np.swapaxes(R_parent, -1, -2) @ R_all[:, i]
+            cos = np.clip((np.trace(R_rel, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
+            skew = np.stack([R_rel[:, 2, 1] - R_rel[:, 1, 2], R_rel[:, 0, 2] - R_rel[:, 2, 0], R_rel[:, 1, 0] - R_rel[:, 0, 1]], axis=-1)
+            ang = max(ang, float(np.max(np.arctan2(0.5 * np.linalg.norm(skew, axis=-1), cos))))
+        pos = max(pos, float(np.max(np.linalg.norm(gap, axis=-1))))
         if body.joint == "hinge":
             a_child = R_all[:, i] @ body.axis_B
             a_parent = R_parent @ body.axis_B
@@ -166,6 +177,32 @@ def constraint_violation(traj: Trajectory, model: Multibody) -> dict[str, float]
             c = np.einsum("ti,ti->t", a_child, a_parent)
             ang = max(ang, float(np.max(np.arctan2(s, c))))
     return {"position": pos, "axis": ang}
+
+
+def reaction_scales(traj: Trajectory, model: Multibody) -> tuple[float, float]:
+    """Scales for relative reaction errors: force (N) the larger of max_t |F| over the joints of
+    ``traj`` and the total weight M |g| (1 when both vanish), moment (N m) that force times
+    ``motion_scales(...)["length"]``."""
+    peak = max((float(np.max(np.linalg.norm(f, axis=-1), initial=0.0)) for f, _ in traj.reactions.values()), default=0.0)
+    force = max(peak, model.total_mass * float(np.linalg.norm(model.gravity_W)))
+    force = force if force > 1e-300 else 1.0
+    return force, force * motion_scales(traj, model)["length"]
+
+
+def reaction_error(a: Trajectory, b: Trajectory) -> dict[str, float]:
+    """Max over joints and shared samples of the reaction differences: ``force_max`` (N),
+    ``moment_max`` (N m, about the joint point); joints are those of ``b``. A joint missing
+    from ``a`` gives NaN."""
+    n = _same_grid(a, b)
+    out = {"samples": n, "force_max": 0.0, "moment_max": 0.0}
+    for name, (fb, mb) in b.reactions.items():
+        if name not in a.reactions:
+            return {"samples": n, "force_max": float("nan"), "moment_max": float("nan")}
+        fa, ma = a.reactions[name]
+        if n:
+            out["force_max"] = max(out["force_max"], float(np.max(np.linalg.norm(fa[:n] - fb[:n], axis=-1))))
+            out["moment_max"] = max(out["moment_max"], float(np.max(np.linalg.norm(ma[:n] - mb[:n], axis=-1))))
+    return out
 
 
 def engine_energy_mismatch(traj: Trajectory, model: Multibody) -> float | None:

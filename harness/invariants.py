@@ -28,8 +28,30 @@ def _masses(traj: "Trajectory", model: Multibody) -> np.ndarray:
     return np.array([model.body(name).mass for name in traj.body_names])
 
 
+def slide_coordinate(traj: "Trajectory", model: Multibody, name: str) -> np.ndarray:
+    """The coordinate q (m) of body ``name``'s slide joint recovered from maximal coordinates:
+    (x_c - x_p)·a_W, x_c the body's frame origin, x_p the parent's point ``p_PB_P``, a_W the
+    axis in world through the parent's orientation; shape (n,)."""
+    body = model.body(name)
+    i = traj.body_index(name)
+    R_all = rotations.matrix(traj.quat_WB.reshape(-1, 4)).reshape(traj.quat_WB.shape[:2] + (3, 3))
+    x_c = traj.p_WCm_W[:, i] - R_all[:, i] @ body.p_BCm_B
+    if body.parent is None:
+        x_p = np.broadcast_to(body.p_PB_P, x_c.shape)
+        a_W = np.broadcast_to(body.axis_B, x_c.shape)
+    else:
+        j = traj.body_index(body.parent)
+        x_p = traj.p_WCm_W[:, j] + R_all[:, j] @ (body.p_PB_P - model.body(body.parent).p_BCm_B)
+        a_W = R_all[:, j] @ body.axis_B
+    return np.einsum("ti,ti->t", x_c - x_p, a_W)
+
+
 def energies(traj: "Trajectory", model: Multibody) -> dict[str, np.ndarray]:
-    """Kinetic, gravitational potential (zero at z = 0 for g along -z) and total energy, (n,)."""
+    """Kinetic, gravitational potential (zero at z = 0 for g along -z) and total energy, (n,).
+
+    With joint springs (``model.springs``) also ``elastic``, their potential
+    sum k (q - q_ref)^2 / 2, which the total ``energy`` includes (``potential`` stays the
+    gravitational part)."""
     m = _masses(traj, model)
     I_W = _inertia_world(traj, model)
     w = traj.w_WB_W
@@ -37,7 +59,13 @@ def energies(traj: "Trajectory", model: Multibody) -> dict[str, np.ndarray]:
     kin_rot = 0.5 * np.einsum("tbi,tbij,tbj->t", w, I_W, w)
     potential = -np.einsum("b,tbi,i->t", m, traj.p_WCm_W, model.gravity_W)
     kinetic = kin_lin + kin_rot
-    return {"kinetic": kinetic, "potential": potential, "energy": kinetic + potential}
+    springs = getattr(model, "springs", ())
+    if not springs:
+        return {"kinetic": kinetic, "potential": potential, "energy": kinetic + potential}
+    elastic = np.zeros(len(traj.t))
+    for sp in springs:
+        elastic += 0.5 * sp.stiffness * (slide_coordinate(traj, model, sp.body) - sp.q_ref) ** 2
+    return {"kinetic": kinetic, "potential": potential, "elastic": elastic, "energy": kinetic + potential + elastic}
 
 
 def linear_momentum(traj: "Trajectory", model: Multibody) -> np.ndarray:

@@ -58,6 +58,12 @@ def forward(model: Multibody, q: dict[str, np.ndarray], v: dict[str, np.ndarray]
                 R_PB = rotations.matrix(rotations.from_axis_angle(body.axis_B, qb[0]))
                 R_WB = R_WP @ R_PB
                 w_WB = w_WP + R_WB @ (body.axis_B * vb[0])
+            elif body.joint == "slide":
+                p_PB_W = R_WP @ (body.p_PB_P + body.axis_B * qb[0])
+                p_WB = p_WP + p_PB_W
+                v_WB = v_WP + np.cross(w_WP, p_PB_W) + R_WP @ (body.axis_B * vb[0])
+                R_WB = R_WP
+                w_WB = w_WP
             else:  # pragma: no cover - guarded when the model is built
                 raise ValueError(f"unknown joint type {body.joint!r}")
         frames[body.name] = (p_WB, R_WB, v_WB, w_WB)

@@ -77,9 +77,36 @@ def pinocchio_bodies(pmodel: pin.Model, model: Multibody) -> list[LoadedBody]:
         joint, axis = pin_joint_kind(pmodel.joints[jid]), np.zeros(3)
         if joint == "hinge":
             axis = np.array(data.joints[jid].S).reshape(6, -1)[3:6, 0].copy()
+        elif joint == "slide":  # prismatic: the motion subspace's linear part
+            axis = np.array(data.joints[jid].S).reshape(6, -1)[0:3, 0].copy()
         out.append(LoadedBody(body.name, float(inertia.mass), np.array(inertia.lever), np.array(inertia.inertia),
                               np.array(pmodel.jointPlacements[jid].translation), joint, axis))
     return out
+
+
+def mujoco_spring_problems(m: mujoco.MjModel, model: Multibody, rtol: float = 1e-9) -> list[str]:
+    """Disagreements between the scene's joint springs and a compiled ``MjModel``: the linear
+    stiffness (N/m) and ``springref`` (m) of each spring's joint; joints with a stiffness the
+    scene does not declare are reported too."""
+    problems = []
+    declared = {sp.body: sp for sp in model.springs}
+    for body in model.bodies:
+        bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body.name)
+        if bid < 0 or m.body_jntnum[bid] != 1:
+            continue
+        jid = m.body_jntadr[bid]
+        k = float(np.atleast_1d(m.jnt_stiffness[jid])[0])
+        sp = declared.get(body.name)
+        if sp is None:
+            if k != 0.0:
+                problems.append(f"{body.name}: joint stiffness {k:g} N/m, the scene declares no spring")
+            continue
+        q_ref = float(m.qpos_spring[m.jnt_qposadr[jid]])
+        if not np.isclose(k, sp.stiffness, rtol=rtol, atol=0.0):
+            problems.append(f"{body.name}: spring stiffness {k:.9g} N/m, scene says {sp.stiffness:.9g} N/m")
+        if abs(q_ref - sp.q_ref) > rtol * max(abs(sp.q_ref), 1e-3):
+            problems.append(f"{body.name}: spring reference {q_ref:.9g} m, scene says {sp.q_ref:.9g} m")
+    return problems
 
 
 def compare_bodies(loaded: list[LoadedBody], model: Multibody, rtol: float = 1e-9) -> list[str]:
@@ -104,8 +131,8 @@ def compare_bodies(loaded: list[LoadedBody], model: Multibody, rtol: float = 1e-
             problems.append(f"{lb.name}: joint position in parent {lb.p_PB_P.tolist()} m, scene says {body.p_PB_P.tolist()} m")
         if lb.joint != body.joint:
             problems.append(f"{lb.name}: joint type {lb.joint}, scene says {body.joint}")
-        elif body.joint == "hinge" and np.linalg.norm(lb.axis_B / np.linalg.norm(lb.axis_B) - body.axis_B) > 1e-9:
-            problems.append(f"{lb.name}: hinge axis {lb.axis_B.tolist()}, scene says {body.axis_B.tolist()}")
+        elif body.joint in ("hinge", "slide") and np.linalg.norm(lb.axis_B / np.linalg.norm(lb.axis_B) - body.axis_B) > 1e-9:
+            problems.append(f"{lb.name}: {body.joint} axis {lb.axis_B.tolist()}, scene says {body.axis_B.tolist()}")
     return problems
 
 

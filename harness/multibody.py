@@ -20,6 +20,15 @@ Joint coordinates (shared by all engines: the MJCF and URDF use the same tree)
   expressed in B (rad/s, 3).
 * ``free`` (parent must be world): q = [p_WB_W (3), quat_wxyz (4)], v = [v_WB_W (3): velocity of
   the body frame origin in world, w_WB_B (3): angular velocity expressed in the body frame].
+* ``slide`` (prismatic): q = [displacement] (m) along ``axis_B`` (unit, body frame = parent frame:
+  the frames stay parallel), v = [rate] (m/s); B's frame origin is at ``p_PB_P + q axis_B`` in
+  the parent frame.
+
+Force elements
+--------------
+* ``JointSpring``: a linear spring on a slide joint's coordinate, generalised force
+  ``-stiffness (q - q_ref)``, potential ``stiffness (q - q_ref)^2 / 2`` (MuJoCo: joint
+  ``stiffness`` with ``springref``).
 """
 
 from __future__ import annotations
@@ -29,9 +38,9 @@ from typing import Callable
 
 import numpy as np
 
-JOINT_TYPES = ("free", "ball", "hinge")
-NQ = {"free": 7, "ball": 4, "hinge": 1}
-NV = {"free": 6, "ball": 3, "hinge": 1}
+JOINT_TYPES = ("free", "ball", "hinge", "slide")
+NQ = {"free": 7, "ball": 4, "hinge": 1, "slide": 1}
+NV = {"free": 6, "ball": 3, "hinge": 1, "slide": 1}
 
 
 @dataclass(frozen=True)
@@ -43,7 +52,8 @@ class Body:
         parent: parent body name, or ``None`` for the world.
         joint: one of ``JOINT_TYPES``.
         p_PB_P: joint/body-frame origin in the parent frame at zero configuration (m).
-        axis_B: hinge axis, unit vector in the body frame (ignored for ``ball`` and ``free``).
+        axis_B: hinge or slide axis, unit vector in the body frame (ignored for ``ball`` and
+            ``free``).
         mass: kg.
         p_BCm_B: centre of mass in the body frame (m).
         I_Cm_B: inertia about the centre of mass, body frame (kg m^2), 3x3 symmetric.
@@ -77,6 +87,45 @@ class PointForce:
 
 
 @dataclass(frozen=True)
+class JointSpring:
+    """A linear spring on the coordinate of a ``slide`` joint (the joint of ``body``).
+
+    Attributes:
+        body: name of the body whose slide joint carries the spring.
+        stiffness: N/m, >= 0.
+        q_ref: joint coordinate (m) at which the spring is relaxed (MuJoCo ``springref``).
+    """
+
+    body: str
+    stiffness: float
+    q_ref: float
+
+
+@dataclass(frozen=True)
+class RollingContact:
+    """Rolling without slip of a body's rim edge on the horizontal plane z = 0 (the plane is the
+    world's, normal +z). The body is a cylinder of radius ``radius`` whose symmetry axis is body
+    z through its centre of mass; its two edge circles lie at body z = +-``half_thickness``.
+    The contact point is the lowest point of the lower edge circle (``harness.contact_metrics``);
+    rolling without slip makes the material point there have zero velocity (two nonholonomic
+    rows and the holonomic height row z = 0).
+
+    Attributes:
+        body: name of the rolling body (a ``free`` body, frame at its centre of mass).
+        radius: m, > 0.
+        half_thickness: m, >= 0 (0: a thin disk).
+        name: name of the contact in trajectories (its force columns ``<name>.Fx`` ...).
+        geom: name of the cylinder geom in the MJCF (its size is rewritten from the scene).
+    """
+
+    body: str
+    radius: float
+    half_thickness: float
+    name: str = "contact"
+    geom: str = "rim"
+
+
+@dataclass(frozen=True)
 class Multibody:
     """A scene's mechanical system: bodies in tree order, gravity, forcing and initial state.
 
@@ -85,6 +134,8 @@ class Multibody:
         gravity_W: gravitational acceleration in world frame (m/s^2).
         q0, v0: initial joint coordinates per body name (see module docstring for conventions).
         forces: prescribed point forces (empty when the scene is unforced).
+        springs: joint springs (empty when the scene has none).
+        contacts: rolling contacts with the plane z = 0 (empty when the scene has none).
     """
 
     bodies: tuple[Body, ...]
@@ -92,6 +143,8 @@ class Multibody:
     q0: dict[str, np.ndarray]
     v0: dict[str, np.ndarray]
     forces: tuple[PointForce, ...] = field(default_factory=tuple)
+    springs: tuple[JointSpring, ...] = field(default_factory=tuple)
+    contacts: tuple[RollingContact, ...] = field(default_factory=tuple)
 
     def body(self, name: str) -> Body:
         for b in self.bodies:

@@ -58,7 +58,9 @@ def apply_tolerances(scene: Scene, table: dict, source: Path) -> tuple[Scene, li
                 raise InputError(f"{source}: [{scene.name}.{check}] {key} is not a number: {value!r}") from None
             if not new > 0:
                 raise InputError(f"{source}: [{scene.name}.{check}] {key} must be positive, got {value!r}")
-            changes.append(f"{check}.{key}: {checks[check][key]:g} -> {new:g}")
+            was = checks[check][key]  # a number, or a table per engine (e.g. rolling_disk's trajectory)
+            was = ", ".join(f"{e} {x:g}" for e, x in was.items()) if isinstance(was, dict) else f"{was:g}"
+            changes.append(f"{check}.{key}: {was} -> {new:g}")
             checks[check][key] = new
     return replace(scene, checks=checks), changes
 

@@ -4,7 +4,11 @@ Arrays are indexed ``[time, body, component]``; frames and units as in ``harness
 CSV columns (one row per saved time, starting at t = 0):
 ``t, kinetic, potential, energy, px, py, pz, Lx, Ly, Lz`` then, per body B,
 ``B.x B.y B.z B.qw B.qx B.qy B.qz B.vx B.vy B.vz B.wx B.wy B.wz``,
-then optional engine-reported columns ``engine_kinetic, engine_potential``.
+then optional engine-reported columns ``engine_kinetic, engine_potential``, then, only for a
+scene with springs, ``elastic`` (J, spring potential; ``energy`` includes it), and only for a
+scene that asks for joint reactions (``[checks.reaction]``), per jointed body B
+``B.Fx B.Fy B.Fz B.Mx B.My B.Mz``: the force (N) and the moment about the joint point (N m),
+world frame, that the parent (or the world) exerts on B through B's joint.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from harness import invariants
 from harness.multibody import Multibody
 
 BODY_FIELDS = ("x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
+REACTION_FIELDS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 
 
 @dataclass(frozen=True)
@@ -35,6 +40,17 @@ class Trajectory:
         stats: counters of the run (``steps``, ``rhs_evals``, ``wall_s``, ...).
         status: ``"ok"``, or ``"failed"``/``"blowup"`` with ``message``; a failed run keeps
             what was computed up to the failure.
+        reactions: joint reactions, only when the scene asks for them (``[checks.reaction]``),
+            else empty: per jointed body B (free joints excluded) ``(force_W, moment_W)``, each
+            (n, 3): the force (N) and the moment about the joint point (B's body-frame origin,
+            N m), world frame, that the parent (or the world) exerts on B through the joint:
+            the joint's constraint reaction, without the joint's own spring force along its
+            free direction. Each engine computes them its own way (in-house: the constraint
+            multipliers; MuJoCo: ``cfrc_int`` after ``mj_rnePostConstraint``; Pinocchio:
+            ``data.f`` after ``rnea`` at the acceleration of ``aba``). A scene with rolling
+            contacts (``Multibody.contacts``) always has, keyed by the contact's name, the force
+            the plane exerts on the body at the contact point and the moment about that point
+            (``harness.contact_metrics``).
     """
 
     engine: str
@@ -49,6 +65,7 @@ class Trajectory:
     stats: dict[str, Any] = field(default_factory=dict)
     status: str = "ok"
     message: str = ""
+    reactions: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -133,4 +150,10 @@ def to_frame(traj: Trajectory, model: Multibody) -> pd.DataFrame:
             cols[f"{name}.{f}"] = block[:, j]
     for key, values in traj.engine_energy.items():
         cols[f"engine_{key}"] = values
+    if "elastic" in energy:
+        cols["elastic"] = energy["elastic"]
+    for name, (force, moment) in traj.reactions.items():
+        block = np.concatenate([force, moment], axis=1)
+        for j, f in enumerate(REACTION_FIELDS):
+            cols[f"{name}.{f}"] = block[:, j]
     return pd.DataFrame(cols)

@@ -9,7 +9,15 @@ in ``[checks.*]`` of its ``scene.toml``):
 * ``trajectory.position/orientation/velocity/angular_velocity`` against the reference;
 * ``constraint.position/axis``, joint violations from maximal coordinates;
 * ``exact``: against the scene's closed-form solution (``harness.exact``);
+* ``reaction.force/moment`` (scenes with ``[checks.reaction]``): joint reactions against the
+  reference run's, and ``reaction.exact`` against the exact support force where one exists;
+* ``slip``, ``contact_height``, ``contact_force`` (scenes with rolling contacts,
+  ``harness.contact_metrics``): slip speed at the contact point, its height (penetration), and
+  the contact force against the reference's;
 * ``engine_energy``: the engine's own energy against the harness's recomputation.
+
+A ``[checks.trajectory]`` tolerance is a number for every engine or a table per engine (rolling_disk:
+MuJoCo's soft contact is held to what it can reach, the ideal-constraint engines to 1e-9).
 
 The reference run is itself checked (engine ``reference``) for conservation and against the
 exact solution before it judges anything. Every run (reference, and each scene x engine) is
@@ -26,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from harness import compare, exact
+from harness import compare, contact_metrics, exact
 from harness.engines import get_engine
 from harness.engines.base import RunSettings
 from harness.errors import InputError
@@ -227,16 +235,18 @@ def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Traj
             ):
                 value = err[f"{key}_max"]
                 if scale_key is None:
-                    add(f"trajectory.{key}", value, tol[tol_key], unit, f"max over bodies and samples; {what}")
+                    add(f"trajectory.{key}", value, _per_engine(tol[tol_key], engine), unit, f"max over bodies and samples; {what}")
                 else:
-                    add(f"trajectory.{key}", value / scale[scale_key], tol[tol_key], "rel",
+                    add(f"trajectory.{key}", value / scale[scale_key], _per_engine(tol[tol_key], engine), "rel",
                         f"{value:.2e} {unit} over {scale_key} scale {scale[scale_key]:.3g} {unit}; {what}")
     if "constraint" in checks:
         viol = compare.constraint_violation(traj, model)
         tol = checks["constraint"][engine]
         add("constraint.position", viol["position"], tol, "m", "joint points coincide")
-        if any(b.joint == "hinge" for b in model.bodies):
-            add("constraint.axis", viol["axis"], tol, "rad", "hinge axes stay aligned")
+        kinds = {b.joint for b in model.bodies}
+        if kinds & {"hinge", "slide"}:
+            what = [w for k, w in (("hinge", "hinge axes stay aligned"), ("slide", "slide frames stay parallel")) if k in kinds]
+            add("constraint.axis", viol["axis"], tol, "rad", ", ".join(what))
     if "exact" in checks:
         tol = checks["exact"][engine]
         try:
@@ -246,10 +256,44 @@ def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Traj
         except Exception as err:  # a failing modal run etc. is a failed check, not a crash
             value, unit, detail = float("nan"), "", f"{type(err).__name__}: {err}"
         add("exact", value, tol, unit, detail)
+    if "reaction" in checks:
+        _check_reactions(scene, label, engine, traj, ref, model, add)
+    if model.contacts:  # rolling contacts: slip, contact height, contact force (harness.contact_metrics)
+        contact_metrics.add_checks(scene, engine, traj, ref, model, add)
     mismatch = compare.engine_energy_mismatch(traj, model)
     if mismatch is not None:
         add("engine_energy", mismatch, ENGINE_ENERGY_TOL, "rel", "engine's own energy vs harness recomputation")
     return out
+
+
+def _check_reactions(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Trajectory | None, model, add) -> None:
+    """``reaction.force`` / ``reaction.moment`` against the reference run's reactions, and
+    ``reaction.exact`` against the scene's exact support force where ``harness.exact`` has one;
+    all relative to ``compare.reaction_scales`` of the reference (or of the run itself)."""
+    tol = scene.checks["reaction"][engine]
+    if not traj.reactions:
+        add("reaction", float("nan"), tol, "", f"{traj.engine} gave no joint reactions")
+        return
+    judge = ref if ref is not None and ref.ok and ref.reactions else traj
+    f_scale, m_scale = compare.reaction_scales(judge, model)
+    if ref is not None and ref.ok:
+        err = compare.reaction_error(traj, ref)
+        add("reaction.force", err["force_max"] / f_scale, tol, "rel",
+            f"{err['force_max']:.2e} N over force scale {f_scale:.3g} N; vs the reference's multipliers")
+        add("reaction.moment", err["moment_max"] / m_scale, tol, "rel",
+            f"{err['moment_max']:.2e} N m over moment scale {m_scale:.3g} N m; about the joint point")
+    try:
+        found = exact.exact_reaction(scene, traj)
+    except Exception as err:  # noqa: BLE001 - a failing reference is a failed check, not a crash
+        found = (float("nan"), f"{type(err).__name__}: {err}")
+    if found is not None:
+        value, detail = found
+        add("reaction.exact", value / f_scale, tol, "rel", f"{value:.2e} N over force scale {f_scale:.3g} N; {detail}")
+
+
+def _per_engine(tol, engine: str) -> float:
+    """A tolerance given for all engines (a number) or per engine (a table of numbers)."""
+    return tol[engine] if isinstance(tol, dict) else tol
 
 
 def _record(scene, engine, settings, traj, wall) -> RunRecord:

@@ -44,6 +44,8 @@ def check_multibody(model: Multibody, source: str) -> None:
         for label, vec in (("p_PB_P", b.p_PB_P), ("p_BCm_B", b.p_BCm_B), ("axis_B", b.axis_B)):
             if not np.all(np.isfinite(vec)):
                 raise InputError(f"{source}: body {b.name!r}: {label} is not finite")
+        if b.joint == "slide" and abs(float(np.linalg.norm(b.axis_B)) - 1.0) > 1e-9:
+            raise InputError(f"{source}: body {b.name!r}: a slide axis must be a unit vector, got {np.asarray(b.axis_B).tolist()}")
         q, v = np.asarray(model.q0[b.name], float), np.asarray(model.v0[b.name], float)
         if q.shape != (NQ[b.joint],) or v.shape != (NV[b.joint],):
             raise InputError(f"{source}: body {b.name!r}: initial state has the wrong size for a {b.joint} joint")
@@ -51,3 +53,9 @@ def check_multibody(model: Multibody, source: str) -> None:
             raise InputError(f"{source}: body {b.name!r}: initial state is not finite")
     if not np.all(np.isfinite(model.gravity_W)):
         raise InputError(f"{source}: gravity is not finite")
+    joints = {b.name: b.joint for b in model.bodies}
+    for sp in getattr(model, "springs", ()):
+        if joints.get(sp.body) != "slide":
+            raise InputError(f"{source}: spring on {sp.body!r}: springs act on slide joints only")
+        if not (np.isfinite(sp.stiffness) and sp.stiffness >= 0.0 and np.isfinite(sp.q_ref)):
+            raise InputError(f"{source}: spring on {sp.body!r}: stiffness must be finite and >= 0, rest position finite")

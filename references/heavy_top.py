@@ -52,6 +52,8 @@ For β = 0 (g = 0 or l = 0) the cubic degenerates to the quadratic c2 x² + c1 x
 exactly harmonic: ü = f'(u)/2 is linear, u(t) = u0 + x_e (1 − cos Ω t) + (q/Ω) sin Ω t with
 Ω² = −c2 = ω1² + ω2² + a², x_e = −c1/(2 c2); u3 = +inf (the β → 0 limit of the sn² form).
 Azimuth (precession) rate: φ̇ = (L_z − L_3 u)/(A (1 − u²)) (undefined at u = ±1).
+Tip (support) force: F = m a_cm + m g ẑ with a_cm = d²(l e3)/dt², in cylindrical components
+from u, u̇, ü = ½ f'(u), φ̇ and φ̈ (``tip_force``); the tip exerts no couple (ball joint).
 Steady precession at fixed θ: A cos θ φ̇² − L_3 φ̇ + m g l = 0 (θ̈ = 0 in the Lagrangian θ
 equation A θ̈ = A φ̇² sin θ cos θ − L_3 φ̇ sin θ + m g l sin θ).
 
@@ -81,6 +83,8 @@ __all__ = [
     "nutation_roots",
     "nutation_bounds",
     "cos_theta",
+    "cos_theta_rates",
+    "tip_force",
     "u_dot0",
     "azimuth_rate",
     "azimuth_rate_from_u",
@@ -258,6 +262,67 @@ def cos_theta(t, params, R0, omega0) -> np.ndarray:
         w0 = -w0
     sn, _, _ = ellipj(lam * t + w0, k2, k2c)
     return sigma * (v0 + x1 + span * sn * sn)
+
+
+def cos_theta_rates(t, params, R0, omega0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Exact (u, u̇, ü) at times t: u as ``cos_theta``, u̇ = 2 (u2 − u1) λ sn cn dn (mirrored by
+    σ; harmonic when β = 0), ü = ½ f'(u) with
+    f'(u) = −2 u (α − β u) − β (1 − u²) + 2 a (b − a u) (derivative of u̇² = f(u))."""
+    t = np.atleast_1d(np.asarray(t, dtype=float)).ravel()
+    u = cos_theta(t, params, R0, omega0)
+    x1, x2, x3, v0, q, beta_v, c2, c1, rest, sigma = _roots_x(params, R0, omega0)
+    p = TopParams.coerce(params)
+    if rest:
+        udot = np.zeros(t.shape)
+    elif beta_v == 0.0:
+        Om = np.sqrt(-c2)
+        xe = -c1 / (2.0 * c2)
+        udot = sigma * (xe * Om * np.sin(Om * t) + q * np.cos(Om * t))
+    elif x2 - x1 <= 1e-14:
+        udot = np.zeros(t.shape)
+    else:
+        span, d31 = x2 - x1, x3 - x1
+        k2, k2c = span / d31, (x3 - x2) / d31
+        lam = np.sqrt(abs(p.mass * p.g * p.l) * d31 / (2.0 * p.I1_tip))
+        w0 = np.sqrt(min(max(-x1 / span, 0.0), 1.0)) * float(elliprf(min(max(x2 / span, 0.0), 1.0), x3 / d31, 1.0))
+        if q < 0.0:
+            w0 = -w0
+        sn, cn, dn = ellipj(lam * t + w0, k2, k2c)
+        udot = sigma * 2.0 * span * lam * sn * cn * dn
+    E, L_z, L_3 = conserved(params, R0, omega0)
+    A = p.I1_tip
+    alpha = (2.0 * E - L_3 * L_3 / p.I3) / A
+    beta = 2.0 * p.mass * p.g * p.l / A
+    a, b = L_3 / A, L_z / A
+    uddot = 0.5 * (-2.0 * u * (alpha - beta * u) - beta * (1.0 - u * u) + 2.0 * a * (b - a * u))
+    return u, udot, uddot
+
+
+def tip_force(t, params, R0, omega0) -> np.ndarray:
+    """Exact force (N) the fixed tip exerts on the top, F = m a_cm + m g ẑ, in cylindrical
+    components (F_ρ, F_φ, F_z), shape (n, 3): e_ρ the horizontal direction of the symmetry
+    axis e3, e_φ = ẑ × e_ρ. With ρ = l sin θ = l s, s = √(1 − u²), and φ the azimuth of e3:
+
+        a_ρ = ρ̈ − ρ φ̇²,  a_φ = ρ φ̈ + 2 ρ̇ φ̇,  a_z = l ü,
+        ρ̇ = −l u u̇ / s,  ρ̈ = −l ((u̇² + u ü)/s + u² u̇²/s³),
+        φ̇ = (L_z − L_3 u)/(A s²),  φ̈ = u̇ (2 u (L_z − L_3 u) − L_3 s²)/(A s⁴).
+
+    Undefined (nan horizontal components) where the axis is vertical (s = 0)."""
+    p = TopParams.coerce(params)
+    u, ud, udd = cos_theta_rates(t, params, R0, omega0)
+    _, L_z, L_3 = conserved(params, R0, omega0)
+    A, l = p.I1_tip, p.l
+    s2 = 1.0 - u * u
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.sqrt(s2)
+        rho, rhod = l * s, -l * u * ud / s
+        rhodd = -l * ((ud * ud + u * udd) / s + u * u * ud * ud / (s * s2))
+        phid = (L_z - L_3 * u) / (A * s2)
+        phidd = ud * (2.0 * u * (L_z - L_3 * u) - L_3 * s2) / (A * s2 * s2)
+        a_rho = rhodd - rho * phid * phid
+        a_phi = rho * phidd + 2.0 * rhod * phid
+    a_z = l * udd
+    return p.mass * np.stack([a_rho, a_phi, a_z + p.g], axis=1)
 
 
 def azimuth_rate_from_u(u, params, L_z: float, L_3: float) -> np.ndarray:

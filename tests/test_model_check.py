@@ -15,6 +15,11 @@ OVERRIDES = {
     "torque_free": {"mass": 2.5, "I1": 0.7, "I2": 1.1, "I3": 1.5},
     "heavy_top": {"mass": 0.3, "l": 0.05, "I1": 0.001, "I3": 0.0015},
     "double_pendulum": {"m": 0.4, "L": 0.7, "r": 0.02},
+    "plate_pendulum": {"m": 0.7, "a": 0.15, "b": 0.4, "h": 0.02},
+    "cart_pendulum": {"M": 3.5, "m": 0.4, "L": 0.6, "r": 0.03},
+    "rolling_disk": {"mass": 0.02, "R": 0.03, "h": 0.004},
+    "spring_pendulum": {"m": 0.5, "k": 90.0, "L": 0.3, "rb": 0.03, "m_hub": 0.2, "r_hub": 0.02},
+    "rotating_plate": {"m": 2.0, "a": 0.3, "h": 0.02, "phi": 0.9},
 }
 
 

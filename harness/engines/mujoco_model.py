@@ -2,7 +2,7 @@
 
 The MJCF file is the model as a user writes it; ``load_mjcf`` rewrites, from the scene's
 ``Multibody``, what parameters can change (body positions, masses, centres of mass, inertias,
-gravity, the site where a prescribed force acts) and sets timestep and integrator.
+gravity, the site where a prescribed force acts, joint springs) and sets timestep and integrator.
 Joint types and axes are not rewritten: they are checked (``harness.model_check``).
 """
 
@@ -45,7 +45,8 @@ def principal_axes(I: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def apply_multibody(spec: mujoco.MjSpec, model: Multibody, source: Path) -> None:
-    """Write the scene's mass properties, body positions, gravity and force sites into ``spec``."""
+    """Write the scene's mass properties, body positions, gravity, force sites and joint springs
+    (``stiffness`` and ``springref`` of the spring's joint) into ``spec``."""
     for body in model.bodies:
         sb = spec.body(body.name)
         if sb is None:
@@ -59,12 +60,24 @@ def apply_multibody(spec: mujoco.MjSpec, model: Multibody, source: Path) -> None
         sb.fullinertia = [np.nan] * 6
         sb.inertia = moments
         sb.explicitinertial = True
+    for spring in model.springs:
+        joints = spec.body(spring.body).joints
+        if len(joints) != 1:
+            raise InputError(f"{source}: body {spring.body!r} needs exactly one joint for its spring")
+        stiffness = np.zeros(len(np.atleast_1d(joints[0].stiffness)))
+        stiffness[0] = spring.stiffness  # linear spring; MuJoCo's higher-order coefficients zero
+        joints[0].stiffness = stiffness if stiffness.size > 1 else float(stiffness[0])
+        joints[0].springref = spring.q_ref
     for force in model.forces:
         site = spec.site(force.name)
         if site is None:
             raise InputError(f"{source}: MJCF has no site named {force.name!r} for the force at {force.body!r}")
         site.pos = force.p_BQ_B
     spec.option.gravity = model.gravity_W
+    if getattr(model, "contacts", ()):  # rolling rims: cylinder size from the scene (mujoco_rolling)
+        from harness.engines.mujoco_rolling import apply_contacts
+
+        apply_contacts(spec, model, source)
 
 
 def load_mjcf(path: Path, model: Multibody, *, dt: float | None = None, integrator: str | None = None) -> mujoco.MjModel:

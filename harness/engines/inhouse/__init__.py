@@ -41,7 +41,8 @@ from harness.engines.inhouse import algebra
 from harness.engines.inhouse.constraints import DynamicsError, project, violation
 from harness.engines.inhouse.integrators import FIXED_STEP, integrate
 from harness.engines.inhouse.model import NEModel, build, from_trajectory, initial_state, split, to_trajectory
-from harness.engines.inhouse.newton_euler import Baumgarte, make_rhs, reactions
+from harness.engines.inhouse.newton_euler import Baumgarte, make_rhs, reaction_series, reactions
+from harness.engines.inhouse.rolling import contact_force_series
 from harness.multibody import Multibody
 from harness.scene import Scene
 from harness.trajectory import Trajectory, failed
@@ -58,6 +59,7 @@ __all__ = [
     "initial_state",
     "make_rhs",
     "project",
+    "reaction_series",
     "reactions",
     "to_trajectory",
     "violation",
@@ -92,16 +94,18 @@ class InhouseEngine:
     def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
         """Run ``scene`` with ``settings``; see ``simulate_model``. Bad settings raise InputError."""
         check_settings(settings, self.integrators, self.name)
-        return self.simulate_model(scene.multibody(), settings)
+        return self.simulate_model(scene.multibody(), settings, reactions="reaction" in scene.checks)
 
-    def simulate_model(self, model: Multibody, settings: RunSettings) -> Trajectory:
+    def simulate_model(self, model: Multibody, settings: RunSettings, *, reactions: bool = False) -> Trajectory:
         """Integrate ``model`` from its initial state; samples at ``t = k * save_every``.
 
         Returns the trajectory in maximal coordinates (positions of the centres of mass, body ->
         world quaternions ``wxyz``, velocities of the centres of mass, WORLD-frame angular
         velocities) with ``stats = {"steps", "rhs_evals", "wall_s"}``. A numerical failure gives
         status "failed" or "blowup" with a message and the samples before it; it never raises,
-        except InputError from ``check_settings`` for bad settings.
+        except InputError from ``check_settings`` for bad settings. With ``reactions`` the
+        trajectory carries the joint reactions at every sample (the constraint multipliers,
+        ``reaction_series``).
         """
         check_settings(settings, self.integrators, self.name)
         start = time.perf_counter()
@@ -133,6 +137,16 @@ class InhouseEngine:
         except Exception as err:  # a numerical failure must come back as a trajectory
             return failed(self.name, settings.integrator, names, "failed", f"{type(err).__name__}: {err}")
         traj = to_trajectory(nem, res.t, res.y, self.name, settings.integrator)
+        if reactions and len(res.t):
+            try:
+                traj = replace(traj, reactions=reaction_series(nem, res.t, res.y, gains))
+            except Exception as err:  # a numerical failure must come back as a trajectory
+                return failed(self.name, settings.integrator, names, "failed", f"reactions: {type(err).__name__}: {err}")
+        if nem.contacts and len(res.t):  # rolling contacts: the force at the contact, always (``rolling``)
+            try:
+                traj = replace(traj, reactions={**traj.reactions, **contact_force_series(nem, res.t, res.y, gains)})
+            except Exception as err:  # a numerical failure must come back as a trajectory
+                return failed(self.name, settings.integrator, names, "failed", f"contact force: {type(err).__name__}: {err}")
         stats = {
             "steps": res.steps,
             "rhs_evals": res.rhs_evals,
@@ -160,7 +174,8 @@ def characteristic_rate(nem: NEModel, y0: np.ndarray, gravity_W: np.ndarray, t_e
     angular speed, an upper bound ``sqrt(m |g| d / (I_min + m d^2))`` of the compound-pendulum
     frequency of each jointed body about its joint (d: joint point to centre of mass, m;
     I_min: smallest principal moment about the centre of mass, kg m^2; |g| in m/s^2), and
-    ``2 pi / t_end`` (t_end in s) as a floor."""
+    ``2 pi / t_end`` (t_end in s) as a floor; a spring on a slide joint adds sqrt(k / m) of its
+    child body (k in N/m, m in kg)."""
     W = split(nem, np.asarray(y0, dtype=float))[3]
     rates = [2.0 * np.pi / t_end, float(np.max(np.linalg.norm(W, axis=1), initial=0.0))]
     g = float(np.linalg.norm(gravity_W))
@@ -169,6 +184,8 @@ def characteristic_rate(nem: NEModel, y0: np.ndarray, gravity_W: np.ndarray, t_e
         d = float(np.linalg.norm(nem.D_end[j, :, 0]))
         m, I_min = float(nem.mass[i]), float(np.linalg.eigvalsh(nem.I_B[i])[0])
         rates.append(np.sqrt(m * g * d / (I_min + m * d * d)))
+    for sp in nem.springs:  # a spring on a slide joint: sqrt(k / m_child), an upper bound
+        rates.append(np.sqrt(sp.k / float(nem.mass[nem.slides[sp.slide].child])))
     return float(max(rates))
 
 

@@ -19,6 +19,24 @@ Hinge orientation rows, a = R_c a_c (child axis in world), n_k = R_p b_k (k = 1,
     dC_k/dt = (a x n_k) . (w_c - w_p) = (R_c^T c_k) . w_c_B - (R_p^T c_k) . w_p_B,  c_k = a x n_k
     gamma_k = dc_k/dt . (w_c - w_p),  dc_k/dt = (w_c x a) x n_k + a x (w_p x n_k)
 
+Slide (prismatic) rows, appended after all ball/hinge rows (``model.SlideJoint``). Joint points
+x_c = p_c + s_c (the child's frame origin), x_p = p_p + s_p, d = x_c - x_p, n_k = R_p b_k::
+
+    C_k      = d . n_k                                                  (m), k = 1, 2
+    dC_k/dt  = n_k . (v_c - [s_c]x R_c w_c_B) - n_k . (v_p - [s_p]x R_p w_p_B) + (n_k x d) . w_p
+             i.e. rows  n_k^T | (s_c x n_k)^T R_c | -n_k^T | (n_k x (s_p + d))^T R_p
+             (the reaction lambda_k n_k acts on the child at x_c, its opposite on the parent at
+             the same point)
+    gamma_k  = [w_c x (w_c x s_c) - w_p x (w_p x s_p)] . n_k + 2 d' . (w_p x n_k)
+               + d . (w_p x (w_p x n_k)),   d' = (v_c + w_c x s_c) - (v_p + w_p x s_p)
+
+and three orientation rows C = (R_c u_k).(R_p v_k) with (u_k, v_k) = (e_y, e_z), (e_z, e_x),
+(e_x, e_y), whose J and gamma have the form of the hinge rows above (a = R_c u_k, n = R_p v_k).
+The slide bias needs the linear velocities: ``evaluate`` takes them as ``v_ext``.
+
+Rolling-contact rows (no slip and height of a rim edge on the plane z = 0) come last; they are
+built in ``rolling`` (``rolling_rows``).
+
 The same J maps a small displacement ``[dp_W, dtheta_B]`` (rotation R -> R exp([dtheta_B]x))
 to the change of C, which the Gauss-Newton projection uses.
 """
@@ -29,7 +47,8 @@ import numpy as np
 from scipy.linalg.lapack import dposv
 
 from harness.engines.inhouse import algebra
-from harness.engines.inhouse.model import NEModel
+from harness.engines.inhouse.model import _ROT_U, _ROT_V, NEModel
+from harness.engines.inhouse.rolling import rolling_rows
 
 
 class DynamicsError(ArithmeticError):
@@ -50,6 +69,11 @@ def spd_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return x
 
 
+def linear_velocities(nb: int, y: np.ndarray) -> np.ndarray:
+    """Centre-of-mass velocities (nb+1, 3) of state ``y``, the world (at rest) appended."""
+    return np.concatenate([y[7 * nb : 10 * nb].reshape(nb, 3), _ZERO])
+
+
 def frames(nb: int, y: np.ndarray, with_velocity: bool = True):
     """World-extended frames of state ``y``: unit quaternions (nb, 4), rotations (nb+1, 3, 3),
     positions (nb+1, 3) and world angular velocities (nb+1, 3) (None unless asked), the world
@@ -64,13 +88,16 @@ def frames(nb: int, y: np.ndarray, with_velocity: bool = True):
     return Q, R_ext, P_ext, w_ext
 
 
-def evaluate(nem: NEModel, P_ext: np.ndarray, R_ext: np.ndarray, w_ext: np.ndarray | None):
+def evaluate(nem: NEModel, P_ext: np.ndarray, R_ext: np.ndarray, w_ext: np.ndarray | None,
+             v_ext: np.ndarray | None = None):
     """Constraint rows at one configuration.
 
     Args:
         P_ext, R_ext: centre-of-mass positions (nb+1, 3) m and rotations body -> world
             (nb+1, 3, 3), the world last.
         w_ext: world-frame angular velocities (nb+1, 3) rad/s, or None to skip the bias.
+        v_ext: centre-of-mass velocities (nb+1, 3) m/s (``linear_velocities``); needed for the
+            bias of slide rows only.
 
     Returns:
         ``(C, J, gamma)``: position error (nc,), Jacobian (nc, 6nb) w.r.t.
@@ -121,14 +148,81 @@ def evaluate(nem: NEModel, P_ext: np.ndarray, R_ext: np.ndarray, w_ext: np.ndarr
             gamma = gamma.ravel().take(nem.keep)
     if gamma is not None:
         gamma = gamma.ravel()
-    return C, J[:, : 6 * nb], gamma
+    J = J[:, : 6 * nb]
+    if nem.slides:
+        Cs, Js, gs = slide_rows(nem, P_ext, R_ext, w_ext, v_ext)
+        C, J = np.concatenate([C, Cs]), np.concatenate([J, Js])
+        if gamma is not None:
+            gamma = np.concatenate([gamma, gs])
+    if nem.contacts:  # rolling contacts: 3 rows each, last (``rolling``)
+        Cr, Jr, gr = rolling_rows(nem.contacts, nb, P_ext, R_ext, w_ext)
+        C, J = np.concatenate([C, Cr]), np.concatenate([J, Jr])
+        if gamma is not None:
+            gamma = np.concatenate([gamma, gr])
+    return C, J, gamma
+
+
+def slide_rows(nem: NEModel, P_ext: np.ndarray, R_ext: np.ndarray, w_ext: np.ndarray | None,
+               v_ext: np.ndarray | None):
+    """The 5 rows of each slide joint (module docstring): ``(C, J, gamma)`` with shapes
+    (5 ns,), (5 ns, 6 nb), (5 ns,) (gamma None when ``w_ext`` is None)."""
+    nb = nem.nb
+    ns = len(nem.slides)
+    cross = algebra.cross
+    C = np.empty(5 * ns)
+    J = np.zeros((5 * ns, 6 * nb))
+    gamma = None if w_ext is None else np.empty(5 * ns)
+    if w_ext is not None and v_ext is None:
+        raise ValueError("slide joints need the linear velocities (v_ext) for the constraint bias")
+    for j, sl in enumerate(nem.slides):
+        c, p = sl.child, sl.parent
+        r0 = 5 * j
+        Rc, Rp = R_ext[c], R_ext[p]
+        s_c, s_p = Rc @ sl.r_c, Rp @ sl.r_p
+        d = (P_ext[c] + s_c) - (P_ext[p] + s_p)
+        N = sl.b @ Rp.T  # (2, 3) rows n_k = R_p b_k (world)
+        A = _ROT_U @ Rc.T  # (3, 3) rows a_k = R_c u_k
+        Nr = _ROT_V @ Rp.T  # (3, 3) rows n_k = R_p v_k
+        # one batched cross product: s_c x n_k (2), a_k x n_k (3), n_k x (s_p + d) (2)
+        L1, R1 = np.empty((7, 3)), np.empty((7, 3))
+        L1[:2], L1[2:5], L1[5:] = s_c, A, N
+        R1[:2], R1[2:5], R1[5:] = N, Nr, s_p + d
+        X = cross(L1, R1)
+        C[r0 : r0 + 2] = N @ d
+        C[r0 + 2 : r0 + 5] = np.einsum("ki,ki->k", A, Nr)
+        vc, wc_col = 3 * c, 3 * nb + 3 * c
+        J[r0 : r0 + 2, vc : vc + 3] = N
+        J[r0 : r0 + 5, wc_col : wc_col + 3] = X[:5] @ Rc
+        if p < nb:
+            vp, wp_col = 3 * p, 3 * nb + 3 * p
+            J[r0 : r0 + 2, vp : vp + 3] = -N
+            J[r0 : r0 + 2, wp_col : wp_col + 3] = X[5:] @ Rp
+            J[r0 + 2 : r0 + 5, wp_col : wp_col + 3] = -X[2:5] @ Rp
+        if gamma is not None:
+            wc, wp = w_ext[c], w_ext[p]
+            # w_c x s_c, w_p x s_p, w_p x n_k (2), w_c x a_k (3), w_p x n_k (3, orientation rows)
+            L2, R2 = np.empty((10, 3)), np.empty((10, 3))
+            L2[0], L2[1:7], L2[7:] = wc, wp, wc
+            R2[0], R2[1], R2[2:4], R2[4:7], R2[7:] = s_c, s_p, N, Nr, A
+            Y = cross(L2, R2)
+            ws, wn, wNr, wA = Y[:2], Y[2:4], Y[4:7], Y[7:10]
+            # w_c x (w_c x s_c), w_p x (w_p x s_p), w_p x (w_p x n_k) (2), (w_c x a_k) x n_k (3), a_k x (w_p x n_k) (3)
+            L3, R3 = np.empty((10, 3)), np.empty((10, 3))
+            L3[0], L3[1:4], L3[4:7], L3[7:] = wc, wp, wA, A
+            R3[:2], R3[2:4], R3[4:7], R3[7:] = ws, wn, Nr, wNr
+            Z = cross(L3, R3)
+            dd = (v_ext[c] + ws[0]) - (v_ext[p] + ws[1])
+            gamma[r0 : r0 + 2] = N @ (Z[0] - Z[1]) + 2.0 * (wn @ dd) + Z[2:4] @ d
+            gamma[r0 + 2 : r0 + 5] = (Z[4:7] + Z[7:10]) @ (wc - wp)
+    return C, J, gamma
 
 
 def rows(nem: NEModel, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(C, J, gamma)`` of ``evaluate`` at state vector ``y`` (any state, on the constraint
     manifold or not)."""
-    _, R_ext, P_ext, w_ext = frames(nem.nb, np.asarray(y, dtype=float))
-    return evaluate(nem, P_ext, R_ext, w_ext)
+    y = np.asarray(y, dtype=float)
+    _, R_ext, P_ext, w_ext = frames(nem.nb, y)
+    return evaluate(nem, P_ext, R_ext, w_ext, linear_velocities(nem.nb, y) if nem.slides else None)
 
 
 def violation(nem: NEModel, y: np.ndarray) -> tuple[float, float]:

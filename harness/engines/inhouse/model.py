@@ -26,7 +26,18 @@ the origin with identity orientation):
 * ``hinge``: ball + 2 rows ``(R_c a)·(R_p b_k) = 0``, k = 1, 2, where ``a`` is the unit hinge
   axis in the child frame and ``b_1, b_2`` are unit vectors perpendicular to the same axis
   fixed in the parent frame (the frames are parallel at zero joint angle).
+* ``slide`` (prismatic): 5 rows, appended after all ball/hinge rows (``SlideJoint``): the
+  child's joint origin x_c (its body-frame origin) stays on the line through the parent's point
+  x_p along the axis, ``(x_c - x_p)·(R_p b_k) = 0`` for the two unit perpendiculars b_1, b_2 of
+  the axis (parent frame), and the frames stay parallel, ``(R_c u_k)·(R_p v_k) = 0`` for
+  (u_k, v_k) = (e_y, e_z), (e_z, e_x), (e_x, e_y).
 * ``free``: no constraint.
+
+Joint springs (``harness.multibody.JointSpring``, slide joints only) are force elements, not
+constraints: ``SpringElement`` (see ``newton_euler``).
+
+Rolling contacts (``harness.multibody.RollingContact``: a rim edge rolling without slip on the
+plane z = 0) are constraints of 3 rows each, appended after the slide rows (``rolling``).
 """
 
 from __future__ import annotations
@@ -38,8 +49,50 @@ import numpy as np
 
 from harness import kinematics, rotations
 from harness.engines.inhouse import algebra
+from harness.engines.inhouse.rolling import RollingRows, build_contacts
 from harness.multibody import Multibody
 from harness.trajectory import Trajectory
+
+
+@dataclass(frozen=True)
+class SlideJoint:
+    """A prismatic joint of the in-house model (SI units).
+
+    Attributes:
+        name: child body name.
+        child, parent: body indices (parent ``nb`` for the world).
+        r_c: the joint point (the child's body-frame origin) from the child's centre of mass,
+            child frame (m).
+        r_p: the parent's point ``p_PB_P`` from the parent's centre of mass, parent frame, or
+            the world point for a world parent (m).
+        axis: unit slide axis (child frame = parent frame; the frames stay parallel).
+        b: (2, 3) unit perpendiculars b_1, b_2 of the axis (parent frame).
+    """
+
+    name: str
+    child: int
+    parent: int
+    r_c: np.ndarray
+    r_p: np.ndarray
+    axis: np.ndarray
+    b: np.ndarray
+
+
+@dataclass(frozen=True)
+class SpringElement:
+    """A linear spring along a slide joint: force ``-k (q - q_ref) a_W`` on the child at its
+    joint point and the opposite on the parent at the same point, q = (x_c - x_p)·a_W.
+
+    Attributes: ``slide`` (index into ``NEModel.slides``), ``k`` (N/m), ``q_ref`` (m).
+    """
+
+    slide: int
+    k: float
+    q_ref: float
+
+
+_ROT_U = np.eye(3)[[1, 2, 0]]  # (u_k, v_k) = (e_y, e_z), (e_z, e_x), (e_x, e_y)
+_ROT_V = np.eye(3)[[2, 0, 1]]
 
 
 @dataclass(frozen=True)
@@ -81,6 +134,10 @@ class NEModel:
             when they are all of them, in order.
         forces: ``(body index, r_B, force_W)`` per prescribed point force, ``r_B`` the point
             relative to the centre of mass in the body frame (m).
+        slides: prismatic joints; their 5 rows each come after the ball/hinge rows, so ``nc``
+            counts them and ``nc_fast`` does not (``J_template``, ``keep`` and the per-end
+            arrays describe the ball/hinge rows only).
+        springs: spring elements on slide joints.
     """
 
     body_names: tuple[str, ...]
@@ -104,6 +161,14 @@ class NEModel:
     J_cols: np.ndarray
     J_take: np.ndarray | None
     forces: tuple[tuple[int, np.ndarray, Callable[[float], np.ndarray]], ...]
+    slides: tuple[SlideJoint, ...] = ()
+    springs: tuple[SpringElement, ...] = ()
+    contacts: tuple[RollingRows, ...] = ()  # rolling contacts: 3 rows each, after the slide rows (``rolling``)
+
+    @property
+    def nc_fast(self) -> int:
+        """Number of ball/hinge constraint rows (the rows before the slide rows)."""
+        return self.nc - 5 * len(self.slides) - 3 * len(self.contacts)
 
     @property
     def nj(self) -> int:
@@ -207,6 +272,22 @@ def build(model: Multibody) -> NEModel:
         r_B = np.asarray(f.p_BQ_B, dtype=float) - np.asarray(model.bodies[i].p_BCm_B, dtype=float)
         forces.append((i, r_B, f.force_W))
 
+    slides = []
+    for b in model.bodies:
+        if b.joint != "slide":
+            continue
+        axis = np.asarray(b.axis_B, dtype=float)
+        axis = axis / np.linalg.norm(axis)
+        p_PB_P = np.asarray(b.p_PB_P, dtype=float)
+        r_p = p_PB_P if b.parent is None else p_PB_P - np.asarray(model.body(b.parent).p_BCm_B, dtype=float)
+        slides.append(SlideJoint(b.name, index[b.name], nb if b.parent is None else index[b.parent],
+                                 -np.asarray(b.p_BCm_B, dtype=float), r_p, axis, perpendiculars(axis)))
+    slide_of = {sl.name: k for k, sl in enumerate(slides)}
+    springs = tuple(SpringElement(slide_of[sp.body], float(sp.stiffness), float(sp.q_ref))
+                    for sp in getattr(model, "springs", ()))
+
+    contacts = build_contacts(model, index)
+
     return NEModel(
         body_names=names,
         nb=nb,
@@ -223,12 +304,15 @@ def build(model: Multibody) -> NEModel:
         has_hinge=has_hinge,
         rpj=rpj,
         keep=None if nc == nj * rpj else keep_all,
-        nc=nc,
+        nc=nc + 5 * len(slides) + 3 * len(contacts),
         J_template=J_template,
         J_rows=np.array(rows, dtype=int),
         J_cols=np.array(cols, dtype=int),
         J_take=None if all_taken else take,
         forces=tuple(forces),
+        slides=tuple(slides),
+        springs=springs,
+        contacts=contacts,
     )
 
 

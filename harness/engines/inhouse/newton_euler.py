@@ -32,8 +32,8 @@ import numpy as np
 from scipy.linalg.lapack import dposv
 
 from harness.engines.inhouse import algebra
-from harness.engines.inhouse.constraints import DynamicsError, evaluate, frames
-from harness.engines.inhouse.model import NEModel, build
+from harness.engines.inhouse.constraints import DynamicsError, evaluate, frames, linear_velocities
+from harness.engines.inhouse.model import _ROT_U, _ROT_V, NEModel, build
 from harness.multibody import Multibody
 
 
@@ -61,6 +61,7 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
     nb, nc = nem.nb, nem.nc
     I_B, Minv, weight = nem.I_B, nem.Minv, nem.weight_W
     forces = nem.forces
+    springs, slides = nem.springs, nem.slides
     kp, kd = float(gains.kp), float(gains.kd)
     n3, n7, n10 = 3 * nb, 7 * nb, 10 * nb
     no_lambda = np.zeros(0)
@@ -74,19 +75,21 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
         else:
             Q = algebra.normalized(y[n3:n7].reshape(nb, 4))
             R_ext = quat_matrix(Q) if forces else None
-        if forces:
+        if forces or springs:
             F = weight.copy()
             for i, r_B, force_W in forces:
                 f_W = np.asarray(force_W(t), dtype=float)
                 F[i] += f_W
                 tau[i] += cross(r_B, f_W @ R_ext[i])  # r_B x (R^T f_W), body frame
+            for sp in springs:
+                spring_force(slides[sp.slide], sp, P_ext, R_ext, F, tau)
             f = np.concatenate([F.ravel(), tau.ravel()])
         else:
             f = np.concatenate([weight.ravel(), tau.ravel()])
         a = Minv @ f
         lam = no_lambda
         if nc:
-            C, J, gamma = evaluate(nem, P_ext, R_ext, w_ext)
+            C, J, gamma = evaluate(nem, P_ext, R_ext, w_ext, linear_velocities(nb, y) if slides else None)
             JM = J @ Minv
             rhs = -gamma - J @ a
             if kd or kp:
@@ -98,6 +101,28 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
         return np.concatenate([y[n7:n10], quat_rate(Q, W).ravel(), a]), lam
 
     return dynamics
+
+
+def spring_force(sl, sp, P_ext: np.ndarray, R_ext: np.ndarray, F: np.ndarray, tau: np.ndarray) -> None:
+    """Add a slide-joint spring's forces to ``F`` (nb, 3) N world and ``tau`` (nb, 3) N m body
+    frame: ``f = -k (q - q_ref) a_W`` on the child at its joint point x_c, ``-f`` on the parent
+    at the same point, with q = (x_c - x_p)·a_W and a_W = R_c axis (``model.SpringElement``)."""
+    nb = len(F)
+    c, p = sl.child, sl.parent
+    Rc, Rp = R_ext[c], R_ext[p]
+    s_p = Rp @ sl.r_p
+    d = (P_ext[c] + Rc @ sl.r_c) - (P_ext[p] + s_p)
+    a_W = Rc @ sl.axis
+    f = -sp.k * (d @ a_W - sp.q_ref) * a_W
+    F[c] += f
+    if p < nb:
+        F[p] -= f
+        arms = np.stack([sl.r_c, Rp.T @ (s_p + d)])  # x_c from each centre of mass, body frames
+        moments = algebra.cross(arms, np.stack([Rc.T @ f, Rp.T @ f]))
+        tau[c] += moments[0]
+        tau[p] -= moments[1]
+    else:
+        tau[c] += algebra.cross(sl.r_c, Rc.T @ f)
 
 
 def make_rhs(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[float, np.ndarray], np.ndarray]:
@@ -127,7 +152,28 @@ def reactions(
     nem = model if isinstance(model, NEModel) else build(model)
     y = np.asarray(y, dtype=float)
     _, lam = make_dynamics(nem, gains)(t, y)
+    return _reactions_from_multipliers(nem, y, lam)
+
+
+def reaction_series(nem: NEModel, t: np.ndarray, ys: np.ndarray, gains: Baumgarte = Baumgarte()) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """``reactions`` at every sample of a run: times ``t`` (n,) s and state vectors ``ys``
+    (n, 13 nb). Returns per joint ``(force_W (n, 3) N, moment_W (n, 3) N m)``, the moment
+    about the joint point (the force acts there, so it is the joint's couple)."""
+    dynamics = make_dynamics(nem, gains)
+    names = list(nem.joint_names) + [sl.name for sl in nem.slides]
+    out = {name: (np.zeros((len(t), 3)), np.zeros((len(t), 3))) for name in names}
+    for k, (tk, y) in enumerate(zip(t, np.asarray(ys, dtype=float))):
+        _, lam = dynamics(float(tk), y)
+        for name, (f, m) in _reactions_from_multipliers(nem, y, lam).items():
+            out[name][0][k] = f
+            out[name][1][k] = m
+    return out
+
+
+def _reactions_from_multipliers(nem: NEModel, y: np.ndarray, lam: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per joint (force_W, moment_W) from the multipliers ``lam`` at state ``y``."""
     nj, rpj = nem.nj, nem.rpj
+    lam, lam_slide = lam[: nem.nc_fast], lam[nem.nc_fast :]
     full = np.zeros(nj * rpj)
     if nem.keep is None:
         full[:] = lam
@@ -141,4 +187,13 @@ def reactions(
         a, N = X[:nj, :, 1], X[nj:, :, 1:]
         c = algebra.cross(a[:, None, :], N.transpose(0, 2, 1))  # (nj, 2, 3): a x n_k
         moments = np.einsum("jk,jki->ji", full[:, 3:], c)
-    return {name: (full[j, :3].copy(), moments[j].copy()) for j, name in enumerate(nem.joint_names)}
+    out = {name: (full[j, :3].copy(), moments[j].copy()) for j, name in enumerate(nem.joint_names)}
+    if nem.slides:
+        _, R_ext, _, _ = frames(nem.nb, y, with_velocity=False)
+        for j, sl in enumerate(nem.slides):
+            lj = lam_slide[5 * j : 5 * j + 5]
+            Rc, Rp = R_ext[sl.child], R_ext[sl.parent]
+            N = sl.b @ Rp.T
+            A, Nr = _ROT_U @ Rc.T, _ROT_V @ Rp.T
+            out[sl.name] = (lj[:2] @ N, lj[2:] @ np.cross(A, Nr))
+    return out

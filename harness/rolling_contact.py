@@ -1,0 +1,112 @@
+"""Geometry of a cylinder's rim edge rolling on the horizontal plane z = 0.
+
+The rolling body is a cylinder of radius ``R`` and half-thickness ``h`` whose symmetry axis is
+body z through its centre of mass A. Its rim edges are the two circles at body z = +-h. Resting
+on the plane z = 0 with its axis tilted, it touches the plane at the lowest point of the lower
+edge circle: with ``n = R_WB e_z`` the axis in world and ``u`` the unit upward direction within
+the disk plane, ``u = (e_z - n_z n) / sqrt(1 - n_z^2)``, the contact point C is::
+
+    r_AC_W = -R u - h sgn(n_z) n                                         (m, world)
+
+(sgn(n_z) picks the edge nearer the ground; at n_z = 0 exactly, the upright cylinder touches
+along a segment and sgn(0) = 0 gives its midpoint). The height of C is then
+``z_A - R sqrt(1 - n_z^2) - h |n_z|``. C moves around the rim as the body turns; its rate in
+world, at angular velocity ``w_W`` (n' = w x n)::
+
+    u' = (-n_z' n - n_z n' + u n_z n_z' / s) / s,   s = sqrt(1 - n_z^2)
+    r_AC_W' = -R u' - h sgn(n_z) n'
+
+Rolling without slip is ``v_A + w x r_AC = 0`` (the material point at C at rest); its time
+derivative is ``a_A + alpha x r_AC + w x r_AC' = 0``: the constraint bias of every engine is
+``gamma = w x r_AC'``. The height is a minimum over the edge circle, so (envelope) its
+derivative with respect to a rotation of the body is that of the material point: the height
+row of the Jacobian is the z row of the no-slip rows. The geometry is singular when the disk
+lies flat (|n_z| = 1).
+
+Everything broadcasts over leading axes: rotations ``[..., 3, 3]``, vectors ``[..., 3]``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+FLAT = 1e-9  # sqrt(1 - n_z^2) below this: the disk lies flat and the contact point is undefined
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` for 3-vectors or stacks ``[..., 3]`` (``np.cross`` costs ~20 us per call on
+    single vectors; the engines call this in every right-hand side)."""
+    if a.ndim == 1 and b.ndim == 1:
+        return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    return np.cross(a, b)
+
+
+def axis_and_up(R_WB: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(n, u, s)``: the symmetry axis n = R e_z (world), the unit upward direction u in the
+    disk plane, and s = sqrt(1 - n_z^2) (the sine of the tilt of the axis from the vertical)."""
+    n = np.asarray(R_WB)[..., :, 2]
+    nz = n[..., 2]
+    s = np.sqrt(np.maximum(1.0 - nz * nz, 0.0))
+    ez = np.array([0.0, 0.0, 1.0])
+    u = (ez - nz[..., None] * n) / np.maximum(s, FLAT)[..., None]
+    return n, u, s
+
+
+def contact_offset(R_WB: np.ndarray, radius: float, half_thickness: float) -> np.ndarray:
+    """``r_AC_W`` (m, world): from the centre A to the contact point C (module docstring)."""
+    n, u, _ = axis_and_up(R_WB)
+    sigma = np.sign(n[..., 2])[..., None]
+    return -radius * u - half_thickness * sigma * n
+
+
+def contact_offset_rate(R_WB: np.ndarray, w_W: np.ndarray, radius: float, half_thickness: float) -> np.ndarray:
+    """``d r_AC_W / dt`` (m/s, world) at world angular velocity ``w_W`` (rad/s): the motion of
+    the contact point around the rim, plus the body's rotation of it (module docstring)."""
+    n, u, s = axis_and_up(R_WB)
+    s = np.maximum(s, FLAT)[..., None]
+    nz = n[..., 2:3]
+    ndot = cross(np.asarray(w_W, dtype=float), n)
+    nzdot = ndot[..., 2:3]
+    udot = (-nzdot * n - nz * ndot + u * nz * nzdot / s) / s
+    sigma = np.sign(nz)
+    return -radius * udot - half_thickness * sigma * ndot
+
+
+def offset_and_rate(R_WB: np.ndarray, w_W: np.ndarray | None, radius: float, half_thickness: float):
+    """One body (R_WB 3x3, w_W (3,) or None): ``(r_AC_W, r_AC_W' or None, s)`` with
+    s = sqrt(1 - n_z^2), the same formulas as ``contact_offset`` / ``contact_offset_rate`` in
+    scalar arithmetic (the engines' right-hand sides call it at every stage)."""
+    n0, n1, nz = float(R_WB[0, 2]), float(R_WB[1, 2]), float(R_WB[2, 2])
+    s = (max(1.0 - nz * nz, 0.0)) ** 0.5
+    si = 1.0 / max(s, FLAT)
+    u0, u1, u2 = -nz * n0 * si, -nz * n1 * si, (1.0 - nz * nz) * si
+    hs = half_thickness * (1.0 if nz > 0.0 else (-1.0 if nz < 0.0 else 0.0))
+    r = np.array([-radius * u0 - hs * n0, -radius * u1 - hs * n1, -radius * u2 - hs * nz])
+    if w_W is None:
+        return r, None, s
+    w0, w1, w2 = float(w_W[0]), float(w_W[1]), float(w_W[2])
+    d0, d1, d2 = w1 * nz - w2 * n1, w2 * n0 - w0 * nz, w0 * n1 - w1 * n0  # n' = w x n
+    k = nz * d2 * si
+    ud0 = (-d2 * n0 - nz * d0 + u0 * k) * si
+    ud1 = (-d2 * n1 - nz * d1 + u1 * k) * si
+    ud2 = (-d2 * nz - nz * d2 + u2 * k) * si
+    rdot = np.array([-radius * ud0 - hs * d0, -radius * ud1 - hs * d1, -radius * ud2 - hs * d2])
+    return r, rdot, s
+
+
+def contact_height(p_WA_W: np.ndarray, R_WB: np.ndarray, radius: float, half_thickness: float) -> np.ndarray:
+    """Height z (m) of the contact point above the plane (negative: penetration)."""
+    return p_WA_W[..., 2] + contact_offset(R_WB, radius, half_thickness)[..., 2]
+
+
+def slip_velocity(v_WA_W: np.ndarray, w_W: np.ndarray, R_WB: np.ndarray, radius: float,
+                  half_thickness: float) -> np.ndarray:
+    """Velocity (m/s, world) of the body's material point at the contact point:
+    ``v_A + w x r_AC``. Zero for rolling without slip; its z component is the rate of the
+    contact height."""
+    return v_WA_W + cross(w_W, contact_offset(R_WB, radius, half_thickness))
+
+
+def is_flat(R_WB: np.ndarray) -> np.ndarray:
+    """Whether the disk lies flat (the contact point undefined)."""
+    return axis_and_up(R_WB)[2] < FLAT
