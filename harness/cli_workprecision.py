@@ -24,7 +24,7 @@ def add_parser(sub) -> None:
     w.add_argument("--scenes", type=_csv_list, help="comma-separated scene names (default: all)")
     w.add_argument("--engines", type=_csv_list, help="comma-separated engines (default: all)")
     w.add_argument("--repeats", type=int, help="timed runs after the warm-up (default 3)")
-    w.add_argument("--max-run-s", type=float, help="stop refining a curve after a run this slow (default 1 s)")
+    w.add_argument("--max-run-s", type=float, help="stop refining a curve after a run this slow (default 2 s)")
     w.add_argument("--saves", type=int, help="saved intervals over the horizon, where errors are measured (default 20)")
     w.add_argument("--t-end", type=float, help="horizon (s) instead of each scene's")
     w.add_argument("--batch", type=int, help="initial conditions of the batched-throughput benchmark (default 1000; 0 skips it)")

@@ -55,9 +55,10 @@ censored (stable at the largest step tried). Otherwise it divides the smallest u
 never below ``t_end / max_steps[engine]``, the step budget, a tenth of it with ``--quick``),
 then bisects on log(dt) between the largest stable and the smallest larger unstable step for
 ``bisect_iters`` steps or until their ratio is within ``1 + precision``. It assumes stability is
-monotone in dt; a stable step above an unstable one is reported as ``non-monotone``. When two
-successive steps fail the same way at the same time (within 2% and one sample), the failure is
-not a step-size instability (e.g. a singular constraint) and the search stops there.
+monotone in dt; a stable step above an unstable one is reported as ``non-monotone``. When the
+two smallest steps tried fail with the same singular constraint, solver failure or constraint
+drift at the same time (within 2% and one sample, after ten samples), the failure is not a
+step-size instability (e.g. a disk landing flat) and the search stops there.
 
 Energy drift (``classify_drift``)
 ---------------------------------
@@ -111,6 +112,7 @@ FAILURE_MODES = {  # mode -> one-letter code of the map
 }
 _COST_PER_STEP = {"mujoco": 1e-5, "pinocchio": 2e-4, "inhouse": 4e-4}  # s, for scheduling only
 SERIES_POINTS = 600  # samples kept per series for the plots
+_MODEL_FAILURES = ("singular constraint", "solver failure", "constraint drift")
 
 _DEFAULT_KEYS = {"rtol", "energy_bound", "magnitude_bound", "constraint_bound", "bisect_iters", "search_factor",
                  "search_steps", "precision", "quick_bisect_iters", "references", "band", "max_steps", "integrators"}
@@ -809,11 +811,16 @@ class StepSearch:
         return [self.spec(nxt, "search")]
 
     def _fails_at_same_time(self, dt_a: float, dt_b: float) -> bool:
-        """Both runs failed the same way within 2% (and one sample) of the same time."""
+        """Both runs failed the same model failure (singular constraint, solver failure,
+        constraint drift) within 2% (and one sample) of the same time, after their first ten
+        samples (an instability that shows at once looks step-independent too)."""
         a, b = self.trials[dt_a], self.trials[dt_b]
-        if a.mode != b.mode or a.t_fail is None or b.t_fail is None:
+        if a.mode != b.mode or a.mode not in _MODEL_FAILURES or a.t_fail is None or b.t_fail is None:
             return False
-        return abs(a.t_fail - b.t_fail) <= 0.02 * max(a.t_fail, b.t_fail) + max(a.spec.save_every, b.spec.save_every)
+        sample = max(a.spec.save_every, b.spec.save_every)
+        if min(a.t_fail, b.t_fail) < 10 * sample:
+            return False
+        return abs(a.t_fail - b.t_fail) <= 0.02 * max(a.t_fail, b.t_fail) + sample
 
     def _key(self, dt: float) -> float:
         for k in self.trials:

@@ -7,7 +7,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-import pytest
 
 from harness import compare
 from harness.engines import ENGINE_NAMES, get_engine
