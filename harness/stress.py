@@ -859,10 +859,10 @@ class StepSearch:
         if dt_u is not None:
             if self.same_time:
                 why = f"fails at t = {self.trials[dt_u].t_fail:.3g} s at every step tried: not a step-size instability"
-            elif dt_u <= self.floor * (1 + 1e-9):
-                why = "step budget"
-            else:
+            elif self.searches >= self.bounds.search_steps:
                 why = f"{self.searches} divisions by {self.bounds.search_factor:g}"
+            else:
+                why = f"step budget: {self.t_end / self.floor:.3g} steps" if self.floor else "step budget"
             notes.append(f"no stable step down to {dt_u:.3g} s ({why})")
         return MapRow(v.name, self.engine, self.integrator, self.t_end, "fixed", None, False, dt_u, mode,
                       float("nan"), "", False, nominal, float("nan"), notes, dict(self.trials))

@@ -446,6 +446,9 @@ def variant_png(run: StressRun, v: Variant) -> bytes | None:
     band = v.band.get(kind if kind != "trajectory" else "position")
     for ax, b in (((ax1, band),) if not energy_only else ()) + ((ax2, v.band["energy"]),):
         ax.set_yscale("log")
+        lo, hi = ax.get_ylim()
+        if hi > 1e3:  # a blow-up leaves through the top instead of squashing the rest
+            ax.set_ylim(lo, 1e3)
         if b:
             ax.axhline(b, color="r", lw=0.8, ls="--")
         if long:

@@ -16,8 +16,12 @@ batches cheap. Shapes (``ny = 13 nb``, the state layout of ``harness.engines.inh
     dZ/dt  ny x nbatch
     t      scalar, or nbatch (one time per column; only prescribed forces read it)
 
-``rows(...)`` helpers take and return the public ``nbatch x ny`` layout (one state per row, as
-``mujoco.rollout``'s ``nbatch x nstate``).
+``BatchedModel.rhs_rows`` and ``project_rows`` take and return the public ``nbatch x ny``
+layout (one state per row, as ``mujoco.rollout``'s ``nbatch x nstate``).
+
+Scope: free, ball and hinge joints, gravity and prescribed point forces (``SUPPORTED``); a model
+with more (slide joints, springs, rolling contacts of the per-state engine) is refused with
+NotImplementedError by ``batched_model``.
 
 Constraints are kept per joint *end* (each joint has a child end and a parent end, the world
 being an extra body at rest): an end contributes a constant translational block ``T_e``
@@ -47,7 +51,7 @@ from harness.engines.inhouse.constraints import project as single_project
 from harness.engines.inhouse.model import NEModel
 from harness.engines.inhouse.newton_euler import Baumgarte, make_dynamics
 
-__all__ = ["BatchedModel", "batched_model", "columns", "spd_solve"]
+__all__ = ["SUPPORTED", "BatchedModel", "batched_model", "check_supported", "columns", "spd_solve"]
 
 _QUADRATIC = 1e-9  # as constraints.project: below this a Gauss-Newton step is not re-evaluated
 _SMALL_BATCH = 32  # below this many columns, dense solves go to LAPACK one matrix at a time

@@ -15,7 +15,6 @@ Baumgarte terms.
 
 from __future__ import annotations
 
-import time
 from dataclasses import replace
 
 import numpy as np
@@ -87,10 +86,3 @@ class FastInhouseEngine:
 
 FAST_ENGINE = FastInhouseEngine()
 
-
-def run_timed(scene: Scene, settings: RunSettings) -> tuple[Trajectory, float]:
-    """``FAST_ENGINE.simulate`` and its total wall time (s), including model building and the
-    conversion to a trajectory."""
-    start = time.perf_counter()
-    traj = FAST_ENGINE.simulate(scene, settings)
-    return traj, time.perf_counter() - start
