@@ -13,6 +13,7 @@ SCENES = available_scenes()
 
 OVERRIDES = {
     "torque_free": {"mass": 2.5, "I1": 0.7, "I2": 1.1, "I3": 1.5},
+    "torque_free_symmetric": {"mass": 0.5, "I1": 0.3, "I3": 0.5},
     "heavy_top": {"mass": 0.3, "l": 0.05, "I1": 0.001, "I3": 0.0015},
     "double_pendulum": {"m": 0.4, "L": 0.7, "r": 0.02},
     "plate_pendulum": {"m": 0.7, "a": 0.15, "b": 0.4, "h": 0.02},
