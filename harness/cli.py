@@ -12,6 +12,7 @@ from pathlib import Path
 
 from harness import cli_rolling, cli_stress, cli_tools, cli_workprecision
 from harness.errors import InputError
+from harness.cli_types import float_arg as _float, csv_list as _csv_list
 
 EXIT_OK, EXIT_FAIL, EXIT_INPUT = 0, 1, 2
 
@@ -23,21 +24,10 @@ class _Parser(argparse.ArgumentParser):
         raise InputError(message)
 
 
-def _float(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-
-
 def _overrides(items: list[str] | None) -> dict[str, str]:
     from harness.scene import parse_set
 
     return dict(parse_set(item) for item in items or [])
-
-
-def _csv_list(text: str) -> list[str]:
-    return [s for s in (p.strip() for p in text.split(",")) if s]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -9,29 +9,11 @@ Heavy modules are imported inside the handlers, as in ``harness.cli``.
 
 from __future__ import annotations
 
-import argparse
 import shlex
 from pathlib import Path
+from harness.cli_types import float_arg as _float, int_arg as _int, csv_list as _csv_list
 
 EXIT_OK, EXIT_FAIL = 0, 1
-
-
-def _float(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-
-
-def _int(text: str) -> int:
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-
-
-def _csv_list(text: str) -> list[str]:
-    return [s for s in (p.strip() for p in text.split(",")) if s]
 
 
 def _overrides(items: list[str] | None) -> dict[str, str]:

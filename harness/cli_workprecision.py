@@ -12,10 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from harness.errors import InputError
-
-
-def _csv_list(text: str) -> list[str]:
-    return [s for s in (p.strip() for p in text.split(",")) if s]
+from harness.cli_types import csv_list as _csv_list
 
 
 def add_parser(sub) -> None:

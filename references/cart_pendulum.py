@@ -119,7 +119,6 @@ def cart_velocity(theta, dtheta_sign, M, m, l, I_c, g, P: float, E_rel: float) -
 def cart_speed_at_vertical(M, m, l, I_c, g, theta0: float, dX0: float = 0.0, dtheta0: float = 0.0) -> float:
     """|Ẋ − P/S| (m/s) when the pendulum passes the vertical (θ = 0), from any initial state
     that reaches it; from rest at θ0 = π/2 with I_c = 0 this is Ex. 1.6.1."""
-    P = momentum(M, m, l, theta0, dX0, dtheta0)
     E = relative_energy(M, m, l, I_c, g, theta0, dX0, dtheta0)
     S = M + m
     return float(np.sqrt(2.0 * (E + m * g * l) * (m * l) ** 2 / (S * (S * pivot_inertia(m, l, I_c) - (m * l) ** 2))))

@@ -225,7 +225,7 @@ _RK4_C = (0.0, 0.5, 0.5, 1.0)
 def _rkmk4_step(bm, f, t, Z, h, nb):
     """RKMK4: quaternions q0 (x) exp(Theta_i), Theta_i = h sum a_ij dexpinv(Theta_j, w_j);
     p, v, w by RK4. ``f`` is only called for its accelerations (via ``bm.accelerations``)."""
-    n3, n7, n10 = 3 * nb, 7 * nb, 10 * nb
+    n3, n7 = 3 * nb, 7 * nb
     B = Z.shape[1]
     q0 = Z[n3:n7].reshape(nb, 4, B)
     lin0 = np.concatenate([Z[:n3], Z[n7:]])  # p, v, w (9nb, B)
