@@ -68,11 +68,9 @@ class PinocchioEngine:
                     for _ in range(settings.steps_per_save):
                         q, v = step(pmodel, accel, steps * h, q, v, h)
                         steps += 1
-                if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
-                    status, message = "blowup", f"non-finite state at t = {steps * h:.6g} s"
-                    break
-                if np.max(np.abs(v), initial=0.0) > BLOWUP_SPEED:
-                    status, message = "blowup", f"velocity beyond {BLOWUP_SPEED:g} at t = {steps * h:.6g} s"
+                reason = blowup_reason(q, v, steps * h)
+                if reason:
+                    status, message = "blowup", reason
                     break
                 _read_maximal(pmodel, data, ids, model, q, v, k, buf)
                 buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
@@ -141,6 +139,15 @@ def _applied_function(pmodel, data, ids, model):
         return tau, fext
 
     return applied
+
+
+def blowup_reason(q: np.ndarray, v: np.ndarray, t: float) -> str | None:
+    """Why the state ``(q, v)`` at time ``t`` (s) counts as a blow-up, or None if it does not."""
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+        return f"non-finite state at t = {t:.6g} s"
+    if np.max(np.abs(v), initial=0.0) > BLOWUP_SPEED:
+        return f"velocity beyond {BLOWUP_SPEED:g} at t = {t:.6g} s"
+    return None
 
 
 def _accel_function(pmodel, data, ids, model, applied=None):
