@@ -199,15 +199,15 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool) -> str:
 
 def plots(result, out: Path) -> list[Path]:
     """PNG figures of the study; returns their paths."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
+
+    from harness import atomic
+    from harness.figures import new_figure, png_bytes
 
     paths = []
     # 1. settings: position error against slip
-    fig, ax = plt.subplots(figsize=(8, 5.5))
+    fig = new_figure(8, 5.5)
+    ax = fig.subplots()
     for i, r in enumerate(result.settings):
         a = r.get("steady_circle", {})
         if a.get("position") is None or a.get("slip") is None:
@@ -220,11 +220,11 @@ def plots(result, out: Path) -> list[Path]:
     ax.grid(True, which="both", alpha=0.3)
     path = out / "rolling_disk_settings.png"
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    atomic.write_bytes(path, png_bytes(fig, dpi=110))
     paths.append(path)
     # 2. lean over time, steady circle and transient
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig = new_figure(11, 4.2)
+    axes = fig.subplots(1, 2)
     for ax, case in zip(axes, ("steady_circle", "transient")):
         for key, (t, th) in result.series.items():
             if key[0] == case and len(t):
@@ -236,12 +236,12 @@ def plots(result, out: Path) -> list[Path]:
             ax.legend(fontsize=7)
     path = out / "rolling_disk_lean.png"
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    atomic.write_bytes(path, png_bytes(fig, dpi=110))
     paths.append(path)
     # 3. threshold: max lean deviation vs speed
     th = result.thresholds
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig = new_figure(11, 4.2)
+    axes = fig.subplots(1, 2)
     ax = axes[0]
     for engine in dict.fromkeys(r["engine"] for r in result.threshold):
         rows = [r for r in result.threshold if r["engine"] == engine]
@@ -265,8 +265,7 @@ def plots(result, out: Path) -> list[Path]:
     ax.legend(fontsize=7)
     path = out / "rolling_disk_threshold.png"
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    atomic.write_bytes(path, png_bytes(fig, dpi=110))
     paths.append(path)
     return paths
 

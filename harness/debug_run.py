@@ -18,7 +18,6 @@ judged.
 
 from __future__ import annotations
 
-import io
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -27,6 +26,7 @@ import numpy as np
 from harness import atomic, compare, invariants, rotations
 from harness.engines import ENGINE_NAMES, get_engine
 from harness.errors import InputError
+from harness.figures import new_figure, png_bytes
 from harness.scene import Scene
 from harness.trajectory import Trajectory
 from harness.validate import default_settings, reference_settings
@@ -181,11 +181,7 @@ def summary(res: DebugResult) -> list[str]:
 
 def plot_png(res: DebugResult) -> bytes:
     """Error against time per quantity (log y), tolerance dashed, first exceedance dotted."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(8, 2.0 * len(QUANTITIES)), tight_layout=True)
-    FigureCanvasAgg(fig)
+    fig = new_figure(8, 2.0 * len(QUANTITIES), tight_layout=True)
     axes = fig.subplots(len(QUANTITIES), 1, sharex=True)
     for ax, q in zip(axes, QUANTITIES):
         err = np.where(res.errors[q] > 0, res.errors[q], np.nan)
@@ -202,9 +198,7 @@ def plot_png(res: DebugResult) -> bytes:
         ax.legend(loc="lower right", fontsize="small")
     axes[-1].set_xlabel("t (s)")
     axes[0].set_title(f"{res.scene.name}: {res.engines[0]} vs {res.engines[1]}")
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    return buf.getvalue()
+    return png_bytes(fig, dpi=100)
 
 
 def write_plot(res: DebugResult, out_dir: Path) -> Path:

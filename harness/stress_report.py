@@ -6,7 +6,6 @@ Every file is written atomically (``harness.atomic``). Plots use matplotlib's Ag
 
 from __future__ import annotations
 
-import io
 import math
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from harness import atomic
+from harness.figures import new_figure, png_bytes
 from harness.stress import FAILURE_MODES, QUANTITIES, MapRow, StressRun, TrialResult, Variant
 
 PLOT_DIR = "stress"
@@ -362,18 +362,11 @@ def _section_row(label: str, step: str, hr: str, above: str, err: str, n: TrialR
 
 # ------------------------------------------------------------------------------------ plots
 def _figure(w: float, h: float):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(w, h), tight_layout=True)
-    FigureCanvasAgg(fig)
-    return fig
+    return new_figure(w, h, tight_layout=True)
 
 
 def _png(fig) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90)
-    return buf.getvalue()
+    return png_bytes(fig, dpi=90)
 
 
 def map_png(run: StressRun) -> bytes | None:

@@ -4,12 +4,12 @@ the provenance of the run."""
 
 from __future__ import annotations
 
-import io
 import math
 from pathlib import Path
 
 from harness import atomic
 from harness.workprecision import TARGETS, SceneSweep, SweepOptions, by_curve, observed_order, points_table, time_table
+from harness.figures import new_figure, png_bytes
 
 ENGINE_COLORS = {"mujoco": "tab:blue", "pinocchio": "tab:green", "inhouse": "tab:red"}
 _MARKERS = "os^vDP*Xhp<>"
@@ -39,13 +39,9 @@ def _style(label: str, index: int) -> dict:
 def plot_scene(sweep: SceneSweep, provenance: dict) -> bytes:
     """The scene's figure as PNG bytes: state error (max over saved steps) and energy error
     against run time, log-log, one curve per engine/integrator(/variant)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     groups = by_curve(sweep.points)
-    fig, axes = plt.subplots(1, 2, figsize=(15, 7.5))
+    fig = new_figure(15, 7.5)
+    axes = fig.subplots(1, 2)
     for ax, key, title in ((axes[0], "state_max", "state error (max over saved steps)"),
                            (axes[1], "energy_max", "energy error (max over saved steps)")):
         for i, (label, pts) in enumerate(groups.items()):
@@ -70,10 +66,7 @@ def plot_scene(sweep: SceneSweep, provenance: dict) -> bytes:
                  f"times — MuJoCo {provenance.get('mujoco', '?')}, Pinocchio {provenance.get('pinocchio', '?')}, "
                  f"{provenance.get('date_utc', '')}", fontsize=11)
     fig.tight_layout(rect=(0, 0.14, 1, 0.95))
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    return buf.getvalue()
+    return png_bytes(fig, dpi=110)
 
 
 def _saves(sweep: SceneSweep) -> range:
