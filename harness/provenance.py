@@ -9,6 +9,7 @@ import platform
 def provenance() -> dict[str, str]:
     """Versions of the engines and numerical libraries, the machine, and the UTC time now."""
     import mujoco
+    import numba
     import numpy
     import pinocchio
     import scipy
@@ -20,6 +21,7 @@ def provenance() -> dict[str, str]:
         "pinocchio": pinocchio.__version__,
         "numpy": numpy.__version__,
         "scipy": scipy.__version__,
+        "numba": numba.__version__,
         "python": platform.python_version(),
         "machine": f"{platform.system()} {platform.machine()} ({platform.processor() or 'unknown cpu'})",
     }

@@ -17,7 +17,10 @@ What is swept, per scene (``curves``):
   adaptive ones (RK45, DOP853) over tolerances (variant ``per-state``), and the batched fast
   solver (``harness.engines.inhouse.fast``; variant ``batched``): rk4_batched, rkmk4 and
   euler_batched over timesteps, dop853_fast and gbs_parallel over tolerances (the integration
-  alone; ``time_total_s`` adds building the model and converting the result).
+  alone; ``time_total_s`` adds building the model and converting the result); and the compiled
+  solver (``harness.engines.inhouse.compiled``; variant ``compiled``): rk4_compiled over
+  timesteps, dop853_compiled over tolerances (timed as the batched variant; compilation happens
+  before the clock starts).
 
 Timesteps are ``dt = save / 2^k``; tolerances ``rtol = atol`` per decade. A curve is refined
 until a run takes longer than ``max_run_s``, or its state error is below ``error_floor``
@@ -72,8 +75,9 @@ NOMINAL = {
     ("inhouse", "rk4"): 4, ("inhouse", "euler"): 1, ("inhouse", "RK45"): 5, ("inhouse", "DOP853"): 8,
     ("inhouse", "rk4_batched"): 4, ("inhouse", "euler_batched"): 1, ("inhouse", "rkmk4"): 4,
     ("inhouse", "dop853_fast"): 8, ("inhouse", "gbs_parallel"): 16,
+    ("inhouse", "rk4_compiled"): 4, ("inhouse", "dop853_compiled"): 8,
 }
-ADAPTIVE_METHODS = ("RK45", "DOP853", "dop853_fast", "gbs_parallel")
+ADAPTIVE_METHODS = ("RK45", "DOP853", "dop853_fast", "gbs_parallel", "dop853_compiled")
 ERROR_KEYS = ("state_final", "state_max", "energy_final", "energy_max", "momentum_final", "momentum_max")
 
 
@@ -337,7 +341,7 @@ def _runner(scene: Scene, curve: Curve, settings: RunSettings) -> Run:
             return traj, engine, setup + time.perf_counter() - start, float(nstep), evals, evals
 
         return run
-    if curve.engine == "inhouse" and curve.variant == "batched":
+    if curve.engine == "inhouse" and curve.variant in ("batched", "compiled"):
         from harness.engines.inhouse.fast import FAST_ENGINE
 
         t0 = time.perf_counter()
@@ -416,6 +420,7 @@ def curves(engines) -> list[Curve]:
     if "inhouse" in engines:
         out += [Curve("inhouse", m, "per-state") for m in ("rk4", "euler", "RK45", "DOP853")]
         out += [Curve("inhouse", m, "batched") for m in ("rk4_batched", "rkmk4", "euler_batched", "dop853_fast", "gbs_parallel")]
+        out += [Curve("inhouse", m, "compiled") for m in ("rk4_compiled", "dop853_compiled")]
     return out
 
 
@@ -602,62 +607,71 @@ def batch_initial_states(scene: Scene, nbatch: int, seed: int = 0):
 
 def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3) -> dict:
     """Throughput (trajectory-steps per second) of RK4 over ``nbatch`` initial conditions for
-    ``nstep`` steps of the scene's dt: ``mujoco.rollout`` (with the machine's cores as threads,
-    and with one thread) against the in-house ``rk4_batched`` (one process, NumPy). Also the
-    largest state difference between the two batches at the end (relative, as ``errors``)."""
+    ``nstep`` steps of the scene's dt: ``mujoco.rollout`` against the compiled in-house
+    ``rk4_compiled`` (``compiled.run_batch``), each with the machine's cores as threads and with
+    one thread, and the NumPy ``rk4_batched`` (one process). All timed in alternation (one
+    warm-up each, then ``repeats`` rounds; medians). Also the largest state difference between
+    the MuJoCo and the compiled in-house batch at the end (relative, as ``errors``)."""
     from harness.engines import mujoco_rollout
-    from harness.engines.inhouse.fast import FAST_ENGINE
+    from harness.engines.inhouse import compiled
+    from harness.engines.inhouse.fast import FAST_ENGINE, projection_tolerance
     from harness.engines.inhouse.model import to_trajectory
 
     out: dict = {"scene": scene.name, "nbatch": nbatch, "nstep": nstep, "dt": scene.dt, "method": "RK4"}
     try:
         rm, S0, Y0 = batch_initial_states(scene, nbatch)
+        model = scene.multibody()
+        nem, bm, _ = FAST_ENGINE.prepare(model)
+        packed = compiled.pack(nem)
     except NotImplementedError as err:
         out["status"] = f"skipped: {err}"
         return out
     threads = mujoco_rollout.default_threads()
     out["threads"] = threads
-
-    def timed(fn):
-        fn()
-        ts = []
-        for _ in range(max(1, repeats)):
-            start = time.perf_counter()
-            fn()
-            ts.append(time.perf_counter() - start)
-        return float(np.median(ts)), float(np.min(ts))
-
-    states = {}
+    proj_tol = projection_tolerance(nem)
+    settings = RunSettings(nstep * scene.dt, scene.dt, nstep * scene.dt, "rk4_batched")
+    box: dict = {}
 
     def mj(nthread):
-        states["mj"] = rm.run(S0, nstep, nthread)
+        box["mj"] = rm.run(S0, nstep, nthread)
 
-    out["mujoco_s"], out["mujoco_min_s"] = timed(lambda: mj(threads))
-    out["mujoco_1thread_s"], _ = timed(lambda: mj(1))
-    model = scene.multibody()
-    nem, bm, _ = FAST_ENGINE.prepare(model)
-    settings = RunSettings(nstep * scene.dt, scene.dt, nstep * scene.dt, "rk4_batched")
-    res_box = {}
+    def jit(nthread):
+        box["jit"] = compiled.run_batch(packed, Y0, nstep, scene.dt, threads=nthread, proj_tol=proj_tol)
 
-    def ih():
-        res_box["r"] = FAST_ENGINE.integrate(nem, bm, Y0, settings)
+    def numpy_rk4():
+        box["numpy"] = FAST_ENGINE.integrate(nem, bm, Y0, settings)
 
-    out["inhouse_s"], out["inhouse_min_s"] = timed(ih)
-    res = res_box["r"]
+    runs = {"mujoco": lambda: mj(threads), "mujoco_1thread": lambda: mj(1),
+            "compiled": lambda: jit(threads), "compiled_1thread": lambda: jit(1), "numpy": numpy_rk4}
+    times: dict[str, list[float]] = {k: [] for k in runs}
+    for fn in runs.values():
+        fn()  # warm-up (and compilation of the kernels)
+    for _ in range(max(1, repeats)):
+        for key, fn in runs.items():
+            start = time.perf_counter()
+            fn()
+            times[key].append(time.perf_counter() - start)
     work = nbatch * nstep
-    out["mujoco_steps_per_s"] = work / out["mujoco_s"]
-    out["mujoco_1thread_steps_per_s"] = work / out["mujoco_1thread_s"]
-    out["inhouse_steps_per_s"] = work / out["inhouse_s"]
-    out["status"] = res.status
+    for key, ts in times.items():
+        out[f"{key}_s"] = float(np.median(ts))
+        out[f"{key}_min_s"] = float(np.min(ts))
+        out[f"{key}_steps_per_s"] = work / out[f"{key}_s"]
+    jit(threads)
+    Yend, words = box["jit"]
+    failed = int(np.sum(words != "ok"))
+    out["status"] = "ok" if not failed and box["numpy"].status == "ok" else (
+        f"{failed} compiled trajectories failed; NumPy batch {box['numpy'].status}")
     # agreement of the two batches at the final time (a sample of trajectories)
     diffs = []
     t = np.array([0.0, nstep * scene.dt])
     for i in range(0, nbatch, max(1, nbatch // 20)):
-        mj_traj = rm.trajectory(np.stack([S0[i], states["mj"][i, -1]]), t, "RK4")
-        ih_traj = to_trajectory(nem, t, res.Y[:, i], "inhouse", "rk4_batched")
+        mj_traj = rm.trajectory(np.stack([S0[i], box["mj"][i, -1]]), t, "RK4")
+        ih_traj = to_trajectory(nem, t, np.stack([Y0[i], Yend[i]]), "inhouse", "rk4_compiled")
         scales = compare.motion_scales(mj_traj, model)
         diffs.append(_state_error(compare.trajectory_error(_take(ih_traj, [1]), _take(mj_traj, [1])), scales))
     out["max_state_difference"] = float(np.max(diffs))
+    numpy_end = box["numpy"].Y[-1] if len(box["numpy"].Y) else np.full_like(Yend, np.nan)
+    out["numpy_vs_compiled"] = float(np.max(np.abs(numpy_end - Yend)) / max(1.0, float(np.max(np.abs(Yend)))))
     return out
 
 

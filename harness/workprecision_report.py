@@ -28,7 +28,7 @@ def _style(label: str, index: int) -> dict:
     elif engine == "inhouse":
         color = {"rk4": "salmon", "euler": "rosybrown", "RK45": "tab:pink", "DOP853": "tab:orange",
                  "rk4_batched": "tab:red", "rkmk4": "darkred", "euler_batched": "peru", "dop853_fast": "gold",
-                 "gbs_parallel": "black"}[label.split()[1]]
+                 "gbs_parallel": "black", "rk4_compiled": "magenta", "dop853_compiled": "tab:brown"}[label.split()[1]]
     elif engine == "pinocchio":
         color = {"rkmk4": "tab:green", "euler": "yellowgreen"}[label.split()[1]]
     dashed = "(loop)" in label or "(per-state)" in label or engine == "pinocchio"
@@ -98,7 +98,8 @@ def markdown(results: list[SceneSweep], provenance: dict, options: SweepOptions,
               "energy and momentum errors relative to their scales. Times: MuJoCo `rollout` = time inside "
               "`mujoco.rollout`; MuJoCo `loop` = the harness's Python stepping loop (with reading each saved "
               "sample); Pinocchio and in-house `per-state` = the engine's loop; in-house `batched` = the "
-              "batched integrator alone. Raw points: `workprecision.csv`.", ""]
+              "batched integrator alone; in-house `compiled` = the compiled integrator alone (compiled before "
+              "the clock starts). Raw points: `workprecision.csv`.", ""]
     summary = ["## Summary: in-house against MuJoCo RK4 at equal state error", "",
                "| scene | target | best in-house (time) | MuJoCo RK4 rollout | ratio | MuJoCo RK4 loop | ratio |",
                "|---|---|---|---|---|---|---|"]
@@ -205,20 +206,27 @@ def batch_section(results: list[SceneSweep]) -> list[str]:
         return []
     out = ["## Batched throughput: RK4 over many initial conditions", "",
            "Same batch of initial conditions (joint coordinates perturbed, `workprecision.batch_initial_states`), "
-           "same dt (the scene's), same number of steps: `mujoco.rollout` (threads = cores, and one thread) against "
-           "the in-house `rk4_batched` (NumPy, one thread). Trajectory-steps per second = nbatch × nstep / "
-           "median wall time. Last column: largest state difference between the two batches at the end "
-           "(relative, as the state error).", "",
-           "| scene | nbatch × nstep | dt (s) | rollout threads | rollout (steps/s) | rollout 1 thread (steps/s) | "
-           "in-house rk4_batched (steps/s) | in-house / rollout | difference |",
-           "|---|---|---|---|---|---|---|---|---|"]
+           "same dt (the scene's), same number of steps, all timed in alternation (medians): `mujoco.rollout` "
+           "against the compiled in-house `rk4_compiled` (`compiled.run_batch`), each with threads = cores and "
+           "with one thread, and the NumPy `rk4_batched` (one thread). Trajectory-steps per second = "
+           "nbatch × nstep / median wall time. Ratios compare equal thread counts. Last columns: largest state "
+           "difference between the MuJoCo and the compiled batch at the end (relative, as the state error), "
+           "and between the compiled and NumPy in-house batches (relative to the largest state entry).", "",
+           "| scene | nbatch × nstep | dt (s) | threads | rollout (steps/s) | in-house compiled (steps/s) | "
+           "compiled / rollout | rollout 1 thread | compiled 1 thread | ratio 1 thread | in-house NumPy rk4_batched | "
+           "NumPy / rollout | MuJoCo vs in-house | compiled vs NumPy |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for b in rows:
-        if "inhouse_steps_per_s" not in b:
-            out.append(f"| {b.get('scene')} | — | — | — | — | — | — | — | {b.get('status')} |")
+        if "compiled_steps_per_s" not in b:
+            out.append(f"| {b.get('scene')} | — | — | — | — | — | — | — | — | — | — | — | {b.get('status')} | |")
             continue
         out.append(f"| {b['scene']} | {b['nbatch']} × {b['nstep']} | {b['dt']:g} | {b['threads']} | "
-                   f"{b['mujoco_steps_per_s']:.3g} | {b['mujoco_1thread_steps_per_s']:.3g} | {b['inhouse_steps_per_s']:.3g} | "
-                   f"{b['inhouse_steps_per_s'] / b['mujoco_steps_per_s']:.2f} | {b['max_state_difference']:.1e} |")
+                   f"{b['mujoco_steps_per_s']:.3g} | {b['compiled_steps_per_s']:.3g} | "
+                   f"{b['compiled_steps_per_s'] / b['mujoco_steps_per_s']:.2f} | {b['mujoco_1thread_steps_per_s']:.3g} | "
+                   f"{b['compiled_1thread_steps_per_s']:.3g} | "
+                   f"{b['compiled_1thread_steps_per_s'] / b['mujoco_1thread_steps_per_s']:.2f} | "
+                   f"{b['numpy_steps_per_s']:.3g} | {b['numpy_steps_per_s'] / b['mujoco_steps_per_s']:.2f} | "
+                   f"{b['max_state_difference']:.1e} | {b['numpy_vs_compiled']:.1e} |")
     return out
 
 

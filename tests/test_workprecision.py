@@ -44,7 +44,7 @@ def test_quick_sweep_writes_the_reports(tmp_path, capsys):
     md = (tmp_path / "workprecision.md").read_text()
     assert "## torque_free" in md and "workprecision/torque_free.png" in md
     assert "in-house against MuJoCo RK4" in md and "Batched throughput" in md and "mujoco 4" in md
-    assert "Head to head" in md and "loop / rollout" in md
+    assert "Head to head" in md and "loop / rollout" in md and "compiled / rollout" in md
     png = (tmp_path / "workprecision" / "torque_free.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
     table = pd.read_csv(tmp_path / "workprecision.csv", comment="#")
@@ -52,7 +52,8 @@ def test_quick_sweep_writes_the_reports(tmp_path, capsys):
     labels = set(table["label"])
     for label in ("mujoco RK4 (rollout)", "mujoco RK4 (loop)", "mujoco implicitfast (rollout)", "pinocchio rkmk4",
                   "inhouse rk4 (per-state)", "inhouse DOP853 (per-state)", "inhouse dop853_fast (batched)",
-                  "inhouse gbs_parallel (batched)", "inhouse rkmk4 (batched)"):
+                  "inhouse gbs_parallel (batched)", "inhouse rkmk4 (batched)", "inhouse rk4_compiled (compiled)",
+                  "inhouse dop853_compiled (compiled)"):
         assert label in labels
     ok = table[table["status"] == "ok"]
     assert (ok["time_s"] > 0).all() and (ok["time_min_s"] <= ok["time_s"] + 1e-12).all()
@@ -95,7 +96,7 @@ def test_errors_of_the_reference_itself_vanish(torque_free_short):
     (Curve("mujoco", "RK4", "rollout"), 2), (Curve("mujoco", "Euler", "rollout"), 5),
     (Curve("mujoco", "implicitfast", "loop"), 5), (Curve("pinocchio", "rkmk4", ""), 2),
     (Curve("inhouse", "rk4_batched", "batched"), 2), (Curve("inhouse", "rkmk4", "batched"), 2),
-    (Curve("inhouse", "euler_batched", "batched"), 5),
+    (Curve("inhouse", "euler_batched", "batched"), 5), (Curve("inhouse", "rk4_compiled", "compiled"), 2),
 ])
 def test_observed_orders_are_the_nominal_ones(torque_free_short, curve, lo):
     scene, options, _ = torque_free_short
@@ -107,10 +108,11 @@ def test_observed_orders_are_the_nominal_ones(torque_free_short, curve, lo):
     assert abs(order["order"] - curve.nominal_order) < 0.25 * curve.nominal_order, order
 
 
-def test_adaptive_curves_report_tolerance_slope_and_effective_order(torque_free_short):
+@pytest.mark.parametrize("curve", [Curve("inhouse", "dop853_fast", "batched"), Curve("inhouse", "dop853_compiled", "compiled")])
+def test_adaptive_curves_report_tolerance_slope_and_effective_order(torque_free_short, curve):
     scene, options, _ = torque_free_short
     options = replace(options, tolerances=(1e-5, 1e-7, 1e-9, 1e-11))
-    sweep = sweep_scene(scene, ["inhouse"], options, curve_list=[Curve("inhouse", "dop853_fast", "batched")])
+    sweep = sweep_scene(scene, ["inhouse"], options, curve_list=[curve])
     assert all(p.ok for p in sweep.points)
     errs = [p.state_max for p in sweep.points]
     assert errs == sorted(errs, reverse=True)  # tighter tolerance, smaller error

@@ -4,8 +4,8 @@ the per-state engine, plus ``simulate_batch`` for many initial states at once.
 
 Design choice (documented here rather than by registering the methods in ``InhouseEngine``): the
 fast methods are a separate engine object, ``FAST_ENGINE`` (name ``"inhouse"``, integrators
-``rk4_batched``, ``euler_batched``, ``rkmk4``, ``dop853_fast``, ``gbs_parallel``), used by
-``harness workprecision``. The per-state engine (``harness.engines.inhouse.ENGINE``) is left
+``rk4_batched``, ``euler_batched``, ``rkmk4``, ``dop853_fast``, ``gbs_parallel``, and the
+compiled ``rk4_compiled``, ``dop853_compiled`` of ``compiled``), used by ``harness workprecision``. The per-state engine (``harness.engines.inhouse.ENGINE``) is left
 untouched: it stays the slow, transparent oracle the fast paths are tested against.
 
 Constraint handling: every method projects onto the joint constraints after each accepted step
@@ -20,14 +20,22 @@ from dataclasses import replace
 import numpy as np
 
 from harness.engines.base import RunSettings, check_settings
+from harness.engines.inhouse import compiled
 from harness.engines.inhouse.batched import BatchedModel, batched_model
-from harness.engines.inhouse.batched_integrators import ADAPTIVE, METHODS, NOMINAL_ORDER, BatchResult, integrate_batch
+from harness.engines.inhouse.batched_integrators import ADAPTIVE as BATCHED_ADAPTIVE
+from harness.engines.inhouse.batched_integrators import METHODS as BATCHED_METHODS
+from harness.engines.inhouse.batched_integrators import NOMINAL_ORDER as BATCHED_ORDER
+from harness.engines.inhouse.batched_integrators import BatchResult, integrate_batch
 from harness.engines.inhouse.model import NEModel, build, initial_state, to_trajectory
 from harness.multibody import Multibody
 from harness.scene import Scene
 from harness.trajectory import Trajectory, failed
 
-__all__ = ["FAST_ENGINE", "FastInhouseEngine", "NOMINAL_ORDER", "projection_tolerance"]
+__all__ = ["ADAPTIVE", "FAST_ENGINE", "FastInhouseEngine", "METHODS", "NOMINAL_ORDER", "projection_tolerance"]
+
+METHODS = BATCHED_METHODS + compiled.METHODS
+ADAPTIVE = BATCHED_ADAPTIVE + compiled.ADAPTIVE
+NOMINAL_ORDER = {**BATCHED_ORDER, **compiled.NOMINAL_ORDER}
 
 
 def projection_tolerance(nem: NEModel) -> float:
@@ -60,8 +68,13 @@ class FastInhouseEngine:
         return self.trajectory(nem, res, settings)
 
     def integrate(self, nem: NEModel, bm: BatchedModel, Y0: np.ndarray, settings: RunSettings) -> BatchResult:
-        """Integrate the states ``Y0`` (nbatch x ny or (ny,)) with ``settings``."""
+        """Integrate the states ``Y0`` (nbatch x ny or (ny,)) with ``settings`` (the compiled
+        methods take one state)."""
         t_save = np.arange(settings.n_saves + 1) * settings.save_every
+        if settings.integrator in compiled.METHODS:
+            return compiled.integrate(compiled.pack(nem), Y0, t_save, settings.integrator,
+                                      steps_per_save=settings.steps_per_save, rtol=settings.rtol, atol=settings.atol,
+                                      proj_tol=projection_tolerance(nem))
         return integrate_batch(bm, Y0, t_save, settings.integrator, steps_per_save=settings.steps_per_save,
                                rtol=settings.rtol, atol=settings.atol,
                                first_step=None if settings.integrator in ADAPTIVE else settings.dt,
@@ -79,8 +92,9 @@ class FastInhouseEngine:
         traj = to_trajectory(nem, res.t, res.Y[:, column], self.name, settings.integrator)
         what = (f"{settings.integrator}, rtol={settings.rtol:g}, atol={settings.atol:g}" if settings.integrator in ADAPTIVE
                 else f"{settings.integrator}, dt={settings.dt:g} s")
+        kind = "compiled" if settings.integrator in compiled.METHODS else "batched"
         stats = {"steps": res.steps, "rejected": res.rejected, "rhs_evals": res.rhs_evals, "rhs_calls": res.rhs_calls,
-                 "wall_s": res.wall_s, "settings": f"batched in-house {what}, constraint projection after each step"}
+                 "wall_s": res.wall_s, "settings": f"{kind} in-house {what}, constraint projection after each step"}
         return replace(traj, stats=stats, status=res.status, message=res.message)
 
 

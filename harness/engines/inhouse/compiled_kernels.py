@@ -1,0 +1,621 @@
+"""Compiled kernels of the in-house Newton-Euler equations and their integrators (Numba).
+
+The same physics as ``newton_euler.make_dynamics`` and ``constraints.project`` (maximal
+coordinates, joints as KKT constraint forces, projection onto the constraints after each
+step), written as plain loops that Numba compiles to machine code once (``cache=True`` keeps
+the compiled code on disk between processes). Nothing here allocates per right-hand-side
+call: every buffer lives in a workspace made once per trajectory (``workspace``). These are the
+kernels of single trajectories; ``compiled_lanes`` runs the same equations on many trajectories
+side by side.
+
+Why compiled loops and not NumPy: a rigid-body right-hand side is a few hundred flops on
+3-vectors and 3x3 matrices; as NumPy calls each costs 1-2 us of interpreter overhead, as
+compiled code the whole right-hand side of a double pendulum costs about a microsecond. Why
+a hand-written Cholesky: LAPACK's call overhead exceeds the work at these sizes (<= 20 rows).
+
+Units and frames: as ``harness.engines.inhouse.model`` (state ``y = [p_WCm_W | quat_WB (wxyz)
+| v_WCm_W | w_WB_B]``, SI units). The model is a tuple of arrays (``compiled.pack`` makes it)::
+
+    mass (nb,) kg, I_B (nb,3,3) and Iinv_B (nb,3,3) kg m^2 about the COM in the body frame,
+    grav (nb,3) m/s^2 (world), jc (nj,) child body, jp (nj,) parent body (nb = world),
+    rc (nj,3) joint point from the child's COM (child frame), rp (nj,3) joint point from the
+    parent's COM (parent frame) or in world for a world parent, hinge (nj,) 0/1,
+    axis (nj,3) unit hinge axis (child frame), b1, b2 (nj,3) unit perpendiculars of the axis
+    (parent frame), row (nj,) first constraint row of each joint, nc number of rows.
+
+Constraint rows of joint j (child c, parent p; s = R r the joint point's offset in world,
+omega = R w the world angular velocity):
+
+* ball (3 rows): ``C = p_c + s_c - p_p - s_p``; ``J u = v_c - [s_c]x omega_c - v_p +
+  [s_p]x omega_p``; bias ``gamma = omega_c x (omega_c x s_c) - omega_p x (omega_p x s_p)``;
+* hinge (2 more rows, k = 1, 2): ``C = A . N_k`` with ``A = R_c a``, ``N_k = R_p b_k``;
+  ``J u = (A x N_k) . (omega_c - omega_p)``; ``gamma = [(omega_c x A) x N_k + A x (omega_p x
+  N_k)] . (omega_c - omega_p)``.
+
+Status codes returned by the integrators (``compiled.STATUS`` words them): 0 ok, 1 non-finite
+state, 2 singular constraint matrix, 3 projection did not converge, 4 step size underflow,
+5 too many steps, 6 non-finite error estimate.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+_JIT = dict(cache=True, nogil=True, error_model="numpy")
+
+OK, NONFINITE, SINGULAR, NO_PROJECTION, UNDERFLOW, TOO_MANY_STEPS, BAD_ERROR = 0, 1, 2, 3, 4, 5, 6
+_QUADRATIC = 1e-9  # as constraints.project: below this a Gauss-Newton step is not re-evaluated
+_PROJECTION_ITERATIONS = 8
+
+
+# ---------------------------------------------------------------------------------------------
+# Small vector algebra (3-vectors as the rows of larger arrays)
+
+
+@njit(**_JIT)
+def _rotation(q0, q1, q2, q3, R):
+    """R (3x3) of the unit quaternion (w, x, y, z) = (q0, q1, q2, q3)."""
+    R[0, 0] = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
+    R[0, 1] = 2.0 * (q1 * q2 - q0 * q3)
+    R[0, 2] = 2.0 * (q1 * q3 + q0 * q2)
+    R[1, 0] = 2.0 * (q1 * q2 + q0 * q3)
+    R[1, 1] = 1.0 - 2.0 * (q1 * q1 + q3 * q3)
+    R[1, 2] = 2.0 * (q2 * q3 - q0 * q1)
+    R[2, 0] = 2.0 * (q1 * q3 - q0 * q2)
+    R[2, 1] = 2.0 * (q2 * q3 + q0 * q1)
+    R[2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+
+
+@njit(**_JIT)
+def _cross(a, b, out):
+    x = a[1] * b[2] - a[2] * b[1]
+    y = a[2] * b[0] - a[0] * b[2]
+    z = a[0] * b[1] - a[1] * b[0]
+    out[0], out[1], out[2] = x, y, z
+
+
+@njit(**_JIT)
+def _matvec(R, x, out):
+    for i in range(3):
+        out[i] = R[i, 0] * x[0] + R[i, 1] * x[1] + R[i, 2] * x[2]
+
+
+@njit(**_JIT)
+def _quat_rate(q, w, out, scale):
+    """out = scale * 1/2 q (x) (0, w) (q wxyz, w body frame)."""
+    h = 0.5 * scale
+    out[0] = h * (-q[1] * w[0] - q[2] * w[1] - q[3] * w[2])
+    out[1] = h * (q[0] * w[0] + q[2] * w[2] - q[3] * w[1])
+    out[2] = h * (q[0] * w[1] + q[3] * w[0] - q[1] * w[2])
+    out[3] = h * (q[0] * w[2] + q[1] * w[1] - q[2] * w[0])
+
+
+@njit(**_JIT)
+def _cholesky(A, n):
+    """A = L L^T in place (n x n symmetric positive definite; the lower triangle becomes L).
+    Returns OK, SINGULAR (a pivot <= 0: not positive definite) or NONFINITE (a NaN pivot)."""
+    for k in range(n):
+        d = A[k, k]
+        for m in range(k):
+            d -= A[k, m] * A[k, m]
+        if not d > 0.0:
+            return SINGULAR if d <= 0.0 else NONFINITE
+        d = np.sqrt(d)
+        A[k, k] = d
+        for i in range(k + 1, n):
+            s = A[i, k]
+            for m in range(k):
+                s -= A[i, m] * A[k, m]
+            A[i, k] = s / d
+    return OK
+
+
+@njit(**_JIT)
+def _cholesky_solve(L, b, x, n):
+    """x = (L L^T)^-1 b with the factor of ``_cholesky``."""
+    for i in range(n):  # L z = b
+        s = b[i]
+        for m in range(i):
+            s -= L[i, m] * x[m]
+        x[i] = s / L[i, i]
+    for i in range(n - 1, -1, -1):  # L^T x = z
+        s = x[i]
+        for m in range(i + 1, n):
+            s -= L[m, i] * x[m]
+        x[i] = s / L[i, i]
+
+
+@njit(**_JIT)
+def _spd_solve(A, b, x, n):
+    """Solve A x = b (symmetric positive definite; A is overwritten by its Cholesky factor).
+    Returns the status of ``_cholesky``."""
+    st = _cholesky(A, n)
+    if st == OK:
+        _cholesky_solve(A, b, x, n)
+    return st
+
+
+# ---------------------------------------------------------------------------------------------
+# Model evaluation
+
+
+@njit(**_JIT)
+def workspace(model):
+    """Buffers for one trajectory: (R, omega, s, J, A, B, u0, lam, bias, C, tmp, qn, vec):
+    rotations and world angular velocities (the world last), joint offsets, the constraint
+    Jacobian, J M^-1 J^T, M^-1 J^T, accelerations, multipliers, bias, error, scratch."""
+    mass, nc = model[0], model[13]
+    nb = mass.shape[0]
+    R = np.zeros((nb + 1, 3, 3))
+    for i in range(3):
+        R[nb, i, i] = 1.0  # the world
+    return (R, np.zeros((nb + 1, 3)), np.zeros((2, 3)), np.zeros((max(nc, 1), 6 * nb)),
+            np.zeros((max(nc, 1), max(nc, 1))), np.zeros((6 * nb, max(nc, 1))), np.zeros(6 * nb),
+            np.zeros(max(nc, 1)), np.zeros(max(nc, 1)), np.zeros(max(nc, 1)), np.zeros(8), np.zeros((nb, 4)),
+            np.zeros((8, 3)))
+
+
+@njit(**_JIT)
+def _frames(model, y, ws, with_velocity):
+    """Unit quaternions (ws qn), rotations R (ws R) and, when asked, world angular velocities
+    omega = R w_B (ws omega) of every body."""
+    nb = model[0].shape[0]
+    R, omega, qn = ws[0], ws[1], ws[11]
+    for i in range(nb):
+        k = 3 * nb + 4 * i
+        n = np.sqrt(y[k] ** 2 + y[k + 1] ** 2 + y[k + 2] ** 2 + y[k + 3] ** 2)
+        for m in range(4):
+            qn[i, m] = y[k + m] / n
+        _rotation(qn[i, 0], qn[i, 1], qn[i, 2], qn[i, 3], R[i])
+        if with_velocity:
+            _matvec(R[i], y[10 * nb + 3 * i: 10 * nb + 3 * i + 3], omega[i])
+
+
+@njit(**_JIT)
+def _position(y, nb, body, m):
+    return y[3 * body + m] if body < nb else 0.0
+
+
+@njit(**_JIT)
+def _constraints(model, y, ws, with_bias, with_error):
+    """Fill J (ws J, nc x 6nb, columns [v bodies | w_B bodies]), and when asked the bias gamma
+    (ws bias) and the position error C (ws C). Needs ``_frames`` first."""
+    mass, jc, jp, rc, rp, hinge, axis, b1, b2, row, nc = (model[0], model[4], model[5], model[6], model[7],
+                                                          model[8], model[9], model[10], model[11], model[12], model[13])
+    nb = mass.shape[0]
+    R, omega, s, J, bias, C, tmp = ws[0], ws[1], ws[2], ws[3], ws[8], ws[9], ws[10]
+    J[:, :] = 0.0
+    vec = ws[12]
+    a, nk, ck, u, v = vec[0], vec[1], vec[2], vec[3], vec[4]
+    for j in range(jc.shape[0]):
+        c, p, r0 = jc[j], jp[j], row[j]
+        _matvec(R[c], rc[j], s[0])
+        _matvec(R[p], rp[j], s[1])
+        for m in range(3):
+            J[r0 + m, 3 * c + m] = 1.0
+            if p < nb:
+                J[r0 + m, 3 * p + m] = -1.0
+        # rotational blocks: -[s_c]x R_c (child), +[s_p]x R_p (parent), acting on w_B
+        for m in range(3):
+            m1, m2 = (m + 1) % 3, (m + 2) % 3
+            for col in range(3):
+                J[r0 + m, 3 * nb + 3 * c + col] = -(s[0, m1] * R[c, m2, col] - s[0, m2] * R[c, m1, col])
+                if p < nb:
+                    J[r0 + m, 3 * nb + 3 * p + col] = s[1, m1] * R[p, m2, col] - s[1, m2] * R[p, m1, col]
+        if with_error:
+            for m in range(3):
+                C[r0 + m] = _position(y, nb, c, m) + s[0, m] - _position(y, nb, p, m) - s[1, m]
+        if with_bias:
+            _cross(omega[c], s[0], u)
+            _cross(omega[c], u, v)
+            for m in range(3):
+                bias[r0 + m] = v[m]
+            if p < nb:
+                _cross(omega[p], s[1], u)
+                _cross(omega[p], u, v)
+                for m in range(3):
+                    bias[r0 + m] -= v[m]
+        if hinge[j]:
+            _matvec(R[c], axis[j], a)
+            for k in range(2):
+                r = r0 + 3 + k
+                if k == 0:
+                    _matvec(R[p], b1[j], nk)
+                else:
+                    _matvec(R[p], b2[j], nk)
+                _cross(a, nk, ck)
+                for col in range(3):
+                    J[r, 3 * nb + 3 * c + col] = ck[0] * R[c, 0, col] + ck[1] * R[c, 1, col] + ck[2] * R[c, 2, col]
+                    if p < nb:
+                        J[r, 3 * nb + 3 * p + col] = -(ck[0] * R[p, 0, col] + ck[1] * R[p, 1, col] + ck[2] * R[p, 2, col])
+                if with_error:
+                    C[r] = a[0] * nk[0] + a[1] * nk[1] + a[2] * nk[2]
+                if with_bias:
+                    # d/dt (A x N_k) at constant velocities, dotted with omega_c - omega_p
+                    _cross(omega[c], a, u)
+                    _cross(u, nk, v)  # (omega_c x A) x N_k
+                    for m in range(3):
+                        tmp[m] = v[m]
+                        tmp[3 + m] = omega[c, m] - omega[p, m]
+                    _cross(omega[p], nk, u)
+                    _cross(a, u, v)  # A x (omega_p x N_k)
+                    bias[r] = ((tmp[0] + v[0]) * tmp[3] + (tmp[1] + v[1]) * tmp[4] + (tmp[2] + v[2]) * tmp[5])
+
+
+@njit(**_JIT)
+def _minv_jt(model, ws):
+    """B = M^-1 J^T (6nb x nc) and A = J B (nc x nc), from ws J."""
+    mass, Iinv, nc = model[0], model[2], model[13]
+    nb = mass.shape[0]
+    J, A, B = ws[3], ws[4], ws[5]
+    for r in range(nc):
+        for i in range(nb):
+            for m in range(3):
+                B[3 * i + m, r] = J[r, 3 * i + m] / mass[i]
+                w = 0.0
+                for col in range(3):
+                    w += Iinv[i, m, col] * J[r, 3 * nb + 3 * i + col]
+                B[3 * nb + 3 * i + m, r] = w
+    for r in range(nc):
+        for s in range(r + 1):
+            acc = 0.0
+            for k in range(6 * nb):
+                if J[r, k] != 0.0:
+                    acc += J[r, k] * B[k, s]
+            A[r, s] = acc
+            A[s, r] = acc
+
+
+@njit(**_JIT)
+def rhs(t, y, dy, model, ws):
+    """dy/dt of state y at time t (s) into dy. Returns a status code (OK, SINGULAR or
+    NONFINITE)."""
+    mass, I_B, Iinv, grav, nc = model[0], model[1], model[2], model[3], model[13]
+    nb = mass.shape[0]
+    _frames(model, y, ws, nc > 0)
+    qn, u0, vec = ws[11], ws[6], ws[12]
+    Iw, tau = vec[5], vec[6]
+    for i in range(nb):
+        w = y[10 * nb + 3 * i: 10 * nb + 3 * i + 3]
+        for m in range(3):
+            dy[3 * i + m] = y[7 * nb + 3 * i + m]
+            u0[3 * i + m] = grav[i, m]
+        _quat_rate(qn[i], w, dy[3 * nb + 4 * i: 3 * nb + 4 * i + 4], 1.0)
+        _matvec(I_B[i], w, Iw)
+        _cross(Iw, w, tau)  # -w x I w
+        _matvec(Iinv[i], tau, u0[3 * nb + 3 * i: 3 * nb + 3 * i + 3])
+    if nc > 0:
+        J, A, B, lam, bias = ws[3], ws[4], ws[5], ws[7], ws[8]
+        _constraints(model, y, ws, True, False)
+        _minv_jt(model, ws)
+        for r in range(nc):  # rhs = -gamma - J u0
+            acc = -bias[r]
+            for k in range(6 * nb):
+                acc -= J[r, k] * u0[k]
+            bias[r] = acc
+        st = _spd_solve(A, bias, lam, nc)
+        if st != OK:
+            return st
+        for k in range(6 * nb):
+            acc = u0[k]
+            for r in range(nc):
+                acc += B[k, r] * lam[r]
+            u0[k] = acc
+    for k in range(6 * nb):
+        dy[7 * nb + k] = u0[k]
+    return OK
+
+
+@njit(**_JIT)
+def project(y, model, ws, tol):
+    """In place: unit quaternions, positions on the constraint manifold (mass-weighted
+    Gauss-Newton until max |C| <= tol), velocities in the null space of J (mass-weighted
+    orthogonal projection); as ``constraints.project``. Returns a status code."""
+    mass, nc = model[0], model[13]
+    nb = mass.shape[0]
+    for i in range(nb):
+        k = 3 * nb + 4 * i
+        n = np.sqrt(y[k] ** 2 + y[k + 1] ** 2 + y[k + 2] ** 2 + y[k + 3] ** 2)
+        for m in range(4):
+            y[k + m] /= n
+    if nc == 0:
+        return OK
+    J, A, B, lam, C, dq, dth = ws[3], ws[4], ws[5], ws[7], ws[9], ws[10], ws[12][7]
+    factored = False  # whether A holds the Cholesky factor of the last Gauss-Newton step
+    converged = False
+    for _ in range(_PROJECTION_ITERATIONS):
+        _frames(model, y, ws, False)
+        _constraints(model, y, ws, False, True)
+        _minv_jt(model, ws)
+        factored = False
+        err = 0.0
+        for r in range(nc):
+            err = max(err, abs(C[r]))
+        if not np.isfinite(err):
+            return NONFINITE
+        if err <= tol:
+            converged = True
+            break
+        st = _spd_solve(A, C, lam, nc)
+        if st != OK:
+            return st
+        factored = True
+        for i in range(nb):  # dx = -M^-1 J^T lam: positions, then q <- q (x) (1, dtheta_B / 2)
+            for m in range(3):
+                acc = 0.0
+                for r in range(nc):
+                    acc += B[3 * i + m, r] * lam[r]
+                y[3 * i + m] -= acc
+            for m in range(3):
+                acc = 0.0
+                for r in range(nc):
+                    acc += B[3 * nb + 3 * i + m, r] * lam[r]
+                dth[m] = -acc
+            k = 3 * nb + 4 * i
+            _quat_rate(y[k: k + 4], dth, dq, 1.0)
+            n = 0.0
+            for m in range(4):
+                y[k + m] += dq[m]
+                n += y[k + m] ** 2
+            n = np.sqrt(n)
+            for m in range(4):
+                y[k + m] /= n
+        if err <= _QUADRATIC:
+            converged = True
+            break
+    if not converged:
+        return NO_PROJECTION
+    # velocities: u -= B (A^-1 J u), with J of the last evaluation (as constraints.project)
+    if not factored:
+        st = _cholesky(A, nc)
+        if st != OK:
+            return st
+    for r in range(nc):
+        acc = 0.0
+        for k in range(6 * nb):
+            acc += J[r, k] * y[7 * nb + k]
+        C[r] = acc
+    _cholesky_solve(A, C, lam, nc)
+    for k in range(6 * nb):
+        acc = 0.0
+        for r in range(nc):
+            acc += B[k, r] * lam[r]
+        y[7 * nb + k] -= acc
+    return OK
+
+
+@njit(**_JIT)
+def _finite(y):
+    for k in range(y.shape[0]):
+        if not np.isfinite(y[k]):
+            return False
+    return True
+
+
+# ---------------------------------------------------------------------------------------------
+# RK4, fixed step
+
+
+@njit(**_JIT)
+def _rk4_step(t, y, h, model, ws, k1, k2, k3, k4, tmp):
+    """One classic RK4 step, y in place. Returns a status code."""
+    n = y.shape[0]
+    st = rhs(t, y, k1, model, ws)
+    for i in range(n):
+        tmp[i] = y[i] + 0.5 * h * k1[i]
+    st = max(st, rhs(t + 0.5 * h, tmp, k2, model, ws))
+    for i in range(n):
+        tmp[i] = y[i] + 0.5 * h * k2[i]
+    st = max(st, rhs(t + 0.5 * h, tmp, k3, model, ws))
+    for i in range(n):
+        tmp[i] = y[i] + h * k3[i]
+    st = max(st, rhs(t + h, tmp, k4, model, ws))
+    for i in range(n):
+        y[i] += h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+    return st
+
+
+@njit(**_JIT)
+def rk4(model, y0, t_save, steps_per_save, proj_tol, out):
+    """RK4 with ``steps_per_save`` equal steps between the save times ``t_save`` (s), projection
+    after each step; samples into ``out`` (len(t_save) x ny). Returns (status, samples, steps)."""
+    ws = workspace(model)
+    n = y0.shape[0]
+    y = y0.copy()
+    k1, k2, k3, k4, tmp = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    st = project(y, model, ws, proj_tol)
+    if st != OK or not _finite(y):
+        return (st if st != OK else NONFINITE), 0, 0
+    out[0, :] = y
+    steps = 0
+    for s in range(1, t_save.shape[0]):
+        t0 = t_save[s - 1]
+        h = (t_save[s] - t0) / steps_per_save
+        for j in range(steps_per_save):
+            st = _rk4_step(t0 + j * h, y, h, model, ws, k1, k2, k3, k4, tmp)
+            if st == OK:
+                st = project(y, model, ws, proj_tol)
+            steps += 1
+            if st != OK:
+                return st, s, steps
+        if not _finite(y):
+            return NONFINITE, s, steps
+        out[s, :] = y
+    return OK, t_save.shape[0], steps
+
+
+# ---------------------------------------------------------------------------------------------
+# DOP853, adaptive, with 7th-order dense output at the save times
+
+
+@njit(**_JIT)
+def dop853(model, y0, t_save, rtol, atol, first_step, proj_tol, max_steps, out, coef):
+    """DOP853 (Hairer's coefficients ``coef = (A, B, C, E3, E5, D)``, SciPy's tables), step-size
+    control as SciPy's ``DOP853``, projection after each accepted step, 7th-order dense output
+    at the save times inside a step. ``first_step`` <= 0 selects the first step as SciPy does.
+    Returns (status, samples, steps, rejected, rhs_evals)."""
+    A, Bw, Cn, E3, E5, D = coef
+    n_stages = 12
+    n_ext = A.shape[0]
+    ws = workspace(model)
+    n = y0.shape[0]
+    y = y0.copy()
+    K = np.zeros((n_ext, n))
+    ynew = np.empty(n)
+    tmp = np.empty(n)
+    F = np.empty((7, n))
+    samp = np.empty(n)
+    evals = 0
+    st = project(y, model, ws, proj_tol)
+    if st != OK or not _finite(y):
+        return (st if st != OK else NONFINITE), 0, 0, 0, evals
+    out[0, :] = y
+    t, t_end = t_save[0], t_save[t_save.shape[0] - 1]
+    st = rhs(t, y, K[0], model, ws)
+    evals += 1
+    if st != OK:
+        return st, 1, 0, 0, evals
+    safety, min_factor, max_factor, exponent = 0.9, 0.2, 10.0, -1.0 / 8.0
+    if first_step > 0.0:
+        h_abs = first_step
+    else:  # SciPy's select_initial_step (order 7)
+        d0 = d1 = 0.0
+        for i in range(n):
+            sc = atol + abs(y[i]) * rtol
+            d0 += (y[i] / sc) ** 2
+            d1 += (K[0, i] / sc) ** 2
+        d0, d1 = np.sqrt(d0 / n), np.sqrt(d1 / n)
+        h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+        h0 = min(h0, t_end - t)
+        for i in range(n):
+            tmp[i] = y[i] + h0 * K[0, i]
+        st = rhs(t + h0, tmp, K[1], model, ws)
+        evals += 1
+        if st != OK:
+            return st, 1, 0, 0, evals
+        d2 = 0.0
+        for i in range(n):
+            sc = atol + abs(y[i]) * rtol
+            d2 += ((K[1, i] - K[0, i]) / sc) ** 2
+        d2 = np.sqrt(d2 / n) / h0
+        if d1 <= 1e-15 and d2 <= 1e-15:
+            h1 = max(1e-6, h0 * 1e-3)
+        else:
+            h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+        h_abs = min(100.0 * h0, h1)
+    h_abs = min(h_abs, t_end - t)
+    n_save = t_save.shape[0]
+    k_next = 1
+    steps = 0
+    rejected = 0
+    while t < t_end and k_next < n_save:
+        step_rejected = False
+        while True:
+            h = min(h_abs, t_end - t)
+            if h < 10.0 * np.abs(np.spacing(t)):
+                return UNDERFLOW, k_next, steps, rejected, evals
+            for s in range(1, n_stages):
+                for i in range(n):
+                    acc = 0.0
+                    for m in range(s):
+                        acc += A[s, m] * K[m, i]
+                    tmp[i] = y[i] + h * acc
+                st = rhs(t + Cn[s] * h, tmp, K[s], model, ws)
+                if st != OK:
+                    return st, k_next, steps, rejected, evals
+            for i in range(n):
+                acc = 0.0
+                for m in range(n_stages):
+                    acc += Bw[m] * K[m, i]
+                ynew[i] = y[i] + h * acc
+            st = rhs(t + h, ynew, K[n_stages], model, ws)
+            evals += n_stages
+            if st != OK:
+                return st, k_next, steps, rejected, evals
+            e5 = e3 = 0.0
+            for i in range(n):
+                sc = atol + max(abs(y[i]), abs(ynew[i])) * rtol
+                a5 = 0.0
+                a3 = 0.0
+                for m in range(n_stages + 1):
+                    a5 += E5[m] * K[m, i]
+                    a3 += E3[m] * K[m, i]
+                e5 += (a5 / sc) ** 2
+                e3 += (a3 / sc) ** 2
+            denom = e5 + 0.01 * e3
+            err = h * e5 / np.sqrt(denom * n) if denom > 0.0 else 0.0
+            if not np.isfinite(err):
+                return BAD_ERROR, k_next, steps, rejected, evals
+            if err < 1.0:
+                factor = max_factor if err == 0.0 else min(max_factor, safety * err ** exponent)
+                if step_rejected:
+                    factor = min(1.0, factor)
+                h_abs = h * factor
+                break
+            h_abs = h * max(min_factor, safety * err ** exponent)
+            step_rejected = True
+            rejected += 1
+            if steps + rejected > max_steps:
+                return TOO_MANY_STEPS, k_next, steps, rejected, evals
+        t_new = t + h
+        tol_t = 1e-12 * max(1.0, abs(t_new))
+        dense_ready = False
+        while k_next < n_save and t_save[k_next] <= t_new + tol_t:
+            if t_save[k_next] < t_new - tol_t:  # a save time inside the step: dense output
+                if not dense_ready:
+                    for s in range(n_stages + 1, n_ext):
+                        for i in range(n):
+                            acc = 0.0
+                            for m in range(s):
+                                acc += A[s, m] * K[m, i]
+                            tmp[i] = y[i] + h * acc
+                        st = rhs(t + Cn[s] * h, tmp, K[s], model, ws)
+                        if st != OK:
+                            return st, k_next, steps, rejected, evals
+                    evals += n_ext - n_stages - 1
+                    for i in range(n):
+                        dz = ynew[i] - y[i]
+                        F[0, i] = dz
+                        F[1, i] = h * K[0, i] - dz
+                        F[2, i] = 2.0 * dz - h * (K[n_stages, i] + K[0, i])
+                        for r in range(4):
+                            acc = 0.0
+                            for m in range(n_ext):
+                                acc += D[r, m] * K[m, i]
+                            F[3 + r, i] = h * acc
+                    dense_ready = True
+                x = (t_save[k_next] - t) / h
+                for i in range(n):
+                    acc = 0.0
+                    for r in range(6, -1, -1):
+                        acc += F[r, i]
+                        acc *= x if (6 - r) % 2 == 0 else (1.0 - x)
+                    samp[i] = y[i] + acc
+                st = project(samp, model, ws, proj_tol)
+                if st != OK:
+                    return st, k_next, steps, rejected, evals
+                if not _finite(samp):
+                    return NONFINITE, k_next, steps, rejected, evals
+                out[k_next, :] = samp
+                k_next += 1
+            else:  # the step ends on this save time
+                break
+        st = project(ynew, model, ws, proj_tol)
+        if st != OK:
+            return st, k_next, steps, rejected, evals
+        if not _finite(ynew):
+            return NONFINITE, k_next, steps, rejected, evals
+        if k_next < n_save and t_save[k_next] <= t_new + tol_t:
+            out[k_next, :] = ynew
+            k_next += 1
+        steps += 1
+        if steps + rejected > max_steps:
+            return TOO_MANY_STEPS, k_next, steps, rejected, evals
+        t = t_new
+        y[:] = ynew
+        st = rhs(t, y, K[0], model, ws)
+        evals += 1
+        if st != OK:
+            return st, k_next, steps, rejected, evals
+    return OK, k_next, steps, rejected, evals
