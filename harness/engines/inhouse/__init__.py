@@ -4,7 +4,10 @@ SciPy's ``solve_ivp`` methods.
 
 Modules: ``algebra`` (batched 3-vector and quaternion algebra), ``model`` (constant model data,
 state layout), ``constraints`` (joint constraints, projection), ``newton_euler`` (equations of
-motion, reactions), ``integrators`` (time stepping).
+motion, reactions), ``integrators`` (time stepping). The fast paths of ``harness workprecision``
+(``fast``): ``batched`` and ``batched_integrators`` (NumPy, vectorized over bodies and states),
+``compiled``, ``compiled_kernels`` and ``compiled_lanes`` (the same equations compiled with Numba,
+one trajectory or many side by side); all are tested against this engine.
 
 Drift control (documented choice, with the measurements that decided it):
 

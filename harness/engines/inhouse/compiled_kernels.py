@@ -450,6 +450,16 @@ def rk4(model, y0, t_save, steps_per_save, proj_tol, out):
 
 
 @njit(**_JIT)
+def _stage_state(y, K, A, s, h, out):
+    """out = y + h sum_{m < s} A[s, m] K[m]: the state at which stage s is evaluated."""
+    for i in range(y.shape[0]):
+        acc = 0.0
+        for m in range(s):
+            acc += A[s, m] * K[m, i]
+        out[i] = y[i] + h * acc
+
+
+@njit(**_JIT)
 def dop853(model, y0, t_save, rtol, atol, first_step, proj_tol, max_steps, out, coef):
     """DOP853 (Hairer's coefficients ``coef = (A, B, C, E3, E5, D)``, SciPy's tables), step-size
     control as SciPy's ``DOP853``, projection after each accepted step, 7th-order dense output
@@ -516,11 +526,7 @@ def dop853(model, y0, t_save, rtol, atol, first_step, proj_tol, max_steps, out, 
             if h < 10.0 * np.abs(np.spacing(t)):
                 return UNDERFLOW, k_next, steps, rejected, evals
             for s in range(1, n_stages):
-                for i in range(n):
-                    acc = 0.0
-                    for m in range(s):
-                        acc += A[s, m] * K[m, i]
-                    tmp[i] = y[i] + h * acc
+                _stage_state(y, K, A, s, h, tmp)
                 st = rhs(t + Cn[s] * h, tmp, K[s], model, ws)
                 if st != OK:
                     return st, k_next, steps, rejected, evals
@@ -565,11 +571,7 @@ def dop853(model, y0, t_save, rtol, atol, first_step, proj_tol, max_steps, out, 
             if t_save[k_next] < t_new - tol_t:  # a save time inside the step: dense output
                 if not dense_ready:
                     for s in range(n_stages + 1, n_ext):
-                        for i in range(n):
-                            acc = 0.0
-                            for m in range(s):
-                                acc += A[s, m] * K[m, i]
-                            tmp[i] = y[i] + h * acc
+                        _stage_state(y, K, A, s, h, tmp)
                         st = rhs(t + Cn[s] * h, tmp, K[s], model, ws)
                         if st != OK:
                             return st, k_next, steps, rejected, evals

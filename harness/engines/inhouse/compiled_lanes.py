@@ -301,6 +301,19 @@ def _freeze(ws, mask):
 
 
 @njit(**_JIT)
+def _settle(ws, done, remaining, frozen):
+    """Lanes ``done`` finished with the current evaluation. While others go on (``remaining``
+    > 0), or when some finished earlier (``frozen``), keep their data with ``_freeze``; returns
+    whether the velocity projection must read the kept data (JF, AF, BF)."""
+    if remaining == 0.0 and not frozen:
+        return False  # every lane finished now: the current buffers are each lane's own
+    if np.any(done > 0.0):
+        _freeze(ws, done)
+        return True
+    return frozen
+
+
+@njit(**_JIT)
 def project(Y, model, ws, tol):
     """In place, per lane, as ``compiled_kernels.project``: each lane takes Gauss-Newton steps
     until it converges, and its velocities are projected with the J and factor of its own last
@@ -338,13 +351,9 @@ def project(Y, model, ws, tol):
             done[l] = active[l] if (last or need[l] == 0.0) else 0.0
             active[l] = 0.0 if last else need[l]
             n_need += active[l]
+        frozen = _settle(ws, done, n_need, frozen)
         if n_need == 0.0:
-            if frozen:
-                _freeze(ws, done)
             break
-        if np.any(done > 0.0):
-            _freeze(ws, done)
-            frozen = True
         _cholesky_solve(A, C, lam, nc)
         for i in range(nb):  # masked Gauss-Newton step: dx = -M^-1 J^T lam
             for m in range(3):
@@ -371,13 +380,9 @@ def project(Y, model, ws, tol):
             active[l] = 1.0 if (need[l] > 0.0 and err[l] > _QUADRATIC) else 0.0
             done[l] = need[l] - active[l]
             n_active += active[l]
+        frozen = _settle(ws, done, n_active, frozen)
         if n_active == 0.0:
-            if frozen:
-                _freeze(ws, done)
             break
-        if np.any(done > 0.0):
-            _freeze(ws, done)
-            frozen = True
     if frozen:
         J, A, B = ws[14], ws[15], ws[16]
     # velocities: u -= B (A^-1 J u), with each lane's J and factor of its last evaluation
