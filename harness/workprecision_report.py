@@ -225,8 +225,9 @@ def batch_section(results: list[SceneSweep]) -> list[str]:
                    f"{b['compiled_steps_per_s'] / b['mujoco_steps_per_s']:.2f} | {b['mujoco_1thread_steps_per_s']:.3g} | "
                    f"{b['compiled_1thread_steps_per_s']:.3g} | "
                    f"{b['compiled_1thread_steps_per_s'] / b['mujoco_1thread_steps_per_s']:.2f} | "
-                   f"{b['numpy_steps_per_s']:.3g} | {b['numpy_steps_per_s'] / b['mujoco_steps_per_s']:.2f} | "
-                   f"{b['max_state_difference']:.1e} | {b['numpy_vs_compiled']:.1e} |")
+                   f"{_fmt(b.get('numpy_steps_per_s', float('nan')))} | "
+                   f"{_fmt(b.get('numpy_steps_per_s', float('nan')) / b['mujoco_steps_per_s'], '.2f')} | "
+                   f"{b['max_state_difference']:.1e} | {_fmt(b.get('numpy_vs_compiled', float('nan')), '.1e')} |")
     return out
 
 

@@ -27,7 +27,23 @@ CASES = [
     ("double_pendulum", {"m": 0.3, "L": 2.0, "theta0": 2.5, "phi0": 1.0}),
     ("plate_pendulum", {}),
     ("rotating_plate", {}),
+    ("cart_pendulum", {}),
+    ("cart_pendulum", {"M": 3.0, "m": 0.2, "theta0": 2.0}),
+    ("spring_pendulum", {}),
+    ("spring_pendulum", {"k": 400.0, "m_hub": 0.5}),
 ]
+
+
+def kkt_tolerance(nem, y):
+    """Round-off of a KKT solve grows with the condition number of J M^-1 J^T (1e6 for the
+    spring pendulum's light hub, 4 for the heavy top): the relative tolerance of a comparison
+    with the per-state engine."""
+    from harness.engines.inhouse.constraints import rows
+
+    if not nem.nc:
+        return 1e-12
+    _, J, _ = rows(nem, y)
+    return max(1e-12, 1e-16 * float(np.linalg.cond(J @ nem.Minv @ J.T)))
 
 
 def states_near(name, n, seed=0, scale=1e-2, **params):
@@ -53,9 +69,9 @@ def test_compiled_rhs_equals_the_per_state_rhs(name, params):
         expected = oracle(0.3, y)
         got = np.empty_like(y)
         assert kernels.rhs(0.3, y, got, model, ws) == kernels.OK
-        scale = np.max(np.abs(expected))
-        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * scale)
-        np.testing.assert_allclose(got_lanes[:, i], expected, rtol=0, atol=1e-12 * scale)
+        atol = kkt_tolerance(nem, y) * np.max(np.abs(expected))
+        np.testing.assert_allclose(got, expected, rtol=0, atol=atol)
+        np.testing.assert_allclose(got_lanes[:, i], expected, rtol=0, atol=atol)
 
 
 @pytest.mark.parametrize("name,params", CASES)
@@ -75,7 +91,7 @@ def test_compiled_projection_equals_the_per_state_projection(name, params):
         np.testing.assert_allclose(Z[:, i], expected, rtol=0, atol=1e-11)
 
 
-@pytest.mark.parametrize("name", ["torque_free", "heavy_top", "double_pendulum"])
+@pytest.mark.parametrize("name", ["torque_free", "heavy_top", "double_pendulum", "cart_pendulum", "spring_pendulum"])
 def test_rk4_compiled_reproduces_the_per_state_rk4(name):
     scene = load_scene(name)
     dt = scene.dt * 5
@@ -137,7 +153,7 @@ def test_dop853_compiled_error_follows_its_tolerance():
     assert errs[-1] < 1e-9 and res.rhs_evals >= 12 * res.steps
 
 
-@pytest.mark.parametrize("name", ["torque_free", "heavy_top", "double_pendulum"])
+@pytest.mark.parametrize("name", ["torque_free", "heavy_top", "double_pendulum", "spring_pendulum"])
 @pytest.mark.parametrize("threads,group", [(1, 64), (2, 4), (2, 3)])
 def test_a_lane_batch_is_the_scalar_trajectories_side_by_side(name, threads, group):
     nem, _, Y = states_near(name, 7, seed=2)
@@ -182,9 +198,7 @@ def test_failures_are_returned_not_raised():
 
 
 @pytest.mark.parametrize("name,params,what", [
-    ("cart_pendulum", {}, "slides"),
-    ("spring_pendulum", {}, "slides"),
-    ("rolling_disk", {}, "contacts"),
+    ("rolling_disk", {}, "rolling contacts"),
     ("double_pendulum", {"F0": 1.0, "omega_f": 2.0}, "prescribed forces"),
 ])
 def test_models_outside_the_compiled_solver_are_refused(name, params, what):

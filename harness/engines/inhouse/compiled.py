@@ -18,9 +18,9 @@ as ``mujoco.rollout`` does with its thread pool. Single trajectories use the sca
 (``compiled_kernels``): with one lane the lane loops cost more than they save, with 64 lanes
 they pay several times over. Both are tested against the per-state engine and each other.
 
-Scope: free, ball and hinge joints and gravity (``batched.SUPPORTED`` without prescribed
-forces); ``pack`` raises NotImplementedError for anything else (slide joints, springs,
-rolling contacts, prescribed forces), which a work-precision sweep records as a failed point.
+Scope: free, ball, hinge and slide joints, springs on slide joints and gravity; ``pack`` raises
+NotImplementedError for rolling contacts and prescribed forces, which a work-precision sweep
+records as a failed point.
 
 The first call in a fresh environment compiles the kernels (tens of seconds; ``warm_up``),
 later processes load them from Numba's on-disk cache. Timings in ``BatchResult.wall_s`` never
@@ -38,7 +38,6 @@ from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from harness.engines.inhouse import compiled_kernels as kernels
 from harness.engines.inhouse import compiled_lanes as lanes
-from harness.engines.inhouse.batched import check_supported
 from harness.engines.inhouse.batched_integrators import MAX_ADAPTIVE_STEPS, BatchResult
 from harness.engines.inhouse.model import NEModel
 
@@ -67,31 +66,47 @@ _DOP853 = tuple(np.ascontiguousarray(a, dtype=float) for a in (_dop.A, _dop.B, _
 def pack(nem: NEModel) -> tuple:
     """The model tuple of ``compiled_kernels`` (its module docstring lists the entries).
     Raises NotImplementedError for a model outside the compiled solver's scope."""
-    check_supported(nem)
+    if nem.contacts:
+        raise NotImplementedError("the compiled in-house solver does not model rolling contacts")
     if nem.forces:
         raise NotImplementedError("the compiled in-house solver does not model prescribed forces")
-    nb, nj = nem.nb, nem.nj
+    nj = nem.nj
     hinge = np.array([t == "hinge" for t in nem.joint_types], dtype=np.int64)
     rows = 3 + 2 * hinge
     row = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64) if nj else np.zeros(0, dtype=np.int64)
+    n_fast = int(rows.sum())
+    if n_fast != nem.nc_fast:
+        raise NotImplementedError(f"the compiled in-house solver expects {n_fast} ball/hinge rows, the model has {nem.nc_fast}")
     D = nem.D_end
-    child, parent = np.asarray(nem.ends[:nj], dtype=np.int64), np.asarray(nem.ends[nj:], dtype=np.int64)
-    f = lambda a: np.ascontiguousarray(a, dtype=float).reshape(-1, 3) if nj else np.zeros((0, 3))  # noqa: E731
+    vectors = lambda a: np.ascontiguousarray(a, dtype=float).reshape(-1, 3)  # noqa: E731
+    indices = lambda a: np.asarray(a, dtype=np.int64).reshape(-1)  # noqa: E731
+    slides, springs = nem.slides, nem.springs
     return (
         np.ascontiguousarray(nem.mass, dtype=float),
         np.ascontiguousarray(nem.I_B, dtype=float),
         np.ascontiguousarray(nem.Iinv_B, dtype=float),
         np.ascontiguousarray(nem.weight_W / nem.mass[:, None], dtype=float),
-        child,
-        parent,
-        f(D[:nj, :, 0]),
-        f(D[nj:, :, 0]),
+        indices(nem.ends[:nj]),
+        indices(nem.ends[nj:]),
+        vectors(D[:nj, :, 0]),
+        vectors(D[nj:, :, 0]),
         hinge,
-        f(D[:nj, :, 1]),
-        f(D[nj:, :, 1]),
-        f(D[nj:, :, 2]),
+        vectors(D[:nj, :, 1]),
+        vectors(D[nj:, :, 1]),
+        vectors(D[nj:, :, 2]),
         row,
-        int(rows.sum()),
+        int(n_fast + 5 * len(slides)),
+        indices([sl.child for sl in slides]),
+        indices([sl.parent for sl in slides]),
+        vectors([sl.r_c for sl in slides]),
+        vectors([sl.r_p for sl in slides]),
+        vectors([sl.b[0] for sl in slides]),
+        vectors([sl.b[1] for sl in slides]),
+        vectors([sl.axis for sl in slides]),
+        indices(n_fast + 5 * np.arange(len(slides))),
+        indices([sp.slide for sp in springs]),
+        np.array([sp.k for sp in springs], dtype=float),
+        np.array([sp.q_ref for sp in springs], dtype=float),
     )
 
 

@@ -21,7 +21,11 @@ Units and frames: as ``harness.engines.inhouse.model`` (state ``y = [p_WCm_W | q
     rc (nj,3) joint point from the child's COM (child frame), rp (nj,3) joint point from the
     parent's COM (parent frame) or in world for a world parent, hinge (nj,) 0/1,
     axis (nj,3) unit hinge axis (child frame), b1, b2 (nj,3) unit perpendiculars of the axis
-    (parent frame), row (nj,) first constraint row of each joint, nc number of rows.
+    (parent frame), row (nj,) first constraint row of each joint, nc number of rows;
+    slide joints: sc, sp (ns,) child and parent, src, srp (ns,3) joint points as rc, rp,
+    sb1, sb2 (ns,3) unit perpendiculars of the axis (parent frame), saxis (ns,3) unit axis
+    (child frame), srow (ns,) first row (after all ball and hinge rows); springs on slides:
+    kslide (nk,) slide index, k (nk,) N/m, qref (nk,) m.
 
 Constraint rows of joint j (child c, parent p; s = R r the joint point's offset in world,
 omega = R w the world angular velocity):
@@ -31,6 +35,15 @@ omega = R w the world angular velocity):
 * hinge (2 more rows, k = 1, 2): ``C = A . N_k`` with ``A = R_c a``, ``N_k = R_p b_k``;
   ``J u = (A x N_k) . (omega_c - omega_p)``; ``gamma = [(omega_c x A) x N_k + A x (omega_p x
   N_k)] . (omega_c - omega_p)``.
+
+* slide (5 rows; x = p + s the joint points, d = x_c - x_p, n_k = R_p b_k): ``C = d . n_k``
+  (k = 1, 2) with ``J u = n_k . (v_c + omega_c x s_c - v_p) + (n_k x (s_p + d)) . omega_p``
+  and ``gamma = [omega_c x (omega_c x s_c) - omega_p x (omega_p x s_p)] . n_k
+  + 2 d' . (omega_p x n_k) + d . (omega_p x (omega_p x n_k))``, d' the rate of d; and three
+  orientation rows ``(R_c e_(k+1)) . (R_p e_(k+2))`` of the hinge rows' form
+  (``constraints`` derives them);
+* spring on a slide: force ``-k (d . a - qref) a`` (a = R_c saxis) on the child at x_c, its
+  opposite on the parent at the same point.
 
 Status codes returned by the integrators (``compiled.STATUS`` words them): 0 ok, 1 non-finite
 state, 2 singular constraint matrix, 3 projection did not converge, 4 step size underflow,
@@ -153,7 +166,7 @@ def workspace(model):
     return (R, np.zeros((nb + 1, 3)), np.zeros((2, 3)), np.zeros((max(nc, 1), 6 * nb)),
             np.zeros((max(nc, 1), max(nc, 1))), np.zeros((6 * nb, max(nc, 1))), np.zeros(6 * nb),
             np.zeros(max(nc, 1)), np.zeros(max(nc, 1)), np.zeros(max(nc, 1)), np.zeros(8), np.zeros((nb, 4)),
-            np.zeros((8, 3)))
+            np.zeros((16, 3)))
 
 
 @njit(**_JIT)
@@ -241,6 +254,123 @@ def _constraints(model, y, ws, with_bias, with_error):
                     _cross(omega[p], nk, u)
                     _cross(a, u, v)  # A x (omega_p x N_k)
                     bias[r] = ((tmp[0] + v[0]) * tmp[3] + (tmp[1] + v[1]) * tmp[4] + (tmp[2] + v[2]) * tmp[5])
+    _slides(model, y, ws, with_bias, with_error)
+
+
+@njit(**_JIT)
+def _velocity(y, nb, body, m):
+    return y[7 * nb + 3 * body + m] if body < nb else 0.0
+
+
+@njit(**_JIT)
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(**_JIT)
+def _row_times_rotation(x, R, J, r, col0, sign):
+    """J[r, col0:col0+3] = sign x^T R (a body-frame angular-velocity block)."""
+    for col in range(3):
+        J[r, col0 + col] = sign * (x[0] * R[0, col] + x[1] * R[1, col] + x[2] * R[2, col])
+
+
+@njit(**_JIT)
+def _slides(model, y, ws, with_bias, with_error):
+    """The 5 rows of each slide joint (module docstring) into J, and when asked the bias and
+    the error. Needs ``_frames`` (with velocities when the bias is asked)."""
+    mass, sc, sp, src, srp, sb1, sb2, srow = (model[0], model[14], model[15], model[16], model[17], model[18],
+                                              model[19], model[21])
+    nb = mass.shape[0]
+    R, omega, J, bias, C, vec = ws[0], ws[1], ws[3], ws[8], ws[9], ws[12]
+    n, x, t1, t2, wn = vec[0], vec[1], vec[2], vec[3], vec[4]
+    s_c, s_p, d, wsc, wsp, dd = vec[8], vec[9], vec[10], vec[11], vec[12], vec[13]
+    for j in range(sc.shape[0]):
+        c, p, r0 = sc[j], sp[j], srow[j]
+        _matvec(R[c], src[j], s_c)
+        _matvec(R[p], srp[j], s_p)
+        for m in range(3):
+            d[m] = _position(y, nb, c, m) + s_c[m] - _position(y, nb, p, m) - s_p[m]
+        if with_bias:
+            _cross(omega[c], s_c, wsc)
+            _cross(omega[p], s_p, wsp)
+            for m in range(3):
+                dd[m] = (_velocity(y, nb, c, m) + wsc[m]) - (_velocity(y, nb, p, m) + wsp[m])
+        for k in range(2):  # the joint point stays on the axis line
+            r = r0 + k
+            _matvec(R[p], sb1[j] if k == 0 else sb2[j], n)
+            for m in range(3):
+                J[r, 3 * c + m] = n[m]
+                if p < nb:
+                    J[r, 3 * p + m] = -n[m]
+            _cross(s_c, n, x)
+            _row_times_rotation(x, R[c], J, r, 3 * nb + 3 * c, 1.0)
+            if p < nb:
+                for m in range(3):
+                    t1[m] = s_p[m] + d[m]
+                _cross(n, t1, x)
+                _row_times_rotation(x, R[p], J, r, 3 * nb + 3 * p, 1.0)
+            if with_error:
+                C[r] = _dot(d, n)
+            if with_bias:
+                _cross(omega[c], wsc, t1)
+                _cross(omega[p], wsp, t2)
+                g = (t1[0] - t2[0]) * n[0] + (t1[1] - t2[1]) * n[1] + (t1[2] - t2[2]) * n[2]
+                _cross(omega[p], n, wn)
+                _cross(omega[p], wn, t1)
+                bias[r] = g + 2.0 * _dot(dd, wn) + _dot(d, t1)
+        for k in range(3):  # the frames stay parallel: (R_c e_(k+1)) . (R_p e_(k+2)) = 0
+            r = r0 + 2 + k
+            a, nr = R[c, :, (k + 1) % 3], R[p, :, (k + 2) % 3]
+            _cross(a, nr, x)
+            _row_times_rotation(x, R[c], J, r, 3 * nb + 3 * c, 1.0)
+            if p < nb:
+                _row_times_rotation(x, R[p], J, r, 3 * nb + 3 * p, -1.0)
+            if with_error:
+                C[r] = _dot(a, nr)
+            if with_bias:
+                _cross(omega[c], a, t1)
+                _cross(t1, nr, t2)  # (omega_c x a) x nr
+                _cross(omega[p], nr, t1)
+                _cross(a, t1, wn)  # a x (omega_p x nr)
+                bias[r] = ((t2[0] + wn[0]) * (omega[c, 0] - omega[p, 0]) + (t2[1] + wn[1]) * (omega[c, 1] - omega[p, 1])
+                           + (t2[2] + wn[2]) * (omega[c, 2] - omega[p, 2]))
+
+
+@njit(**_JIT)
+def _springs(model, y, ws, u0):
+    """Add the slide springs' accelerations to u0 ([dv_WCm_W | dw_WB_B], free part). Needs
+    ``_frames``."""
+    mass, Iinv, sc, sp, src, srp, saxis, kslide, stiffness, qref = (model[0], model[2], model[14], model[15],
+                                                                   model[16], model[17], model[20], model[22],
+                                                                   model[23], model[24])
+    nb = mass.shape[0]
+    R, vec = ws[0], ws[12]
+    s_c, s_p, d, a, f, fB, arm, mom = vec[8], vec[9], vec[10], vec[11], vec[12], vec[13], vec[14], vec[15]
+    for e in range(kslide.shape[0]):
+        j = kslide[e]
+        c, p = sc[j], sp[j]
+        _matvec(R[c], src[j], s_c)
+        _matvec(R[p], srp[j], s_p)
+        for m in range(3):
+            d[m] = _position(y, nb, c, m) + s_c[m] - _position(y, nb, p, m) - s_p[m]
+        _matvec(R[c], saxis[j], a)
+        magnitude = -stiffness[e] * (_dot(d, a) - qref[e])
+        for m in range(3):
+            f[m] = magnitude * a[m]
+            u0[3 * c + m] += f[m] / mass[c]
+        for m in range(3):  # f in the child frame, at the joint point src from its centre of mass
+            fB[m] = R[c, 0, m] * f[0] + R[c, 1, m] * f[1] + R[c, 2, m] * f[2]
+        _cross(src[j], fB, mom)
+        for m in range(3):
+            u0[3 * nb + 3 * c + m] += Iinv[c, m, 0] * mom[0] + Iinv[c, m, 1] * mom[1] + Iinv[c, m, 2] * mom[2]
+        if p < nb:
+            for m in range(3):
+                u0[3 * p + m] -= f[m] / mass[p]
+                fB[m] = R[p, 0, m] * f[0] + R[p, 1, m] * f[1] + R[p, 2, m] * f[2]
+                arm[m] = R[p, 0, m] * (s_p[0] + d[0]) + R[p, 1, m] * (s_p[1] + d[1]) + R[p, 2, m] * (s_p[2] + d[2])
+            _cross(arm, fB, mom)
+            for m in range(3):
+                u0[3 * nb + 3 * p + m] -= Iinv[p, m, 0] * mom[0] + Iinv[p, m, 1] * mom[1] + Iinv[p, m, 2] * mom[2]
 
 
 @njit(**_JIT)
@@ -285,6 +415,8 @@ def rhs(t, y, dy, model, ws):
         _matvec(I_B[i], w, Iw)
         _cross(Iw, w, tau)  # -w x I w
         _matvec(Iinv[i], tau, u0[3 * nb + 3 * i: 3 * nb + 3 * i + 3])
+    if model[22].shape[0] > 0:
+        _springs(model, y, ws, u0)
     if nc > 0:
         J, A, B, lam, bias = ws[3], ws[4], ws[5], ws[7], ws[8]
         _constraints(model, y, ws, True, False)

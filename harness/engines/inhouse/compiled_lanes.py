@@ -36,7 +36,7 @@ def workspace(model, L):
         R[nb, i, i, :] = 1.0
     return (R, np.zeros((nb + 1, 3, L)), np.zeros((2, 3, L)), np.zeros((m, 6 * nb, L)), np.zeros((m, m, L)),
             np.zeros((6 * nb, m, L)), np.zeros((6 * nb, L)), np.zeros((m, L)), np.zeros((m, L)), np.zeros((m, L)),
-            np.zeros((nb, 4, L)), np.zeros((8, 3, L)), np.zeros((5, L)), np.zeros(L),
+            np.zeros((nb, 4, L)), np.zeros((16, 3, L)), np.zeros((5, L)), np.zeros(L),
             np.zeros((m, 6 * nb, L)), np.zeros((m, m, L)), np.zeros((6 * nb, m, L)))
 
 
@@ -168,6 +168,148 @@ def _constraints(model, Y, ws, with_bias, with_error):
                         bias[r, l] = ((v[0, l] + ck[0, l]) * (omega[c, 0, l] - omega[p, 0, l])
                                       + (v[1, l] + ck[1, l]) * (omega[c, 1, l] - omega[p, 1, l])
                                       + (v[2, l] + ck[2, l]) * (omega[c, 2, l] - omega[p, 2, l]))
+    _slides(model, Y, ws, with_bias, with_error)
+
+
+@njit(**_JIT)
+def _dot(a, b, l):
+    return a[0, l] * b[0, l] + a[1, l] * b[1, l] + a[2, l] * b[2, l]
+
+
+@njit(**_JIT)
+def _row_times_rotation(x, R, J, r, col0, sign):
+    """J[r, col0:col0+3] = sign x^T R per lane (x (3,L), R (3,3,L))."""
+    for col in range(3):
+        for l in range(x.shape[1]):
+            J[r, col0 + col, l] = sign * (x[0, l] * R[0, col, l] + x[1, l] * R[1, col, l] + x[2, l] * R[2, col, l])
+
+
+@njit(**_JIT)
+def _offsets(model, Y, ws, j, s_c, s_p, d):
+    """World offsets s_c, s_p of slide j's joint points and d = x_c - x_p, per lane."""
+    mass, sc, sp, src, srp = model[0], model[14], model[15], model[16], model[17]
+    nb = mass.shape[0]
+    R = ws[0]
+    c, p = sc[j], sp[j]
+    _rotate(R[c], src[j], s_c)
+    _rotate(R[p], srp[j], s_p)
+    for m in range(3):
+        for l in range(Y.shape[1]):
+            d[m, l] = Y[3 * c + m, l] + s_c[m, l] - s_p[m, l]
+        if p < nb:
+            for l in range(Y.shape[1]):
+                d[m, l] -= Y[3 * p + m, l]
+
+
+@njit(**_JIT)
+def _slides(model, Y, ws, with_bias, with_error):
+    """``compiled_kernels._slides`` per lane."""
+    mass, sc, sp, sb1, sb2, srow = model[0], model[14], model[15], model[18], model[19], model[21]
+    nb = mass.shape[0]
+    L = Y.shape[1]
+    R, omega, J, bias, C, vec = ws[0], ws[1], ws[3], ws[8], ws[9], ws[11]
+    n, x, t1, t2, wn = vec[0], vec[1], vec[2], vec[3], vec[4]
+    s_c, s_p, d, wsc, wsp, dd = vec[8], vec[9], vec[10], vec[11], vec[12], vec[13]
+    for j in range(sc.shape[0]):
+        c, p, r0 = sc[j], sp[j], srow[j]
+        _offsets(model, Y, ws, j, s_c, s_p, d)
+        if with_bias:
+            _cross(omega[c], s_c, wsc)
+            _cross(omega[p], s_p, wsp)
+            for m in range(3):
+                for l in range(L):
+                    dd[m, l] = Y[7 * nb + 3 * c + m, l] + wsc[m, l] - wsp[m, l]
+                if p < nb:
+                    for l in range(L):
+                        dd[m, l] -= Y[7 * nb + 3 * p + m, l]
+        for k in range(2):
+            r = r0 + k
+            _rotate(R[p], sb1[j] if k == 0 else sb2[j], n)
+            for m in range(3):
+                J[r, 3 * c + m, :] = n[m]
+                if p < nb:
+                    for l in range(L):
+                        J[r, 3 * p + m, l] = -n[m, l]
+            _cross(s_c, n, x)
+            _row_times_rotation(x, R[c], J, r, 3 * nb + 3 * c, 1.0)
+            if p < nb:
+                for m in range(3):
+                    for l in range(L):
+                        t1[m, l] = s_p[m, l] + d[m, l]
+                _cross(n, t1, x)
+                _row_times_rotation(x, R[p], J, r, 3 * nb + 3 * p, 1.0)
+            if with_error:
+                for l in range(L):
+                    C[r, l] = _dot(d, n, l)
+            if with_bias:
+                _cross(omega[c], wsc, t1)
+                _cross(omega[p], wsp, t2)
+                _cross(omega[p], n, wn)
+                for l in range(L):
+                    bias[r, l] = ((t1[0, l] - t2[0, l]) * n[0, l] + (t1[1, l] - t2[1, l]) * n[1, l]
+                                  + (t1[2, l] - t2[2, l]) * n[2, l] + 2.0 * _dot(dd, wn, l))
+                _cross(omega[p], wn, t1)
+                for l in range(L):
+                    bias[r, l] += _dot(d, t1, l)
+        for k in range(3):
+            r = r0 + 2 + k
+            a, nr = R[c, :, (k + 1) % 3], R[p, :, (k + 2) % 3]
+            _cross(a, nr, x)
+            _row_times_rotation(x, R[c], J, r, 3 * nb + 3 * c, 1.0)
+            if p < nb:
+                _row_times_rotation(x, R[p], J, r, 3 * nb + 3 * p, -1.0)
+            if with_error:
+                for l in range(L):
+                    C[r, l] = _dot(a, nr, l)
+            if with_bias:
+                _cross(omega[c], a, t1)
+                _cross(t1, nr, t2)
+                _cross(omega[p], nr, t1)
+                _cross(a, t1, wn)
+                for l in range(L):
+                    bias[r, l] = ((t2[0, l] + wn[0, l]) * (omega[c, 0, l] - omega[p, 0, l])
+                                  + (t2[1, l] + wn[1, l]) * (omega[c, 1, l] - omega[p, 1, l])
+                                  + (t2[2, l] + wn[2, l]) * (omega[c, 2, l] - omega[p, 2, l]))
+
+
+@njit(**_JIT)
+def _springs(model, Y, ws, u0):
+    """``compiled_kernels._springs`` per lane."""
+    mass, Iinv, sc, sp, src, saxis, kslide, stiffness, qref = (model[0], model[2], model[14], model[15], model[16],
+                                                              model[20], model[22], model[23], model[24])
+    nb = mass.shape[0]
+    L = Y.shape[1]
+    R, vec = ws[0], ws[11]
+    s_c, s_p, d, a, f, fB, arm, mom = vec[8], vec[9], vec[10], vec[11], vec[12], vec[13], vec[14], vec[15]
+    for e in range(kslide.shape[0]):
+        j = kslide[e]
+        c, p = sc[j], sp[j]
+        _offsets(model, Y, ws, j, s_c, s_p, d)
+        _rotate(R[c], saxis[j], a)
+        for l in range(L):
+            magnitude = -stiffness[e] * (_dot(d, a, l) - qref[e])
+            for m in range(3):
+                f[m, l] = magnitude * a[m, l]
+                u0[3 * c + m, l] += f[m, l] / mass[c]
+            for m in range(3):
+                fB[m, l] = R[c, 0, m, l] * f[0, l] + R[c, 1, m, l] * f[1, l] + R[c, 2, m, l] * f[2, l]
+                arm[m, l] = src[j, m]
+        _cross(arm, fB, mom)
+        for m in range(3):
+            for l in range(L):
+                u0[3 * nb + 3 * c + m, l] += Iinv[c, m, 0] * mom[0, l] + Iinv[c, m, 1] * mom[1, l] + Iinv[c, m, 2] * mom[2, l]
+        if p < nb:
+            for m in range(3):
+                for l in range(L):
+                    u0[3 * p + m, l] -= f[m, l] / mass[p]
+                    fB[m, l] = R[p, 0, m, l] * f[0, l] + R[p, 1, m, l] * f[1, l] + R[p, 2, m, l] * f[2, l]
+                    arm[m, l] = (R[p, 0, m, l] * (s_p[0, l] + d[0, l]) + R[p, 1, m, l] * (s_p[1, l] + d[1, l])
+                                 + R[p, 2, m, l] * (s_p[2, l] + d[2, l]))
+            _cross(arm, fB, mom)
+            for m in range(3):
+                for l in range(L):
+                    u0[3 * nb + 3 * p + m, l] -= (Iinv[p, m, 0] * mom[0, l] + Iinv[p, m, 1] * mom[1, l]
+                                                  + Iinv[p, m, 2] * mom[2, l])
 
 
 @njit(**_JIT)
@@ -269,6 +411,8 @@ def rhs(t, Y, dY, model, ws):
         for m in range(3):
             for l in range(L):
                 u0[3 * nb + 3 * i + m, l] = Iinv[i, m, 0] * tau[0, l] + Iinv[i, m, 1] * tau[1, l] + Iinv[i, m, 2] * tau[2, l]
+    if model[22].shape[0] > 0:
+        _springs(model, Y, ws, u0)
     if nc > 0:
         J, A, B, lam, bias = ws[3], ws[4], ws[5], ws[7], ws[8]
         _constraints(model, Y, ws, True, False)

@@ -49,10 +49,13 @@ class FastInhouseEngine:
     name = "inhouse"
     integrators = METHODS
 
-    def prepare(self, model: Multibody) -> tuple[NEModel, BatchedModel, np.ndarray]:
-        """Model data, batched equations and the initial state vector of ``model``."""
+    def prepare(self, model: Multibody, integrator: str = "rk4_batched") -> tuple[NEModel, BatchedModel | tuple, np.ndarray]:
+        """Model data, the equations ``integrator`` runs on (``BatchedModel``, or for a compiled
+        method the packed model of ``compiled.pack``) and the initial state vector of ``model``.
+        Raises NotImplementedError for a model outside that solver's scope."""
         nem = build(model)
-        return nem, batched_model(nem), initial_state(model, nem)
+        solver = compiled.pack(nem) if integrator in compiled.METHODS else batched_model(nem)
+        return nem, solver, initial_state(model, nem)
 
     def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
         """Run ``scene`` from its initial state (one trajectory); same contract as the other
@@ -61,18 +64,19 @@ class FastInhouseEngine:
         check_settings(settings, self.integrators, self.name)
         model = scene.multibody()
         try:
-            nem, bm, y0 = self.prepare(model)
+            nem, bm, y0 = self.prepare(model, settings.integrator)
         except Exception as err:  # a numerical failure must come back as a trajectory
             return failed(self.name, settings.integrator, model.body_names, "failed", f"{type(err).__name__}: {err}")
         res = self.integrate(nem, bm, y0, settings)
         return self.trajectory(nem, res, settings)
 
-    def integrate(self, nem: NEModel, bm: BatchedModel, Y0: np.ndarray, settings: RunSettings) -> BatchResult:
-        """Integrate the states ``Y0`` (nbatch x ny or (ny,)) with ``settings`` (the compiled
-        methods take one state)."""
+    def integrate(self, nem: NEModel, bm: BatchedModel | tuple, Y0: np.ndarray, settings: RunSettings) -> BatchResult:
+        """Integrate the states ``Y0`` (nbatch x ny or (ny,)) with ``settings`` on the
+        equations ``bm`` that ``prepare`` made for its integrator (the compiled methods take
+        one state)."""
         t_save = np.arange(settings.n_saves + 1) * settings.save_every
         if settings.integrator in compiled.METHODS:
-            return compiled.integrate(compiled.pack(nem), Y0, t_save, settings.integrator,
+            return compiled.integrate(bm, Y0, t_save, settings.integrator,
                                       steps_per_save=settings.steps_per_save, rtol=settings.rtol, atol=settings.atol,
                                       proj_tol=projection_tolerance(nem))
         return integrate_batch(bm, Y0, t_save, settings.integrator, steps_per_save=settings.steps_per_save,
@@ -84,8 +88,8 @@ class FastInhouseEngine:
         """Integrate the in-house state vectors ``Y0`` (nbatch x 13 nb, bodies in ``model``
         order; see ``harness.engines.inhouse.model``) of ``model``; samples ``nsave x nbatch x ny``."""
         check_settings(settings, self.integrators, self.name)
-        nem = build(model)
-        return self.integrate(nem, batched_model(nem), Y0, settings)
+        nem, solver, _ = self.prepare(model, settings.integrator)
+        return self.integrate(nem, solver, Y0, settings)
 
     def trajectory(self, nem: NEModel, res: BatchResult, settings: RunSettings, column: int = 0) -> Trajectory:
         """One column of a batched result as a ``Trajectory`` (with the run's counters)."""
