@@ -318,9 +318,12 @@ def _slides(model, y, ws, with_bias, with_error):
                 _cross(omega[p], n, wn)
                 _cross(omega[p], wn, t1)
                 bias[r] = g + 2.0 * _dot(dd, wn) + _dot(d, t1)
+        a, nr = vec[5], vec[6]
         for k in range(3):  # the frames stay parallel: (R_c e_(k+1)) . (R_p e_(k+2)) = 0
             r = r0 + 2 + k
-            a, nr = R[c, :, (k + 1) % 3], R[p, :, (k + 2) % 3]
+            for m in range(3):  # columns e_(k+1) of R_c and e_(k+2) of R_p, copied contiguous
+                a[m] = R[c, m, (k + 1) % 3]
+                nr[m] = R[p, m, (k + 2) % 3]
             _cross(a, nr, x)
             _row_times_rotation(x, R[c], J, r, 3 * nb + 3 * c, 1.0)
             if p < nb:

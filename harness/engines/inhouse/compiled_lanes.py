@@ -251,9 +251,13 @@ def _slides(model, Y, ws, with_bias, with_error):
                 _cross(omega[p], wn, t1)
                 for l in range(L):
                     bias[r, l] += _dot(d, t1, l)
+        a, nr = vec[5], vec[6]
         for k in range(3):
             r = r0 + 2 + k
-            a, nr = R[c, :, (k + 1) % 3], R[p, :, (k + 2) % 3]
+            for m in range(3):  # columns e_(k+1) of R_c and e_(k+2) of R_p, copied contiguous
+                for l in range(L):
+                    a[m, l] = R[c, m, (k + 1) % 3, l]
+                    nr[m, l] = R[p, m, (k + 2) % 3, l]
             _cross(a, nr, x)
             _row_times_rotation(x, R[c], J, r, 3 * nb + 3 * c, 1.0)
             if p < nb:
