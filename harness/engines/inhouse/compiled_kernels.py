@@ -194,8 +194,8 @@ def _position(y, nb, body, m):
 def _constraints(model, y, ws, with_bias, with_error):
     """Fill J (ws J, nc x 6nb, columns [v bodies | w_B bodies]), and when asked the bias gamma
     (ws bias) and the position error C (ws C). Needs ``_frames`` first."""
-    mass, jc, jp, rc, rp, hinge, axis, b1, b2, row, nc = (model[0], model[4], model[5], model[6], model[7],
-                                                          model[8], model[9], model[10], model[11], model[12], model[13])
+    mass, jc, jp, rc, rp, hinge, axis, b1, b2, row = (model[0], model[4], model[5], model[6], model[7], model[8],
+                                                      model[9], model[10], model[11], model[12])
     nb = mass.shape[0]
     R, omega, s, J, bias, C, tmp = ws[0], ws[1], ws[2], ws[3], ws[8], ws[9], ws[10]
     J[:, :] = 0.0

@@ -107,7 +107,7 @@ def _constraints(model, Y, ws, with_bias, with_error):
     R, omega, s, J, bias, C, vec = ws[0], ws[1], ws[2], ws[3], ws[8], ws[9], ws[11]
     L = Y.shape[1]
     J[:, :, :] = 0.0
-    a, nk, ck, u, v, d = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5]
+    a, nk, ck, u, v = vec[0], vec[1], vec[2], vec[3], vec[4]
     for j in range(jc.shape[0]):
         c, p, r0 = jc[j], jp[j], row[j]
         _rotate(R[c], rc[j], s[0])
