@@ -82,6 +82,7 @@ def _rotation(q0, q1, q2, q3, R):
 
 @njit(**_JIT)
 def _cross(a, b, out):
+    """out = a x b (3-vectors; out may alias a or b)."""
     x = a[1] * b[2] - a[2] * b[1]
     y = a[2] * b[0] - a[0] * b[2]
     z = a[0] * b[1] - a[1] * b[0]
@@ -90,6 +91,7 @@ def _cross(a, b, out):
 
 @njit(**_JIT)
 def _matvec(R, x, out):
+    """out = R x (3x3 matrix, 3-vector)."""
     for i in range(3):
         out[i] = R[i, 0] * x[0] + R[i, 1] * x[1] + R[i, 2] * x[2]
 
@@ -187,6 +189,7 @@ def _frames(model, y, ws, with_velocity):
 
 @njit(**_JIT)
 def _position(y, nb, body, m):
+    """Component m of a body's centre-of-mass position (m, world); 0 for the world (nb)."""
     return y[3 * body + m] if body < nb else 0.0
 
 
@@ -259,11 +262,13 @@ def _constraints(model, y, ws, with_bias, with_error):
 
 @njit(**_JIT)
 def _velocity(y, nb, body, m):
+    """Component m of a body's centre-of-mass velocity (m/s, world); 0 for the world (nb)."""
     return y[7 * nb + 3 * body + m] if body < nb else 0.0
 
 
 @njit(**_JIT)
 def _dot(a, b):
+    """a . b of two 3-vectors."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
@@ -522,6 +527,7 @@ def project(y, model, ws, tol):
 
 @njit(**_JIT)
 def _finite(y):
+    """Whether every entry of y is finite."""
     for k in range(y.shape[0]):
         if not np.isfinite(y[k]):
             return False

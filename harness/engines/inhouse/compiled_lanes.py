@@ -83,6 +83,8 @@ def _rotate_lanes(R, x, out):
 
 @njit(**_JIT)
 def _frames(model, Y, ws, with_velocity):
+    """``compiled_kernels._frames`` per lane: unit quaternions, rotations and (when asked)
+    world angular velocities of every body."""
     mass = model[0]
     nb = mass.shape[0]
     R, omega, qn = ws[0], ws[1], ws[10]
@@ -173,6 +175,7 @@ def _constraints(model, Y, ws, with_bias, with_error):
 
 @njit(**_JIT)
 def _dot(a, b, l):
+    """a . b of lane l (a, b (3,L))."""
     return a[0, l] * b[0, l] + a[1, l] * b[1, l] + a[2, l] * b[2, l]
 
 
@@ -549,6 +552,7 @@ def project(Y, model, ws, tol):
 
 @njit(**_JIT)
 def _rk4_step(t, Y, h, model, ws, k1, k2, k3, k4, tmp):
+    """One classic RK4 step of h (s) from time t (s), all lanes, Y in place."""
     n, L = Y.shape
     rhs(t, Y, k1, model, ws)
     for i in range(n):
