@@ -172,16 +172,24 @@ def workspace(model):
 
 
 @njit(**_JIT)
+def _unit_quaternions(y, nb, Q):
+    """Q (nb,4) = the quaternions of state y divided by their norms (Q may be y's own
+    quaternion entries: each norm is taken before its quaternion is written)."""
+    for i in range(nb):
+        k = 3 * nb + 4 * i
+        n = np.sqrt(y[k] ** 2 + y[k + 1] ** 2 + y[k + 2] ** 2 + y[k + 3] ** 2)
+        for m in range(4):
+            Q[i, m] = y[k + m] / n
+
+
+@njit(**_JIT)
 def _frames(model, y, ws, with_velocity):
     """Unit quaternions (ws qn), rotations R (ws R) and, when asked, world angular velocities
     omega = R w_B (ws omega) of every body."""
     nb = model[0].shape[0]
     R, omega, qn = ws[0], ws[1], ws[11]
+    _unit_quaternions(y, nb, qn)
     for i in range(nb):
-        k = 3 * nb + 4 * i
-        n = np.sqrt(y[k] ** 2 + y[k + 1] ** 2 + y[k + 2] ** 2 + y[k + 3] ** 2)
-        for m in range(4):
-            qn[i, m] = y[k + m] / n
         _rotation(qn[i, 0], qn[i, 1], qn[i, 2], qn[i, 3], R[i])
         if with_velocity:
             _matvec(R[i], y[10 * nb + 3 * i: 10 * nb + 3 * i + 3], omega[i])
@@ -454,11 +462,7 @@ def project(y, model, ws, tol):
     orthogonal projection); as ``constraints.project``. Returns a status code."""
     mass, nc = model[0], model[13]
     nb = mass.shape[0]
-    for i in range(nb):
-        k = 3 * nb + 4 * i
-        n = np.sqrt(y[k] ** 2 + y[k + 1] ** 2 + y[k + 2] ** 2 + y[k + 3] ** 2)
-        for m in range(4):
-            y[k + m] /= n
+    _unit_quaternions(y, nb, y[3 * nb: 7 * nb].reshape(nb, 4))
     if nc == 0:
         return OK
     J, A, B, lam, C, dq, dth = ws[3], ws[4], ws[5], ws[7], ws[9], ws[10], ws[12][7]

@@ -82,19 +82,26 @@ def _rotate_lanes(R, x, out):
 
 
 @njit(**_JIT)
+def _unit_quaternions(Y, nb, Q):
+    """Q (nb,4,L) = the quaternions of the lanes Y divided by their norms (Q may be Y's own
+    quaternion rows: each norm is taken before its quaternion is written)."""
+    for i in range(nb):
+        k = 3 * nb + 4 * i
+        for l in range(Y.shape[1]):
+            n = np.sqrt(Y[k, l] ** 2 + Y[k + 1, l] ** 2 + Y[k + 2, l] ** 2 + Y[k + 3, l] ** 2)
+            for m in range(4):
+                Q[i, m, l] = Y[k + m, l] / n
+
+
+@njit(**_JIT)
 def _frames(model, Y, ws, with_velocity):
     """``compiled_kernels._frames`` per lane: unit quaternions, rotations and (when asked)
     world angular velocities of every body."""
     mass = model[0]
     nb = mass.shape[0]
     R, omega, qn = ws[0], ws[1], ws[10]
-    L = Y.shape[1]
+    _unit_quaternions(Y, nb, qn)
     for i in range(nb):
-        k = 3 * nb + 4 * i
-        for l in range(L):
-            n = np.sqrt(Y[k, l] ** 2 + Y[k + 1, l] ** 2 + Y[k + 2, l] ** 2 + Y[k + 3, l] ** 2)
-            for m in range(4):
-                qn[i, m, l] = Y[k + m, l] / n
         _rotation(qn[i], R[i])
         if with_velocity:
             _rotate_lanes(R[i], Y[10 * nb + 3 * i: 10 * nb + 3 * i + 3], omega[i])
@@ -473,12 +480,7 @@ def project(Y, model, ws, tol):
     mass, nc = model[0], model[13]
     nb = mass.shape[0]
     L = Y.shape[1]
-    for i in range(nb):
-        k = 3 * nb + 4 * i
-        for l in range(L):
-            n = np.sqrt(Y[k, l] ** 2 + Y[k + 1, l] ** 2 + Y[k + 2, l] ** 2 + Y[k + 3, l] ** 2)
-            for m in range(4):
-                Y[k + m, l] /= n
+    _unit_quaternions(Y, nb, Y[3 * nb: 7 * nb].reshape(nb, 4, L))
     if nc == 0:
         return
     J, A, B, lam, C, flags, err = ws[3], ws[4], ws[5], ws[7], ws[9], ws[12], ws[13]
