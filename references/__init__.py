@@ -9,15 +9,13 @@ spring), ``rotating_plate`` (bearing couple of a plate on a skew axis), ``errata
 ``references/README.md`` for textbook locations.
 """
 
-from references import (
-    cart_pendulum,
-    double_pendulum,
-    heavy_top,
-    plate_pendulum,
-    rotating_plate,
-    spring_pendulum,
-    torque_free,
-)
+from harness.references import cart_pendulum
+from harness.references import double_pendulum
+from harness.references import heavy_top
+from harness.references import plate_pendulum
+from harness.references import rotating_plate
+from harness.references import spring_pendulum
+from harness.references import torque_free
 
 __all__ = ["torque_free", "heavy_top", "double_pendulum", "plate_pendulum", "cart_pendulum", "spring_pendulum",
            "rotating_plate"]

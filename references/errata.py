@@ -1,5 +1,5 @@
 """The textbook's printed results found wrong, as data; ``references/ERRATA.md`` is generated
-from it (``python -m references.errata`` rewrites the file; ``tests/test_errata.py`` fails when
+from it (``python -m harness.references.errata`` rewrites the file; ``tests/references/test_errata.py`` fails when
 the file and this module disagree, or when a named test does not exist).
 
 Every entry names the test that shows it. A printed result is listed here only after the
@@ -49,7 +49,7 @@ ERRATA: tuple[Erratum, ...] = (
         correct="ω rotates at the rate γ ω_3, γ = (I_3 − I_1)/I_1: positive only when ω_3 > 0 as well; "
                 "for ω_3 < 0 it rotates the other way.",
         why="The rate is γ ω_3 (Eqs. 4.66–4.69), which changes sign with ω_3.",
-        tests=("tests/test_references.py::test_symmetric_precession_rate_textbook",),
+        tests=("tests/references/test_closed_forms.py::test_symmetric_precession_rate_textbook",),
     ),
     Erratum(
         location="§4.7, after Eq. 4.73 (l. 2370)",
@@ -60,7 +60,7 @@ ERRATA: tuple[Erratum, ...] = (
                 "lies inside the body cone, and the body cone rolls around it. (The slender-body statement, "
                 "external contact with α_3 = α_b + α_s, is right.)",
         why="tan α_3 = (I_1/I_3) tan α_b from Eqs. 4.70 and 4.72, so α_3 < α_b when I_1 < I_3.",
-        tests=("tests/test_references.py::test_torque_free_cone_geometry",),
+        tests=("tests/references/test_closed_forms.py::test_torque_free_cone_geometry",),
     ),
     Erratum(
         location="Ex. 4.7.2 (l. 2447, 2458)",
@@ -70,13 +70,13 @@ ERRATA: tuple[Erratum, ...] = (
         correct="v² = 4 g r² cos β / ((6r + R cos β) sin β) (thin uniform disk, r the radius of the centre's "
                 "circle); the moment of the contact force about the centre is (F_n R sin β − N R cos β) e_y'. "
                 "For a disk of half-thickness h on its rim edge: w3 = [φ̇²((A + mh²) sθ cθ + mRh sθ²) − mg(R cθ − "
-                "h sθ)] / (φ̇((C + mR²) sθ + mRh cθ)) (references.rolling_disk.steady_spin).",
+                "h sθ)] / (φ̇((C + mR²) sθ + mRh cθ)) (harness.references.rolling_disk.steady_spin).",
         why="The right-hand side has the dimension m²/s². The contact point is at distance R from the centre, "
             "so its lever arm is R; the printed final formula follows from R, only the intermediate line has r. "
             "The closed form keeps the lean constant to 1e-8 rad in a maximal-coordinate Newton-Euler "
             "integration (and to 1e-11 rad in the in-house and Pinocchio runs of scene rolling_disk).",
-        tests=("tests/test_reference_rolling_disk.py::test_ex_472_printed_formula_is_the_speed_squared",
-               "tests/test_reference_rolling_disk.py::test_steady_circular_motion_keeps_the_lean"),
+        tests=("tests/references/test_rolling_disk.py::test_ex_472_printed_formula_is_the_speed_squared",
+               "tests/references/test_rolling_disk.py::test_steady_circular_motion_keeps_the_lean"),
     ),
     Erratum(
         location="Ex. 5.2.2 (l. 2854)",
@@ -88,7 +88,7 @@ ERRATA: tuple[Erratum, ...] = (
             "+½mL²θ̇² sin(φ−θ). With the printed sign the energy drifts by more than 1e-2 relative; with "
             "the corrected sign by less than 1e-10. (The OCR line carries a stray ')'; either way the printed "
             "sign is not physical.)",
-        tests=("tests/test_references.py::test_double_pendulum_ex522_printed_sign_breaks_energy",),
+        tests=("tests/references/test_closed_forms.py::test_double_pendulum_ex522_printed_sign_breaks_energy",),
     ),
     Erratum(
         location="Ex. 5.2.3 (l. 2856–2905)",
@@ -102,8 +102,8 @@ ERRATA: tuple[Erratum, ...] = (
             "equations to φ, θ, ψ as free coordinates is not allowed (Ex. 5.2.1 itself says so). Newton-Euler "
             "with the contact force as unknown gives the correct equations; the printed spin equation keeps w3 "
             "constant while the true w3 changes.",
-        tests=("tests/test_reference_rolling_disk.py::test_ex_523_printed_equations_disagree_with_newton_euler",
-               "tests/test_reference_rolling_disk.py::test_euler_angle_equations_match_newton_euler"),
+        tests=("tests/references/test_rolling_disk.py::test_ex_523_printed_equations_disagree_with_newton_euler",
+               "tests/references/test_rolling_disk.py::test_euler_angle_equations_match_newton_euler"),
     ),
     Erratum(
         location="Ex. 5.3.3 (l. 3020–3042)",
@@ -117,8 +117,8 @@ ERRATA: tuple[Erratum, ...] = (
             "threshold is what the printed equations give; the correct dynamics contradict it: a thin disk at "
             "0.17 m/s falls. In scene rolling_disk all three engines (in-house, Pinocchio, MuJoCo) fall at "
             "0.15–0.21 m/s and roll on at 0.22 m/s and above (`harness rolling-study`, reports/rolling_disk.md).",
-        tests=("tests/test_reference_rolling_disk.py::test_printed_threshold_follows_from_the_printed_equations_and_the_dynamics_contradict_it",
-               "tests/test_reference_rolling_disk.py::test_critical_speed_is_the_linearisation_of_the_correct_equations"),
+        tests=("tests/references/test_rolling_disk.py::test_printed_threshold_follows_from_the_printed_equations_and_the_dynamics_contradict_it",
+               "tests/references/test_rolling_disk.py::test_critical_speed_is_the_linearisation_of_the_correct_equations"),
     ),
     Erratum(
         location="Ex. 5.3.1 (l. 2974)",
@@ -135,8 +135,8 @@ ERRATA: tuple[Erratum, ...] = (
             "r* = 0.245 m) the swing's share of the energy rises from 0.2 % to 99.99 % within 4 s at 2:1; at "
             "1:1 it stays below 2.3 % (geometric mixing of polar and Cartesian modes only), at 3:1 below 0.25 %. "
             "The three engines reproduce the 2:1 exchange (scene spring_pendulum).",
-        tests=("tests/test_reference_spring_pendulum.py::test_textbook_equal_frequencies_is_linear_no_exchange",
-               "tests/test_reference_spring_pendulum.py::test_two_to_one_resonance_exchanges_energy"),
+        tests=("tests/references/test_spring_pendulum.py::test_textbook_equal_frequencies_is_linear_no_exchange",
+               "tests/references/test_spring_pendulum.py::test_two_to_one_resonance_exchanges_energy"),
     ),
     Erratum(
         location="Ex. 5.3.2 (l. 2997)",
@@ -146,8 +146,8 @@ ERRATA: tuple[Erratum, ...] = (
         correct="(4/3)θ̈ + ½φ̈ + (3g/2L)θ = F_0 cos(ωt)/(mL)   (or, undivided, mL²[…] = F_0 L cos ωt)",
         why="The left-hand side has been divided by mL², the right-hand side has not. Ex. 6.2.1 then uses the "
             "undivided M and Q consistently, so its result is unaffected.",
-        tests=("tests/test_references.py::test_double_pendulum_linear_response_exact",
-               "tests/test_references.py::test_double_pendulum_nonlinear_small_amplitude"),
+        tests=("tests/references/test_closed_forms.py::test_double_pendulum_linear_response_exact",
+               "tests/references/test_closed_forms.py::test_double_pendulum_nonlinear_small_amplitude"),
     ),
     Erratum(
         location="Ex. 6.2.1 (l. 3329)",
@@ -157,7 +157,7 @@ ERRATA: tuple[Erratum, ...] = (
         correct="m_1 = u_1ᵀ M u_1 = 1.13118 mL² (m_2 = 0.13 mL² is right)",
         why="1.12 is what the two-digit rounded mode vector (0.57, 0.82) gives (1.1247): the rounding error of "
             "Ex. 6.1.1 was carried into a printed result, about 1 % off.",
-        tests=("tests/test_references.py::test_double_pendulum_textbook_ex611_ex621_numbers",),
+        tests=("tests/references/test_closed_forms.py::test_double_pendulum_textbook_ex611_ex621_numbers",),
     ),
 )
 
@@ -179,29 +179,29 @@ MINOR: tuple[tuple[str, str], ...] = (
 # Printed results checked and found correct, with the test that checks them.
 VERIFIED: tuple[tuple[str, str, str], ...] = (
     ("Ex. 1.2.2, 1.3.1", "cart pendulum: kinematics and equations of motion",
-     "tests/test_reference_cart_pendulum.py::test_textbook_ex161_cart_speed_and_ex151_frequency"),
+     "tests/references/test_cart_pendulum.py::test_textbook_ex161_cart_speed_and_ex151_frequency"),
     ("Ex. 1.5.1", "ω = √((M + m)g/(ML))",
-     "tests/test_reference_cart_pendulum.py::test_textbook_ex161_cart_speed_and_ex151_frequency"),
+     "tests/references/test_cart_pendulum.py::test_textbook_ex161_cart_speed_and_ex151_frequency"),
     ("Ex. 1.6.1", "Ẋ = √(2m²gL/(M(M + m)))",
-     "tests/test_reference_cart_pendulum.py::test_textbook_ex161_cart_speed_and_ex151_frequency"),
+     "tests/references/test_cart_pendulum.py::test_textbook_ex161_cart_speed_and_ex151_frequency"),
     ("Ex. 2.2.1", "angular velocity of a top in the non-spinning frame",
-     "tests/test_references.py::test_heavy_top_cos_theta_matches_integration"),
+     "tests/references/test_closed_forms.py::test_heavy_top_cos_theta_matches_integration"),
     ("Ex. 4.2.1, 4.5.1", "plate inertia m(a² + b²)/3 and (4/3)m(a² + b²) about the corner",
-     "tests/test_reference_plate_pendulum.py::test_textbook_plate_inertia"),
+     "tests/references/test_plate_pendulum.py::test_textbook_plate_inertia"),
     ("Ex. 4.5.1", "ω_max = √(3g(√(a² + b²) − b)/(2(a² + b²)))",
-     "tests/test_reference_plate_pendulum.py::test_textbook_ex451_ex452_largest_angular_velocity_and_support_force"),
+     "tests/references/test_plate_pendulum.py::test_textbook_ex451_ex452_largest_angular_velocity_and_support_force"),
     ("Ex. 4.5.2", "F_n = mg + 3mg(√(a² + b²) − b)/(2√(a² + b²)), F_s = 0",
-     "tests/test_reference_plate_pendulum.py::test_textbook_ex451_ex452_largest_angular_velocity_and_support_force"),
+     "tests/references/test_plate_pendulum.py::test_textbook_ex451_ex452_largest_angular_velocity_and_support_force"),
     ("Ex. 4.6.1", "plate on a skew axis: L, dL/dt = −(1/3)ma²ω² cos φ sin φ e_y, F = ma²ω² cos φ sin φ/(6d)",
-     "tests/test_reference_rotating_plate.py::test_couple_is_the_rate_of_angular_momentum"),
+     "tests/references/test_rotating_plate.py::test_couple_is_the_rate_of_angular_momentum"),
     ("§4.7, Eqs. 4.60–4.73", "Euler's equations, stability β, symmetric solution, cone angles",
-     "tests/test_references.py::test_torque_free_textbook_stability_beta"),
+     "tests/references/test_closed_forms.py::test_torque_free_textbook_stability_beta"),
     ("Ex. 5.3.1", "Lagrange's equations, r* = L + mg/k, ω_1 = √(k/m), ω_2 = √(g/r*)",
-     "tests/test_reference_spring_pendulum.py::test_textbook_frequencies_from_small_oscillations"),
+     "tests/references/test_spring_pendulum.py::test_textbook_frequencies_from_small_oscillations"),
     ("Ex. 6.1.1", "ω = 0.86, 2.30 √(g/L); mode ratios 1.43, −2.10; unit vectors",
-     "tests/test_references.py::test_double_pendulum_textbook_ex611_ex621_numbers"),
+     "tests/references/test_closed_forms.py::test_double_pendulum_textbook_ex611_ex621_numbers"),
     ("Ex. 6.2.1", "Y_k = L F_0 u_1^k (cos ωt − cos ω_k t)/(m_k(ω_k² − ω²)); m_2 = 0.13 mL²",
-     "tests/test_references.py::test_double_pendulum_ex621_formula"),
+     "tests/references/test_closed_forms.py::test_double_pendulum_ex621_formula"),
 )
 
 
@@ -210,7 +210,7 @@ def render() -> str:
     lines = [
         "# Errata of the textbook",
         "",
-        "<!-- Generated by `python -m references.errata` from references/errata.py; do not edit by hand. -->",
+        "<!-- Generated by `python -m harness.references.errata` from references/errata.py; do not edit by hand. -->",
         "",
         f"Printed results of {BOOK} found wrong. Each was derived again and the correction verified",
         "by a tight independent integration (SciPy DOP853, rtol 1e-12) in the test named with it.",

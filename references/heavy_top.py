@@ -10,7 +10,7 @@ fixed point (4.35)-(4.37), and cyclic coordinates / first integrals (5.24) of §
 Status of the printed pieces: Ex. 2.2.1's ω and angular acceleration re-derived and correct.
 Everything below is derived here (standard result, e.g. Goldstein §5.7, Landau §35) and
 verified against a tight integration of Euler's equations about the tip plus rotation-matrix
-kinematics (``tests/test_references.py``).
+kinematics (``tests/references/test_closed_forms.py``).
 
 Frames, conventions, units (SI)
 -------------------------------
@@ -75,7 +75,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import elliprf
 
-from references.torque_free import ellipj
+from harness.references.torque_free import ellipj
 
 __all__ = [
     "TopParams",

@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from references.torque_free import ellipf, ellipj
+from harness.references.torque_free import ellipf, ellipj
 
 __all__ = [
     "pivot_inertia",

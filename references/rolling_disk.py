@@ -40,7 +40,7 @@ Derivation (numbered; not the textbook's route)
    A_t (phi'' s + 2 phi' theta' c) = C w3 theta',  (C + m R^2) w3' = m R^2 phi' theta' s,
    (A_t + m R^2) theta'' = A_t phi'^2 s c - (C + m R^2) w3 phi' s - m g R c.
    (``euler_rhs``; derived once with a computer-algebra system, then checked against a
-   maximal-coordinate Newton-Euler integration in ``tests/test_reference_rolling_disk.py``.)
+   maximal-coordinate Newton-Euler integration in ``tests/references/test_rolling_disk.py``.)
 4. Centre velocity: ``v_A = w x rho = h theta' e_x' + (h phi' s - R w3) e_y' + R theta' e_z'``;
    at theta' = 0 it is horizontal.
 5. Energy ``E = m |v_A|^2/2 + (A_t (w1^2 + w2^2) + C w3^2)/2 + m g (R s + h |c|)``: the contact

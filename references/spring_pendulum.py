@@ -30,7 +30,7 @@ couple ... energy is gradually transferred between the two types of oscillation.
     (autoparametric) resonance at which energy does move between the spring and the swing is
     ω1 = 2 ω2: the quadratic terms m r θ̇² and ½ m g r θ² (the tension's dependence on the
     swing) drive the radial motion at 2 ω2 and, in return, modulate the pendulum's length at
-    2 ω2, a parametric resonance of the swing. Evidence: ``tests/test_reference_spring_pendulum.py``
+    2 ω2, a parametric resonance of the swing. Evidence: ``tests/references/test_spring_pendulum.py``
     (``test_textbook_equal_frequencies_is_linear_no_exchange`` and
     ``test_two_to_one_resonance_exchanges_energy``).
 

@@ -35,7 +35,7 @@ Verified formulas
   (I_3 > I_1) L lies *between* the symmetry axis and ω, so α_s = α_b − α_3 < α_b: the space
   cone lies *inside* the body cone and the body cone rolls around (outside of) it.  The text's
   "the body cone rolls inside the space cone" for I_1 < I_3 is the wrong way round
-  (status: wrong remark; evidence: ``tests/test_references.py::
+  (status: wrong remark; evidence: ``tests/references/test_closed_forms.py::
   test_torque_free_cone_geometry_oblate``).  For a slender body (I_1 > I_3) the text's
   "body cone rolls outside the space cone" is correct.
 * General asymmetric body (not printed in the text; Landau & Lifshitz, Mechanics §37, derived

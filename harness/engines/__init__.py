@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import importlib
 
-from harness.errors import InputError
+from harness.model.errors import InputError
 
 ENGINE_MODULES = {
     "inhouse": "harness.engines.inhouse",
-    "mujoco": "harness.engines.mujoco_engine",
-    "pinocchio": "harness.engines.pinocchio_engine",
+    "mujoco": "harness.engines.mujoco.engine",
+    "pinocchio": "harness.engines.pinocchio.engine",
 }
 ENGINE_NAMES = tuple(ENGINE_MODULES)
 

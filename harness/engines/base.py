@@ -11,9 +11,9 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
-from harness.errors import InputError
-from harness.scene import Scene
-from harness.trajectory import Trajectory
+from harness.model.errors import InputError
+from harness.model.scene import Scene
+from harness.measure.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

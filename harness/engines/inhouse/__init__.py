@@ -46,9 +46,9 @@ from harness.engines.inhouse.integrators import FIXED_STEP, integrate
 from harness.engines.inhouse.model import NEModel, build, from_trajectory, initial_state, split, to_trajectory
 from harness.engines.inhouse.newton_euler import Baumgarte, make_rhs, reaction_series, reactions
 from harness.engines.inhouse.rolling import contact_force_series
-from harness.multibody import Multibody
-from harness.scene import Scene
-from harness.trajectory import Trajectory, failed
+from harness.model.multibody import Multibody
+from harness.model.scene import Scene
+from harness.measure.trajectory import Trajectory, failed
 
 __all__ = [
     "ENGINE",

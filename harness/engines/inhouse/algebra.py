@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness import rotations
+from harness.model import rotations
 
 # Levi-Civita symbol eps[i, j, k].
 _EPS = np.zeros((3, 3, 3))

@@ -33,7 +33,7 @@ of the dense (nc x 6nb) one.
 A single state (``nbatch = 1``) goes to the per-state functions (``make_dynamics``, ``project``):
 with one column every NumPy call costs its fixed overhead and the per-state formulation has the
 fewest calls. For two columns and more the vectorized path below is used; the per-state engine is
-also its slow oracle: ``tests/test_inhouse_batched.py`` checks every function here against it
+also its slow oracle: ``tests/engines/inhouse/test_batched.py`` checks every function here against it
 to 1e-12.
 """
 

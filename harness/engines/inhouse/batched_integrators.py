@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
-from harness import rotations
+from harness.model import rotations
 from harness.engines.inhouse.batched import BatchedModel, _outer
 from harness.engines.inhouse.constraints import DynamicsError
 

@@ -20,16 +20,16 @@ from dataclasses import replace
 import numpy as np
 
 from harness.engines.base import RunSettings, check_settings
-from harness.engines.inhouse import compiled
+from harness.engines.inhouse.compiled import solver as compiled
 from harness.engines.inhouse.batched import BatchedModel, batched_model
 from harness.engines.inhouse.batched_integrators import ADAPTIVE as BATCHED_ADAPTIVE
 from harness.engines.inhouse.batched_integrators import METHODS as BATCHED_METHODS
 from harness.engines.inhouse.batched_integrators import NOMINAL_ORDER as BATCHED_ORDER
 from harness.engines.inhouse.batched_integrators import BatchResult, integrate_batch
 from harness.engines.inhouse.model import NEModel, build, initial_state, to_trajectory
-from harness.multibody import Multibody
-from harness.scene import Scene
-from harness.trajectory import Trajectory, failed
+from harness.model.multibody import Multibody
+from harness.model.scene import Scene
+from harness.measure.trajectory import Trajectory, failed
 
 __all__ = ["ADAPTIVE", "FAST_ENGINE", "FastInhouseEngine", "METHODS", "NOMINAL_ORDER", "projection_tolerance"]
 

@@ -15,7 +15,7 @@ The generalised velocity of the Newton-Euler equations is the contiguous tail
 ``M = blockdiag(m_1 I3, ..., m_nb I3, I_1, ..., I_nb)`` with ``I_i`` the inertia about the
 centre of mass in the body frame (kg m^2).
 
-Joints (``harness.multibody``) become constraints between a child body c and its parent p
+Joints (``harness.model.multibody``) become constraints between a child body c and its parent p
 (p = world when ``parent`` is None; the world is handled as an extra body, index nb, at rest at
 the origin with identity orientation):
 
@@ -33,10 +33,10 @@ the origin with identity orientation):
   (u_k, v_k) = (e_y, e_z), (e_z, e_x), (e_x, e_y).
 * ``free``: no constraint.
 
-Joint springs (``harness.multibody.JointSpring``, slide joints only) are force elements, not
+Joint springs (``harness.model.multibody.JointSpring``, slide joints only) are force elements, not
 constraints: ``SpringElement`` (see ``newton_euler``).
 
-Rolling contacts (``harness.multibody.RollingContact``: a rim edge rolling without slip on the
+Rolling contacts (``harness.model.multibody.RollingContact``: a rim edge rolling without slip on the
 plane z = 0) are constraints of 3 rows each, appended after the slide rows (``rolling``).
 """
 
@@ -47,11 +47,12 @@ from typing import Callable
 
 import numpy as np
 
-from harness import kinematics, rotations
+from harness.model import kinematics
+from harness.model import rotations
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.rolling import RollingRows, build_contacts
-from harness.multibody import Multibody
-from harness.trajectory import Trajectory
+from harness.model.multibody import Multibody
+from harness.measure.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

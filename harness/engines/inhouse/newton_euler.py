@@ -34,7 +34,7 @@ from scipy.linalg.lapack import dposv
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.constraints import DynamicsError, evaluate, frames, linear_velocities
 from harness.engines.inhouse.model import _ROT_U, _ROT_V, NEModel, build
-from harness.multibody import Multibody
+from harness.model.multibody import Multibody
 
 
 @dataclass(frozen=True)

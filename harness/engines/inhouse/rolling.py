@@ -1,9 +1,9 @@
 """Rolling without slip on the plane z = 0 as a constraint of the in-house Newton-Euler model.
 
-A rolling contact (``harness.multibody.RollingContact``) adds three rows to the KKT system,
+A rolling contact (``harness.model.multibody.RollingContact``) adds three rows to the KKT system,
 after the joint rows (ball/hinge, then slide): the velocity of the body's material point at the
 contact point C is zero. With ``r = r_AC_W`` the offset from the centre of mass A to C (world;
-``harness.rolling_contact``: C is the lowest point of the lower rim edge and moves around the
+``harness.model.rolling_contact``: C is the lowest point of the lower rim edge and moves around the
 rim) and ``u = [v_WA_W, w_WB_B]`` the generalised velocity of the model::
 
     v_C = v_A + w x r = [ I3 | -[r]x R ] u = J u = 0                          (3 rows, m/s)
@@ -14,7 +14,7 @@ are 0 and Baumgarte stabilisation (variable-step methods) only damps their veloc
 z row is the derivative of the holonomic height condition ``z_C = z_A + r_z = 0``, its ``C``
 entry (m); the post-step projection of the fixed-step methods moves the positions back to
 z_C = 0 (Gauss-Newton: the height row's Jacobian is the material point's, by the envelope
-argument of ``harness.rolling_contact``) and projects the velocities onto J u = 0 (all three
+argument of ``harness.model.rolling_contact``) and projects the velocities onto J u = 0 (all three
 rows). The projection is a mass-weighted orthogonal projection, i.e. a perfectly plastic impulse
 at C: an edge switch (the upright cylinder tipping over to its other rim edge, where the
 contact point jumps by 2h along the axis) is such an impact and dissipates energy.
@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness import rolling_contact
+from harness.model import rolling_contact
 from harness.engines.inhouse import algebra
 
 

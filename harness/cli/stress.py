@@ -1,0 +1,52 @@
+"""``harness stress``: run the stress catalogue on the engines, write the stability map.
+
+``add_parser(sub)`` adds the subparser to ``harness.cli.main``'s subparsers object (whose
+``parser_class`` turns argparse errors into ``InputError``); ``run(args)`` returns the exit code:
+0 when the sweep ran (unstable or inaccurate runs are findings, not failures), 2 on bad input
+(unknown variant or engine, malformed catalogue: raised as ``InputError``, one line on stderr).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from harness.cli.arg_types import float_arg as _float, int_arg as _int, csv_list as _csv_list
+
+EXIT_OK = 0
+
+
+def add_parser(sub) -> None:
+    """Add the ``stress`` subparser."""
+    s = sub.add_parser("stress", help="stiff and extreme variants: largest stable step, failure mode and drift per "
+                                      "engine/integrator; write reports/stress.{md,csv} and plots")
+    s.add_argument("--variants", type=_csv_list, help="comma-separated variant names (default: the whole catalogue)")
+    s.add_argument("--engines", type=_csv_list, help="comma-separated engines (default: all)")
+    s.add_argument("--quick", action="store_true", help="a smoke run: short horizons, a tenth of the step budget, one bisection step")
+    s.add_argument("--jobs", type=_int, default=0, help="worker processes (default: all cores)")
+    s.add_argument("--timeout", type=_float, default=120.0, help="seconds allowed per run (default 120; references 4x)")
+    s.add_argument("--out-dir", type=Path, default=Path("reports"), help="folder for stress.md, stress.csv, stress/ (default: reports)")
+    s.add_argument("--catalogue", type=Path, help="stress catalogue TOML (default: harness/studies/stress/catalogue.toml)")
+    s.add_argument("--models-dir", type=Path, help="folder of scene folders (default: the project's models/)")
+
+
+def run(args) -> int:
+    from harness.model.errors import InputError
+    from harness.io.provenance import provenance
+    from harness.studies.stress.run import load_catalogue, run_stress, select
+    from harness.studies.stress.report import write_stress_reports
+
+    if not (args.timeout > 0):
+        raise InputError(f"--timeout must be positive, got {args.timeout!r}")
+    if args.jobs < 0:
+        raise InputError(f"--jobs must be >= 0, got {args.jobs!r}")
+    catalogue = load_catalogue(args.catalogue, quick=args.quick)
+    variants, engines = select(catalogue, args.variants, args.engines)
+    result = run_stress(catalogue, variants, engines, quick=args.quick, jobs=args.jobs or None,
+                        timeout=args.timeout, models_dir=args.models_dir,
+                        log=lambda line: print(line, file=sys.stderr, flush=True))
+    paths = write_stress_reports(result, provenance(), args.out_dir)
+    stable = sum(1 for m in result.rows if m.stable_dt is not None or (m.nominal is not None and m.nominal.stable))
+    print(f"stress: {len(variants)} variants ({len(result.skipped)} skipped), {len(result.rows)} engine/integrator "
+          f"cells ({stable} with a stable step), {len(result.trials)} runs, {result.wall_s:.0f} s")
+    print("wrote " + ", ".join(str(p) for p in paths[:3]) + f" and {len(paths) - 3} plots")
+    return EXIT_OK

@@ -1,0 +1,1 @@
+"""The MuJoCo engine: MJCF loading and editing, stepping, rolling-contact settings, ``mujoco.rollout``."""

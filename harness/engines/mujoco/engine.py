@@ -1,0 +1,182 @@
+"""MuJoCo engine: the scene's MJCF stepped with ``mj_step``, read back in maximal coordinates.
+
+Notes on reading state: after ``mj_step`` the kinematic quantities in ``MjData`` (``xipos``,
+``xquat``, energy) belong to the state *before* the step (with RK4, to an intermediate stage),
+so every sample is read after ``mj_forward`` on the current ``qpos``/``qvel``.
+
+Prescribed forces act through the MJCF's motors ``<name>_fx/_fy/_fz`` (site transmission with a
+world reference site); their controls are set from ``mjcb_control`` at every evaluation of the
+dynamics, so RK4 sees the force at its stage times, not a zero-order hold.
+
+Joint reactions (when the scene asks, ``[checks.reaction]``): MuJoCo has no joint-reaction
+output; ``mj_rnePostConstraint`` after ``mj_forward`` gives ``cfrc_int[b]``, the spatial force
+[moment; force] that the parent exerts on the subtree of body b, in world axes about the centre
+of mass of b's kinematic tree (``subtree_com[body_rootid[b]]``). It is Newton-Euler of the
+subtree, "inertial minus ``cfrc_ext``", so it also carries what MuJoCo does not hold as an
+external Cartesian force: the joint's own passive force (spring, damper: ``qfrc_passive`` of the
+joint's dof along its world axis) and the prescribed point forces, which reach MuJoCo as motor
+(generalised) forces. Both are removed here (``joint_reaction``), so the reaction is the
+joint's constraint force alone, with the moment taken about the joint point (``xpos``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import mujoco
+import numpy as np
+
+from harness.engines.base import RunSettings, check_settings
+from harness.engines.mujoco.model import INTEGRATORS, load_mjcf, set_initial_state
+from harness.engines.mujoco.rolling import ContactForceReader, describe_contact
+from harness.model.errors import InputError
+from harness.model.scene import Scene
+from harness.measure.trajectory import SampleBuffer, Trajectory
+
+BLOWUP_SPEED = 1e8  # m/s or rad/s: beyond this a run is declared a blow-up
+# MuJoCo's own blow-up guards: each resets the state (mj_resetData), so a run that trips one
+# would otherwise go on from qpos0 with finite numbers.
+_BAD_WARNINGS = ("mjWARN_BADQACC", "mjWARN_BADQVEL", "mjWARN_BADQPOS")
+
+
+class MujocoEngine:
+    """Runs a scene in MuJoCo from its MJCF file."""
+
+    name = "mujoco"
+    integrators = tuple(INTEGRATORS)
+
+    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
+        check_settings(settings, self.integrators, self.name)
+        model = scene.multibody()
+        m = load_mjcf(scene.mjcf, model, dt=settings.dt, integrator=settings.integrator)
+        d = mujoco.MjData(m)
+        set_initial_state(m, d, model, scene.mjcf)
+        body_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b.name) for b in model.bodies]
+        control = _force_controller(m, model, scene)
+        rolling = ContactForceReader(m, model, settings.n_saves + 1) if model.contacts else None  # mujoco_rolling
+        jointed = [(b.name, bid) for b, bid in zip(model.bodies, body_ids) if b.joint != "free"] if "reaction" in scene.checks else []
+        force_sites = _force_sites(m, model) if jointed else []
+
+        n = settings.n_saves + 1
+        react = {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name, _ in jointed}
+        buf = SampleBuffer(n, len(body_ids))
+        res6 = np.zeros(6)
+        status, message, saved = "ok", "", 0
+        t0 = time.perf_counter()
+        mujoco.set_mjcb_control(control)
+        try:
+            for k in range(n):
+                if k > 0:
+                    for _ in range(settings.steps_per_save):
+                        mujoco.mj_step(m, d)
+                mujoco.mj_forward(m, d)
+                bad = [w for w in _BAD_WARNINGS if d.warning[getattr(mujoco.mjtWarning, w)].number]
+                if bad or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+                    what = f"bad acceleration/state, MuJoCo warning {', '.join(bad)}" if bad else "non-finite state"
+                    # after a reset d.time restarts from 0: report the sample's own time
+                    status, message = "blowup", f"{what} by t = {k * settings.save_every:.6g} s (MuJoCo reset the state)"
+                    break
+                if np.max(np.abs(d.qvel), initial=0.0) > BLOWUP_SPEED:
+                    status, message = "blowup", f"velocity beyond {BLOWUP_SPEED:g} at t = {d.time:.6g} s"
+                    break
+                for i, bid in enumerate(body_ids):
+                    buf.p_WCm_W[k, i] = d.xipos[bid]
+                    buf.quat_WB[k, i] = d.xquat[bid]
+                    mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, bid, res6, 0)
+                    buf.w_WB_W[k, i] = res6[:3]
+                    buf.v_WCm_W[k, i] = res6[3:]
+                buf.potential[k], buf.kinetic[k] = d.energy[0], d.energy[1]
+                if jointed:
+                    mujoco.mj_rnePostConstraint(m, d)
+                    for name, bid in jointed:
+                        react[name][0][k], react[name][1][k] = joint_reaction(m, d, bid, force_sites)
+                if rolling is not None:
+                    rolling.read(m, d, k)
+                saved = k + 1
+        finally:
+            mujoco.set_mjcb_control(None)
+        stats = {"steps": settings.n_saves * settings.steps_per_save, "wall_s": time.perf_counter() - t0,
+                 "settings": _describe(m)}
+        traj = buf.trajectory(self.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
+                              saved, stats, status, message)
+        if rolling is not None:
+            react.update(rolling.series(saved))
+            stats["settings"] += ", " + describe_contact(m)
+        if react:
+            traj = replace(traj, reactions={name: (f[:saved], mo[:saved]) for name, (f, mo) in react.items()})
+        return traj
+
+
+def joint_reaction(m: mujoco.MjModel, d: mujoco.MjData, bid: int, force_sites=()) -> tuple[np.ndarray, np.ndarray]:
+    """Constraint reaction that the parent exerts on body ``bid`` through its single joint:
+    force (N) and moment about the joint point (N m), world frame, from ``cfrc_int``
+    (``mj_rnePostConstraint`` must have run on ``d``). ``force_sites``: ``(site id, body id,
+    motor ids)`` of the prescribed point forces (``_force_sites``); those acting in the body's
+    subtree are removed, as is the joint's passive force (see the module docstring)."""
+    c = d.subtree_com[m.body_rootid[bid]]
+    force = d.cfrc_int[bid][3:].copy()
+    p_joint = d.xpos[bid]
+    moment = d.cfrc_int[bid][:3] + np.cross(c - p_joint, force)
+    jid = m.body_jntadr[bid]
+    passive = d.qfrc_passive[m.jnt_dofadr[jid]]
+    if m.jnt_type[jid] == mujoco.mjtJoint.mjJNT_SLIDE:
+        force -= passive * d.xaxis[jid]
+    elif m.jnt_type[jid] == mujoco.mjtJoint.mjJNT_HINGE:
+        moment -= passive * d.xaxis[jid]
+    for site, body, ids in force_sites:
+        if _in_subtree(m, body, bid):
+            f = d.actuator_force[ids]  # gear 1 along world x, y, z (refsite at the world origin)
+            force -= f
+            moment -= np.cross(d.site_xpos[site] - p_joint, f)
+    return force, moment
+
+
+def _in_subtree(m: mujoco.MjModel, body: int, root: int) -> bool:
+    """Whether ``body`` is ``root`` or one of its descendants."""
+    while body > 0:
+        if body == root:
+            return True
+        body = m.body_parentid[body]
+    return False
+
+
+def _force_sites(m: mujoco.MjModel, model) -> list[tuple[int, int, list[int]]]:
+    """``(site id, body id, motor ids)`` of each prescribed force (motors ``<name>_fx/_fy/_fz``)."""
+    out = []
+    for force in model.forces:
+        site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, force.name)
+        ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{force.name}_f{a}") for a in "xyz"]
+        if site >= 0 and min(ids) >= 0:
+            out.append((site, int(m.site_bodyid[site]), ids))
+    return out
+
+
+def _describe(m: mujoco.MjModel) -> str:
+    """The integrator and solver options this run used, for the report's provenance."""
+    o = m.opt
+    contact = "off" if o.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT else "on"
+    return (f"mj_step {mujoco.mjtIntegrator(o.integrator).name[6:]}, timestep {o.timestep:g} s, "
+            f"solver {mujoco.mjtSolver(o.solver).name[6:]} (iterations {o.iterations}, tolerance {o.tolerance:g}), "
+            f"cone {mujoco.mjtCone(o.cone).name[7:]}, contact {contact}")
+
+
+def _force_controller(m: mujoco.MjModel, model, scene: Scene):
+    """A ``mjcb_control`` callback setting each force's three motors to ``force_W(d.time)``."""
+    if not model.forces:
+        return None
+    slots = []
+    for force in model.forces:
+        ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{force.name}_f{a}") for a in "xyz"]
+        if min(ids) < 0:
+            raise InputError(f"{scene.mjcf}: MJCF needs motors {force.name}_fx, _fy, _fz for the force at {force.name!r}")
+        slots.append((ids, force.force_W))
+
+    def control(m_, d_):
+        for ids, force_W in slots:
+            d_.ctrl[ids] = force_W(d_.time)
+
+    return control
+
+
+ENGINE = MujocoEngine()

@@ -1,0 +1,117 @@
+"""Load a scene's MJCF into MuJoCo with the scene description's parameters (via ``MjSpec``).
+
+The MJCF file is the model as a user writes it; ``load_mjcf`` rewrites, from the scene's
+``Multibody``, what parameters can change (body positions, masses, centres of mass, inertias,
+gravity, the site where a prescribed force acts, joint springs) and sets timestep and integrator.
+Joint types and axes are not rewritten: they are checked (``harness.tools.loaded_models``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from harness.model import rotations
+from harness.model.errors import InputError
+from harness.model.multibody import Multibody
+
+INTEGRATORS = {
+    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
+    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+    "RK4": mujoco.mjtIntegrator.mjINT_RK4,
+}
+
+
+def read_spec(path: Path) -> mujoco.MjSpec:
+    """Parse an MJCF file; raise InputError (one line, naming the file) if it cannot be read."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: MJCF file not found")
+    try:
+        return mujoco.MjSpec.from_file(str(path))
+    except Exception as err:  # MuJoCo raises ValueError with a multi-line message
+        raise InputError(f"{path}: cannot load MJCF: {_one_line(err)}") from None
+
+
+def principal_axes(I: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Principal moments (ascending) and the quaternion ``wxyz`` of the principal frame."""
+    moments, axes = np.linalg.eigh(I)
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] *= -1.0
+    return moments, rotations.from_matrix(axes)
+
+
+def apply_multibody(spec: mujoco.MjSpec, model: Multibody, source: Path) -> None:
+    """Write the scene's mass properties, body positions, gravity, force sites and joint springs
+    (``stiffness`` and ``springref`` of the spring's joint) into ``spec``."""
+    for body in model.bodies:
+        sb = spec.body(body.name)
+        if sb is None:
+            raise InputError(f"{source}: MJCF has no body named {body.name!r}")
+        sb.pos = body.p_PB_P
+        sb.quat = [1.0, 0.0, 0.0, 0.0]
+        moments, iquat = principal_axes(body.I_Cm_B)
+        sb.mass = body.mass
+        sb.ipos = body.p_BCm_B
+        sb.iquat = iquat
+        sb.fullinertia = [np.nan] * 6
+        sb.inertia = moments
+        sb.explicitinertial = True
+    for spring in model.springs:
+        joints = spec.body(spring.body).joints
+        if len(joints) != 1:
+            raise InputError(f"{source}: body {spring.body!r} needs exactly one joint for its spring")
+        stiffness = np.zeros(len(np.atleast_1d(joints[0].stiffness)))
+        stiffness[0] = spring.stiffness  # linear spring; MuJoCo's higher-order coefficients zero
+        joints[0].stiffness = stiffness if stiffness.size > 1 else float(stiffness[0])
+        joints[0].springref = spring.q_ref
+    for force in model.forces:
+        site = spec.site(force.name)
+        if site is None:
+            raise InputError(f"{source}: MJCF has no site named {force.name!r} for the force at {force.body!r}")
+        site.pos = force.p_BQ_B
+    spec.option.gravity = model.gravity_W
+    if getattr(model, "contacts", ()):  # rolling rims: cylinder size from the scene (mujoco_rolling)
+        from harness.engines.mujoco.rolling import apply_contacts
+
+        apply_contacts(spec, model, source)
+
+
+def load_mjcf(path: Path, model: Multibody, *, dt: float | None = None, integrator: str | None = None) -> mujoco.MjModel:
+    """Compile the MJCF at ``path`` with the scene's physics applied (and dt/integrator if given)."""
+    spec = read_spec(path)
+    apply_multibody(spec, model, path)
+    if dt is not None:
+        spec.option.timestep = dt
+    if integrator is not None:
+        spec.option.integrator = INTEGRATORS[integrator]
+    try:
+        return spec.compile()
+    except Exception as err:
+        raise InputError(f"{path}: MJCF does not compile: {_one_line(err)}") from None
+
+
+def set_initial_state(m: mujoco.MjModel, d: mujoco.MjData, model: Multibody, source: Path) -> None:
+    """Write the scene's joint-coordinate initial state into ``d.qpos``/``d.qvel``.
+
+    MuJoCo's conventions coincide with ``harness.model.multibody``'s: quaternions ``wxyz``, free-joint
+    linear velocity in world, angular velocities in the body frame.
+    """
+    for body in model.bodies:
+        bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body.name)
+        if bid < 0:
+            raise InputError(f"{source}: MJCF has no body named {body.name!r}")
+        if m.body_jntnum[bid] != 1:
+            raise InputError(f"{source}: body {body.name!r} must have exactly one joint, has {m.body_jntnum[bid]}")
+        jid = m.body_jntadr[bid]
+        qadr, vadr = m.jnt_qposadr[jid], m.jnt_dofadr[jid]
+        q, v = np.asarray(model.q0[body.name]), np.asarray(model.v0[body.name])
+        d.qpos[qadr : qadr + len(q)] = q
+        d.qvel[vadr : vadr + len(v)] = v
+
+
+def _one_line(err: Exception) -> str:
+    return " ".join(str(err).split())

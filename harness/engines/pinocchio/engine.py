@@ -1,0 +1,203 @@
+"""Pinocchio engine: the scene's URDF, forward dynamics by ``aba``, our Lie-group integrators.
+
+Maximal coordinates are read from Pinocchio's own kinematics (``forwardKinematics``, joint
+placements ``oMi`` and ``getVelocity`` in the LOCAL_WORLD_ALIGNED frame); energies from
+``computeKineticEnergy``/``computePotentialEnergy`` (plus the joint springs' energy, which
+Pinocchio does not model). Prescribed point forces enter ``aba`` as external forces ``fext``
+expressed in the local frame of the joint that moves the body; joint springs enter as their
+generalised force in ``tau`` (``aba`` has no springs).
+
+Joint reactions (when the scene asks, ``[checks.reaction]``): at each saved sample, ``rnea`` at
+(q, v, a) with a from ``aba`` (and the same ``fext``) leaves in ``data.f[j]`` the spatial force
+that the parent exerts on the subtree of joint j, about the joint origin (the body-frame origin
+of the URDF link), in the joint's local frame; it is rotated to world. The joint's own applied
+generalised force (the ``tau`` entry of a joint spring) acts along the motion subspace and is
+removed, so the reaction is the constraint force alone.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+import pinocchio as pin
+
+from harness.model import rotations
+from harness.engines.base import RunSettings, check_settings
+from harness.engines.pinocchio.lie_group_integrators import STEPPERS
+from harness.engines.pinocchio.model import initial_configuration, load_urdf
+from harness.model.scene import Scene
+from harness.measure.trajectory import SampleBuffer, Trajectory
+
+BLOWUP_SPEED = 1e8
+
+
+class PinocchioEngine:
+    """Runs a scene in Pinocchio from its URDF file."""
+
+    name = "pinocchio"
+    integrators = tuple(STEPPERS)
+
+    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
+        check_settings(settings, self.integrators, self.name)
+        model = scene.multibody()
+        if getattr(model, "contacts", ()):  # rolling contacts: constrained forward dynamics (pinocchio_rolling)
+            from harness.engines.pinocchio.rolling import simulate_rolling
+
+            return simulate_rolling(self, scene, settings, model)
+        pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
+        data = pmodel.createData()
+        q, v = initial_configuration(pmodel, ids, model)
+        applied = _applied_function(pmodel, data, ids, model)
+        springs = _spring_slots(pmodel, ids, model)
+        accel = _accel_function(pmodel, data, ids, model, applied)
+        step = STEPPERS[settings.integrator]
+        jointed = [(b.name, jid) for b, jid in zip(model.bodies, ids) if b.joint != "free"] if "reaction" in scene.checks else []
+        react = {name: (np.full((settings.n_saves + 1, 3), np.nan), np.full((settings.n_saves + 1, 3), np.nan))
+                 for name, _ in jointed}
+        h = settings.dt
+
+        n = settings.n_saves + 1
+        buf = SampleBuffer(n, len(ids))
+        status, message, saved, steps = "ok", "", 0, 0
+        t0 = time.perf_counter()
+        try:
+            for k in range(n):
+                if k > 0:
+                    for _ in range(settings.steps_per_save):
+                        q, v = step(pmodel, accel, steps * h, q, v, h)
+                        steps += 1
+                reason = blowup_reason(q, v, steps * h)
+                if reason:
+                    status, message = "blowup", reason
+                    break
+                _read_maximal(pmodel, data, ids, model, q, v, k, buf)
+                buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
+                buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q) + spring_energy(springs, q)
+                if jointed:
+                    t_k = steps * h
+                    for name, (force, moment) in joint_reactions(pmodel, data, jointed, applied, accel, t_k, q, v).items():
+                        react[name][0][k], react[name][1][k] = force, moment
+                saved = k + 1
+        except (RuntimeError, ValueError, np.linalg.LinAlgError) as err:
+            status, message = "failed", f"{type(err).__name__} at t = {steps * h:.6g} s: {err}"
+        stats = {"steps": steps, "wall_s": time.perf_counter() - t0,
+                 "settings": f"aba, {settings.integrator} on the configuration Lie group (integrate/dIntegrate), "
+                             f"step {h:g} s, root joint {scene.urdf_root_joint}"}
+        traj = buf.trajectory(self.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
+                              saved, stats, status, message)
+        if react:
+            traj = replace(traj, reactions={name: (f[:saved], mo[:saved]) for name, (f, mo) in react.items()})
+        return traj
+
+
+def _spring_slots(pmodel, ids, model) -> list[tuple[int, int, float, float]]:
+    """``(idx_q, idx_v, stiffness, q_ref)`` of each joint spring (1-dof joints)."""
+    body_index = {b.name: i for i, b in enumerate(model.bodies)}
+    slots = []
+    for sp in model.springs:
+        jm = pmodel.joints[ids[body_index[sp.body]]]
+        slots.append((jm.idx_q, jm.idx_v, float(sp.stiffness), float(sp.q_ref)))
+    return slots
+
+
+def spring_energy(slots, q) -> float:
+    """Potential energy (J) of the joint springs at configuration q."""
+    return float(sum(0.5 * k * (q[iq] - q_ref) ** 2 for iq, _, k, q_ref in slots))
+
+
+def _applied_function(pmodel, data, ids, model):
+    """``applied(t, q, v) -> (tau, fext)``: the joint-space forces and the scene's prescribed
+    point forces as ``fext`` in the local frame of each body's joint (None without forces).
+
+    ``aba`` knows no springs: a joint spring enters ``tau`` as its generalised force
+    ``-k (q - q_ref)`` on the joint's dof (zero without springs: no joint is actuated)."""
+    springs = _spring_slots(pmodel, ids, model)
+    tau0 = np.zeros(pmodel.nv)
+
+    def joint_forces(q):
+        if not springs:
+            return tau0
+        tau = np.zeros(pmodel.nv)
+        for iq, iv, k, q_ref in springs:
+            tau[iv] = -k * (q[iq] - q_ref)
+        return tau
+
+    if not model.forces:
+        return lambda t, q, v: (joint_forces(q), None)
+    body_index = {b.name: i for i, b in enumerate(model.bodies)}
+
+    def applied(t, q, v):
+        tau = joint_forces(q)
+        pin.forwardKinematics(pmodel, data, q)
+        fext = [pin.Force.Zero() for _ in range(pmodel.njoints)]
+        for force in model.forces:
+            jid = ids[body_index[force.body]]
+            f_L = data.oMi[jid].rotation.T @ force.force_W(t)
+            fext[jid] += pin.Force(f_L, np.cross(force.p_BQ_B, f_L))
+        return tau, fext
+
+    return applied
+
+
+def blowup_reason(q: np.ndarray, v: np.ndarray, t: float) -> str | None:
+    """Why the state ``(q, v)`` at time ``t`` (s) counts as a blow-up, or None if it does not."""
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+        return f"non-finite state at t = {t:.6g} s"
+    if np.max(np.abs(v), initial=0.0) > BLOWUP_SPEED:
+        return f"velocity beyond {BLOWUP_SPEED:g} at t = {t:.6g} s"
+    return None
+
+
+def _accel_function(pmodel, data, ids, model, applied=None):
+    """``a(t, q, v)`` by ``aba`` with the forces of ``applied`` (default: the scene's)."""
+    applied = applied or _applied_function(pmodel, data, ids, model)
+
+    def accel(t, q, v):
+        tau, fext = applied(t, q, v)
+        if fext is None:
+            return pin.aba(pmodel, data, q, v, tau).copy()
+        return pin.aba(pmodel, data, q, v, tau, fext).copy()
+
+    return accel
+
+
+def joint_reactions(pmodel, data, jointed, applied, accel, t, q, v) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Constraint reaction of each ``(name, joint id)`` in ``jointed`` at time ``t`` (s) and state
+    (q, v): force (N) and moment about the joint origin (N m), world frame, that the parent
+    exerts on the joint's child (``rnea`` at the ``aba`` acceleration; see module docstring)."""
+    a = accel(t, q, v)
+    tau, fext = applied(t, q, v)
+    if fext is None:
+        pin.rnea(pmodel, data, q, v, a)
+    else:
+        pin.rnea(pmodel, data, q, v, a, fext)
+    out = {}
+    for name, jid in jointed:
+        f = data.f[jid]
+        lin, ang = np.array(f.linear), np.array(f.angular)
+        jm = pmodel.joints[jid]
+        if jm.nv == 1 and tau[jm.idx_v] != 0.0:  # the joint's own applied force along S
+            S = np.array(data.joints[jid].S).reshape(6, -1)[:, 0]
+            lin -= tau[jm.idx_v] * S[:3]
+            ang -= tau[jm.idx_v] * S[3:]
+        R = data.oMi[jid].rotation
+        out[name] = (R @ lin, R @ ang)
+    return out
+
+
+def _read_maximal(pmodel, data, ids, model, q, v, k, buf: SampleBuffer) -> None:
+    """Fill sample ``k`` of ``buf`` with each body's world pose and twist (centre of mass)."""
+    pin.forwardKinematics(pmodel, data, q, v)
+    for i, (body, jid) in enumerate(zip(model.bodies, ids)):
+        oMi = data.oMi[jid]
+        r_W = oMi.rotation @ pmodel.inertias[jid].lever
+        vel = pin.getVelocity(pmodel, data, jid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        buf.p_WCm_W[k, i] = oMi.translation + r_W
+        buf.quat_WB[k, i] = rotations.from_matrix(oMi.rotation)
+        buf.w_WB_W[k, i] = vel.angular
+        buf.v_WCm_W[k, i] = vel.linear + np.cross(vel.angular, r_W)
+
+
+ENGINE = PinocchioEngine()

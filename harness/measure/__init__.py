@@ -1,0 +1,1 @@
+"""What is measured on a run: the common trajectory, invariants, comparisons, contact metrics."""

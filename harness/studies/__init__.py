@@ -1,0 +1,1 @@
+"""Benchmarks and studies, each with its run and its report apart."""

@@ -1,0 +1,1 @@
+"""The rolling-disk study (``harness rolling-study``)."""

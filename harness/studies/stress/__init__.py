@@ -1,0 +1,1 @@
+"""Stress catalogue and stability map (``harness stress``)."""

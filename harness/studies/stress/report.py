@@ -1,0 +1,523 @@
+"""Reports of ``harness stress``: ``stress.md`` (the stability map), ``stress.csv`` (every run),
+``stress_map.csv`` (one row per variant x engine/integrator) and plots under ``stress/``.
+
+Every file is written atomically (``harness.io.atomic``). Plots use matplotlib's Agg canvas.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from harness.io import atomic
+from harness.io.figures import new_figure, png_bytes
+from harness.studies.stress.run import FAILURE_MODES, QUANTITIES, MapRow, StressRun, TrialResult, Variant
+
+PLOT_DIR = "stress"
+DIVERGENCE_COLUMNS = ("exact", "position", "orientation", "velocity", "energy")
+
+
+# ------------------------------------------------------------------------------------ tables
+def _fmt(x, digits: int = 2) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "—"
+    return f"{x:.{digits}e}" if (abs(x) < 1e-2 or abs(x) >= 1e4) and x != 0 else f"{x:.{digits + 1}g}"
+
+
+def _time(x) -> str:
+    return "—" if x is None else f"{x:.4g}"
+
+
+def trials_frame(run: StressRun) -> pd.DataFrame:
+    """Every run (references included) as one row; skipped variants as rows with status
+    ``skipped``. Times in s; errors dimensionless (see ``harness.studies.stress.run``)."""
+    rows = []
+    by_name = {v.name: v for v in run.variants}
+    for r in run.trials:
+        v = by_name[r.spec.variant]
+        row = {
+            "variant": v.name, "scene": v.scene, "group": v.group, "engine": r.spec.engine,
+            "integrator": r.spec.integrator, "role": r.spec.role, "dt": r.spec.dt, "t_end": r.spec.t_end,
+            "save_every": r.spec.save_every, "rtol": r.spec.rtol if r.spec.role in ("adaptive", "reference") else np.nan,
+            "status": r.status, "stable": r.stable, "mode": r.mode, "accurate": r.accurate, "error": r.error,
+            "error_kind": r.error_kind, "energy_error": r.energy_error, "constraint": r.constraint,
+            "t_reached": r.t_reached, "t_fail": r.t_fail, "drift_class": r.drift_class, "drift_p": r.drift_p,
+        }
+        for q in QUANTITIES:
+            row[f"max_{q}"] = r.max_errors.get(q, np.nan)
+        for q in QUANTITIES:
+            row[f"diverge_{q}"] = r.divergence.get(q, np.nan) if q in r.divergence else np.nan
+        row.update({"steps": r.steps, "rhs_evals": r.rhs_evals, "wall_s": r.wall_s, "message": r.message})
+        rows.append(row)
+    for name, reason in run.skipped.items():
+        v = by_name[name]
+        rows.append({"variant": name, "scene": v.scene, "group": v.group, "status": "skipped", "message": reason})
+    return pd.DataFrame(rows)
+
+
+def map_frame(run: StressRun) -> pd.DataFrame:
+    """One row per variant x engine/integrator: the stability map in numbers."""
+    rows = []
+    for m in run.rows:
+        n = m.nominal
+        row = {
+            "variant": m.variant, "engine": m.engine, "integrator": m.integrator, "t_end": m.t_end, "kind": m.kind,
+            "stable_dt": m.stable_dt, "censored": m.censored, "h_rate": _h_rate(run, m),
+            "unstable_dt": m.unstable_dt, "mode": m.mode, "error_at_stable": m.error, "error_kind": m.error_kind,
+            "accurate_at_stable": m.accurate, "mean_step": m.step if m.kind == "adaptive" else np.nan,
+            "nominal_dt": n.spec.dt if n else np.nan, "nominal_mode": n.mode if n else "",
+            "nominal_error": n.error if n else np.nan, "nominal_drift": n.drift_class if n else "",
+            "nominal_drift_p": n.drift_p if n else np.nan,
+        }
+        for q in QUANTITIES:
+            row[f"nominal_diverge_{q}"] = (n.divergence.get(q) if n and q in n.divergence else np.nan)
+        row["trials"] = len(m.trials)
+        row["notes"] = "; ".join(m.notes)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _h_rate(run: StressRun, m: MapRow) -> float:
+    rate = run.rates.get(m.variant, float("nan"))
+    step = m.stable_dt if m.kind == "fixed" else m.step
+    return float(step * rate) if step is not None and math.isfinite(step) else float("nan")
+
+
+def map_cell(m: MapRow) -> str:
+    """Compact cell of the map: largest stable step and the failure mode just above it."""
+    code = FAILURE_MODES.get(m.mode, "")
+    if m.kind == "adaptive":
+        n = m.nominal
+        if n is None or not n.stable:
+            return f"fails {code}".strip()
+        return f"~{_fmt(m.step)} ✓" if n.accurate else f"~{_fmt(m.step)} ✗acc"
+    if m.stable_dt is None:
+        return f"<{_fmt(m.unstable_dt)} {code}".strip() if m.unstable_dt else f"— {code}".strip()
+    if m.censored:
+        return f"≥{_fmt(m.stable_dt)}"
+    return f"{_fmt(m.stable_dt)} {code}".strip()
+
+
+def _labels(run: StressRun) -> list[str]:
+    """Engine/integrator labels in registry order (engines, then each engine's integrators)."""
+    from harness.engines import ENGINE_NAMES, get_engine
+
+    def key(m: MapRow):
+        known = get_engine(m.engine).integrators
+        return (ENGINE_NAMES.index(m.engine), known.index(m.integrator) if m.integrator in known else len(known))
+
+    out: list[str] = []
+    for m in sorted(run.rows, key=key):
+        if m.label not in out:
+            out.append(m.label)
+    return out
+
+
+def _row_of(run: StressRun, variant: str, label: str) -> MapRow | None:
+    for m in run.rows:
+        if m.variant == variant and m.label == label:
+            return m
+    return None
+
+
+def _rows_of(run: StressRun, variant: str) -> list[MapRow]:
+    return [m for m in run.rows if m.variant == variant]
+
+
+def markdown(run: StressRun, prov: dict, plots: dict[str, str]) -> str:
+    """The report: how to read it, the map, the closing note, one section per variant."""
+    lines = ["# Stress: a stability map of every engine", ""]
+    cat = run.catalogue
+    n_runs = len(run.trials)
+    lines += [
+        f"Made by `harness stress{' --quick' if run.quick else ''}` from `{_rel(cat.path)}`: "
+        f"{len(run.variants)} variants ({len(run.skipped)} skipped), {n_runs} runs in isolated worker processes "
+        f"({run.jobs} at a time, {run.timeout:g} s timeout each), {run.wall_s:.0f} s wall.",
+        "",
+        "| " + " | ".join(prov) + " |",
+        "|" + "---|" * len(prov),
+        "| " + " | ".join(str(v) for v in prov.values()) + " |",
+        "",
+        "## How to read it",
+        "",
+        "Definitions are in the docstring of `harness/stress.py`; in short:",
+        "",
+        "* **Stable**: the run reaches its horizon with a finite state, no MuJoCo bad-acceleration/state warning, "
+        f"|E(t) - E(0)| <= {cat.bounds.energy_bound:g} x E_scale (E_scale = T(0) + M |g| l), speeds within "
+        f"{cat.bounds.magnitude_bound:g} x the energy-scale speeds, and joint violation within "
+        f"{cat.bounds.constraint_bound:g} x l (l: length scale). Stable does not mean accurate: a dissipative "
+        "method can be stable and wrong.",
+        "* **Failure modes** (code in the map; the one that shows first in time): "
+        + ", ".join(f"`{c}` {m}" for m, c in FAILURE_MODES.items()) + ".",
+        "* **Largest stable step**: bisection on log(dt) below the variant's `dt_max` "
+        f"(at most {cat.bounds.search_steps} divisions by {cat.bounds.search_factor:g}, then "
+        f"{cat.bounds.quick_bisect_iters if run.quick else cat.bounds.bisect_iters} bisections, stop at a ratio "
+        f"<= {1 + cat.bounds.precision:g}); each trial in its own worker. `≥x`: stable at the largest step tried; "
+        "`<x`: no stable step found down to x (step budget or search limit); `x E`: stable at x, failure mode E "
+        "at the next larger step tried. Adaptive SciPy methods run once (rtol in the catalogue): `~h` is their "
+        "mean step, `✓` accurate, `✗acc` stable but outside the band.",
+        "* **Error**: `exact` (torque_free: |w_B - w_exact| / |w0|; heavy_top: |cos theta - u_exact|), else the "
+        "largest relative trajectory error against the in-house DOP853 reference (rtol 1e-12), else the energy "
+        "error. **First divergence**: the first saved time a quantity leaves its band, at the nominal step.",
+        "* **Energy drift** at the nominal step: slope p of log max_{s<=t}|E(s) - E(0)| against log t over the "
+        "last two decades: `bounded` p < 0.3, `linear` 0.3 <= p <= 1.5 (p ~ 0.5 is a round-off random walk), "
+        "`faster` p > 1.5 (`exponential` when log E-error is straighter in t than in log t).",
+        "",
+    ]
+    lines += ["## Stability map", ""]
+    if "map" in plots:
+        lines += [f"![stability map]({plots['map']})", ""]
+    labels = _labels(run)
+    if labels:
+        lines += ["Largest stable step (s) and the failure mode above it, per engine/integrator:", ""]
+        lines += ["| variant | " + " | ".join(labels) + " |", "|---|" + "---|" * len(labels)]
+        for v in run.variants:
+            if v.name in run.skipped:
+                continue
+            cells = []
+            for label in labels:
+                m = _row_of(run, v.name, label)
+                cells.append(map_cell(m) if m else "")
+            lines.append(f"| {v.name} | " + " | ".join(cells) + " |")
+        lines.append("")
+    if run.skipped:
+        lines += ["Skipped (listed in the catalogue, cannot run with the scenes at hand):", ""]
+        lines += [f"* `{name}`: {reason}" for name, reason in run.skipped.items()]
+        lines.append("")
+    sweeps = [k for k in plots if k.startswith("sweep:")]
+    if sweeps:
+        lines += ["Largest stable step across each swept group:", ""]
+        lines += [f"![{k[6:]}]({plots[k]})" for k in sweeps]
+        lines.append("")
+    lines += closing_note(run)
+    lines += ["## Variants", ""]
+    for v in run.variants:
+        lines += _variant_section(run, v, plots)
+    return "\n".join(lines) + "\n"
+
+
+def _rel(path: Path) -> str:
+    try:
+        return str(Path(path).resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
+def _tagged(run: StressRun, tag: str) -> list[Variant]:
+    return [v for v in run.variants if tag in v.tags]
+
+
+def _extreme(run: StressRun, tag: str) -> list[Variant]:
+    """The variants of ``tag`` with the largest sweep value in each group (all if no sweep)."""
+    groups: dict[str, list[Variant]] = {}
+    for v in _tagged(run, tag):
+        groups.setdefault(v.group, []).append(v)
+    out = []
+    for vs in groups.values():
+        swept = [v for v in vs if v.sweep is not None]
+        out += [max(swept, key=lambda v: v.sweep)] if swept else vs
+    return out
+
+
+def _step_phrase(run: StressRun, m: MapRow) -> str:
+    if m.kind == "adaptive":
+        n = m.nominal
+        if n is None or not n.stable:
+            return f"fails ({n.mode if n else 'no run'})"
+        return f"adaptive, mean step {_fmt(m.step)} s, error {_fmt(n.error)}"
+    rate = run.rates.get(m.variant, float("nan"))
+    if m.stable_dt is None:
+        return f"no stable step down to {_fmt(m.unstable_dt)} s ({m.mode})"
+    s = f"{'≥ ' if m.censored else ''}{_fmt(m.stable_dt)} s (h·rate {_fmt(m.stable_dt * rate)})"
+    s += f", error there {_fmt(m.error)}"
+    s += ", stable at the largest step tried" if m.censored else f"; above it: {m.mode} at {_fmt(m.unstable_dt)} s"
+    return s
+
+
+def closing_note(run: StressRun) -> list[str]:
+    """The closing note of the issue, as measured: fastest spin, stiffest spring, long horizons,
+    Dzhanibekov divergence times."""
+    out = ["## Closing note (as measured in this run)", ""]
+
+    def block(title: str, variants: list[Variant], extra=None) -> None:
+        if not variants:
+            out.extend([f"**{title}**: no such variant in this run.", ""])
+            return
+        for v in variants:
+            out.append(f"**{title}: `{v.name}`** — {v.doc}")
+            out.append("")
+            if v.name in run.skipped:
+                out.extend([f"* not run: {run.skipped[v.name]}", ""])
+                continue
+            for m in _rows_of(run, v.name):
+                line = f"* {m.label} (horizon {m.t_end:g} s): {_step_phrase(run, m)}"
+                if extra:
+                    line += extra(m)
+                out.append(line)
+            out.append("")
+
+    def drift(m: MapRow) -> str:
+        n = m.nominal
+        if n is None:
+            return ""
+        if not n.stable:
+            return f"; at the nominal step {_fmt(n.spec.dt)} s: {n.mode}"
+        return f"; energy drift at the nominal step {_fmt(n.spec.dt)} s: **{n.drift_class}** (p = {n.drift_p:.2f}, max {_fmt(n.energy_error)})"
+
+    block("Fastest spin", _extreme(run, "fast_spin"))
+    block("Stiffest spring", _extreme(run, "stiff"))
+    block("Long horizon", _tagged(run, "long"), drift)
+    for v in _tagged(run, "flip"):
+        out.append(f"**Dzhanibekov flip: `{v.name}`** — {v.doc} Time (s) at which each run, at its nominal step, "
+                   f"first leaves the band (exact: {v.band['exact']:g} of |w0|; orientation: {v.band['orientation']:g} rad "
+                   "from the DOP853 reference):")
+        out.append("")
+        if v.name in run.skipped:
+            out.extend([f"* not run: {run.skipped[v.name]}", ""])
+            continue
+        ref = run.references.get(v.name)
+        if ref is not None:
+            out.append(f"* reference (in-house DOP853, rtol 1e-12) vs exact: {_time(ref.divergence.get('exact'))} "
+                       f"(max error {_fmt(ref.max_errors.get('exact'))})")
+        for m in _rows_of(run, v.name):
+            n = m.nominal
+            if n is None:
+                continue
+            d = n.divergence
+            step = f"adaptive, rtol {n.spec.rtol:g}" if n.spec.role == "adaptive" else f"{_fmt(n.spec.dt)} s"
+            out.append(f"* {m.label} ({step}): exact {_time(d.get('exact'))}, orientation "
+                       f"{_time(d.get('orientation'))}, energy {_time(d.get('energy'))}"
+                       + (f" ({n.mode})" if n.mode else ""))
+        out.append("")
+        out.append("(— : stays within the band over the whole horizon.)")
+        out.append("")
+    return out
+
+
+def _variant_section(run: StressRun, v: Variant, plots: dict[str, str]) -> list[str]:
+    out = [f"### {v.name}", "", v.doc, ""]
+    sets = ", ".join(f"{k} = {val}" for k, val in v.params.items()) or "none"
+    scale = ", ".join(f"{b} x {f:g}" for b, f in v.scale.items())
+    horizon = f"{v.t_end:g} s" + "".join(f", {e} {t:g} s" for e, t in v.t_end_by_engine.items())
+    out.append(f"Scene `{v.scene}`; overrides: {sets}" + (f"; mass/inertia scaled: {scale}" if scale else "")
+               + f"; horizon {horizon}; saved every {v.save_every:g} s; nominal step {v.dt:g} s; largest step tried "
+               f"{v.dt_max:g} s; references: {', '.join(v.references) or 'energy only'}; "
+               f"rate for h·rate: {_fmt(run.rates.get(v.name))} rad/s.")
+    out.append("")
+    if v.name in run.skipped:
+        out += [f"**Skipped**: {run.skipped[v.name]}", ""]
+        return out
+    band = ", ".join(f"{q} {v.band[q]:g}" for q in QUANTITIES)
+    out += [f"Bands: {band}.", ""]
+    cols = [q for q in DIVERGENCE_COLUMNS if _has(run, v, q)]
+    drift = "long" in v.tags  # the drift class needs many periods: shown for the long horizons only
+    out.append("| engine/integrator | largest stable step (s) | h·rate | above it | error there | nominal step (s) | "
+               "error at nominal | first divergence at nominal (s): " + ", ".join(cols)
+               + (" | energy drift at nominal" if drift else "") + " | notes |")
+    out.append("|---" * (10 if drift else 9) + "|")
+    ref = run.references.get(v.name)
+    if ref is not None:
+        out.append(_section_row("reference DOP853 1e-12", "—", "—", "—", "—", ref, cols, "", drift))
+    for m in _rows_of(run, v.name):
+        if m.kind == "adaptive":
+            step = f"adaptive, mean {_fmt(m.step)}"
+            hr, above, err = _fmt(_h_rate(run, m)), "—", "—"
+        else:
+            step = ("≥ " if m.censored else "") + _fmt(m.stable_dt) if m.stable_dt is not None else f"< {_fmt(m.unstable_dt)}"
+            hr = _fmt(_h_rate(run, m))
+            above = f"{m.mode} at {_fmt(m.unstable_dt)}" if m.unstable_dt is not None else "—"
+            err = f"{_fmt(m.error)} ({m.error_kind})" if m.stable_dt is not None else "—"
+        out.append(_section_row(m.label, step, hr, above, err, m.nominal, cols, "; ".join(m.notes), drift))
+    out.append("")
+    if v.name in plots:
+        out += [f"![{v.name}]({plots[v.name]})", ""]
+    return out
+
+
+def _has(run: StressRun, v: Variant, q: str) -> bool:
+    if q == "energy":
+        return True
+    if q == "exact":
+        return "exact" in v.references
+    return "dop853" in v.references
+
+
+def _section_row(label: str, step: str, hr: str, above: str, err: str, n: TrialResult | None, cols, notes: str,
+                 with_drift: bool) -> str:
+    if n is None:
+        nominal = ["—", "—", "—", "—"]
+    else:
+        dt = "adaptive" if n.spec.role in ("adaptive", "reference") else _fmt(n.spec.dt)
+        e = f"{_fmt(n.error)}" + (f" ({n.mode})" if n.mode else "")
+        div = ", ".join(_time(n.divergence.get(q)) for q in cols)
+        drift = f"{n.drift_class} (p {n.drift_p:.2f})" if n.drift_class else "—"
+        nominal = [dt, e, div, drift]
+    if not with_drift:
+        nominal = nominal[:3]
+    return "| " + " | ".join([label, step, hr, above, err] + nominal + [notes or ""]) + " |"
+
+
+# ------------------------------------------------------------------------------------ plots
+def _figure(w: float, h: float):
+    return new_figure(w, h, tight_layout=True)
+
+
+def _png(fig) -> bytes:
+    return png_bytes(fig, dpi=90)
+
+
+def map_png(run: StressRun) -> bytes | None:
+    """Heat map: variant x engine/integrator, colour log10(h·rate) of the largest stable step
+    (adaptive: of the mean step), text: the map cell."""
+    variants = [v.name for v in run.variants if v.name not in run.skipped]
+    labels = _labels(run)
+    if not variants or not labels:
+        return None
+    z = np.full((len(variants), len(labels)), np.nan)
+    text = [["" for _ in labels] for _ in variants]
+    for i, name in enumerate(variants):
+        for j, label in enumerate(labels):
+            m = _row_of(run, name, label)
+            if m is None:
+                continue
+            hr = _h_rate(run, m)
+            z[i, j] = math.log10(hr) if math.isfinite(hr) and hr > 0 else np.nan
+            text[i][j] = map_cell(m).replace("✓", "ok").replace("✗acc", "inacc").replace("≥", ">=")
+    fig = _figure(1.25 * len(labels) + 3.5, 0.42 * len(variants) + 1.8)
+    ax = fig.subplots()
+    import matplotlib
+
+    cmap = matplotlib.colormaps["viridis"].with_extremes(bad="0.85")
+    im = ax.imshow(np.ma.masked_invalid(z), cmap=cmap, aspect="auto")
+    for i in range(len(variants)):
+        for j in range(len(labels)):
+            ax.text(j, i, text[i][j], ha="center", va="center", fontsize=6.5,
+                    color="white" if np.isfinite(z[i, j]) and z[i, j] < np.nanmean(z) else "black")
+    ax.set_xticks(range(len(labels)), labels, rotation=40, ha="right", fontsize=7)
+    ax.set_yticks(range(len(variants)), variants, fontsize=7)
+    fig.colorbar(im, ax=ax, label="log10(stable step x rate)")
+    ax.set_title("Largest stable step (s) and failure mode above it (grey: none stable)", fontsize=9)
+    return _png(fig)
+
+
+def variant_png(run: StressRun, v: Variant) -> bytes | None:
+    """Error and energy error against time at the nominal step, one line per engine/integrator."""
+    rows = [m for m in _rows_of(run, v.name) if m.nominal is not None and len(m.nominal.series_t)]
+    ref = run.references.get(v.name)
+    if not rows:
+        return None
+    long = "long" in v.tags
+    energy_only = not v.references  # the error is the energy error: one panel
+    if energy_only:
+        fig = _figure(9, 3.8)
+        ax2 = fig.subplots()
+        ax1 = ax2
+    else:
+        fig = _figure(9, 6.5)
+        ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    entries = ([("reference DOP853", ref)] if ref is not None and len(ref.series_t) else []) + [(m.label, m.nominal) for m in rows]
+    import matplotlib
+
+    colors = matplotlib.colormaps["tab20"]
+    for k, (label, n) in enumerate(entries):
+        style = {"color": colors(k % 20), "lw": 1.0, "ls": "-" if "mujoco" not in label else "--"}
+        if label.startswith("reference"):
+            style.update(color="k", lw=1.4, ls=":")
+        t = n.series_t
+        err = np.where(n.series_error > 0, n.series_error, np.nan)
+        en = np.where(n.series_energy > 0, n.series_energy, np.nan)
+        tag = f"{label} ({'adaptive' if n.spec.role in ('adaptive', 'reference') else _fmt(n.spec.dt)})" + (f" {n.mode}" if n.mode else "")
+        if np.any(np.isfinite(err)) and not energy_only:
+            ax1.plot(t, err, label=tag, **style)
+        if np.any(np.isfinite(en)):
+            name = tag if energy_only else label
+            ax2.plot(t, en, label=(f"{name}: {n.drift_class}" if n.drift_class and long else name), **style)
+    kind = entries[-1][1].error_kind or "error"
+    band = v.band.get(kind if kind != "trajectory" else "position")
+    for ax, b in (((ax1, band),) if not energy_only else ()) + ((ax2, v.band["energy"]),):
+        ax.set_yscale("log")
+        lo, hi = ax.get_ylim()
+        if hi > 1e3:  # a blow-up leaves through the top instead of squashing the rest
+            ax.set_ylim(lo, 1e3)
+        if b:
+            ax.axhline(b, color="r", lw=0.8, ls="--")
+        if long:
+            ax.set_xscale("log")
+    if not energy_only:
+        ax1.set_ylabel({"exact": "error vs exact", "trajectory": "max rel. error vs DOP853"}.get(kind, kind))
+        ax1.legend(fontsize=6, ncol=2, loc="best")
+    ax2.set_ylabel("|E - E0| / E_scale")
+    ax2.set_xlabel("t (s)")
+    ax1.set_title(f"{v.name}: at the nominal step (red: band)", fontsize=10)
+    ax2.legend(fontsize=6, ncol=2, loc="best")
+    return _png(fig)
+
+
+def sweep_png(run: StressRun, group: str, variants: list[Variant]) -> bytes | None:
+    """Largest stable step against the group's sweep value, one line per engine/integrator
+    (open triangle: stable at the largest step tried, a lower bound)."""
+    pts: dict[str, list[tuple[float, float, bool]]] = {}
+    for v in sorted(variants, key=lambda v: v.sweep):
+        for m in _rows_of(run, v.name):
+            if m.kind == "fixed" and m.stable_dt is not None:
+                pts.setdefault(m.label, []).append((v.sweep, m.stable_dt, m.censored))
+    if not pts:
+        return None
+    fig = _figure(7, 4.5)
+    ax = fig.subplots()
+    for label, p in pts.items():
+        x, y, c = zip(*p)
+        line, = ax.plot(x, y, marker="o", lw=1.0, label=label, ls="--" if "mujoco" in label else "-")
+        cx = [a for a, cc in zip(x, c) if cc]
+        cy = [b for b, cc in zip(y, c) if cc]
+        if cx:
+            ax.plot(cx, cy, ls="none", marker="^", mfc="none", ms=10, color=line.get_color())
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(next((v.sweep_label for v in variants if v.sweep_label), group))
+    ax.set_ylabel("largest stable step (s)")
+    ax.legend(fontsize=7, ncol=2)
+    ax.set_title(f"{group} (triangle: stable at the largest step tried)", fontsize=10)
+    return _png(fig)
+
+
+def _slug(text: str) -> str:
+    return "".join(c if c.isalnum() else "_" for c in text).strip("_").lower()
+
+
+def write_plots(run: StressRun, out_dir: Path) -> dict[str, str]:
+    """Write the plots; returns name -> path relative to ``out_dir`` (for the markdown)."""
+    out: dict[str, str] = {}
+    folder = Path(out_dir) / PLOT_DIR
+
+    def put(key: str, name: str, data: bytes | None) -> None:
+        if data:
+            atomic.write_bytes(folder / name, data)
+            out[key] = f"{PLOT_DIR}/{name}"
+
+    put("map", "map.png", map_png(run))
+    groups: dict[str, list[Variant]] = {}
+    for v in run.variants:
+        if v.name not in run.skipped and v.sweep is not None:
+            groups.setdefault(v.group, []).append(v)
+    for group, vs in groups.items():
+        if len(vs) >= 2:
+            put(f"sweep:{group}", f"sweep_{_slug(group)}.png", sweep_png(run, group, vs))
+    for v in run.variants:
+        if v.name not in run.skipped:
+            put(v.name, f"{v.name}.png", variant_png(run, v))
+    return out
+
+
+def write_stress_reports(run: StressRun, prov: dict, out_dir: Path) -> list[Path]:
+    """Write ``stress.md``, ``stress.csv``, ``stress_map.csv`` and the plots into ``out_dir``."""
+    out_dir = Path(out_dir)
+    plots = write_plots(run, out_dir)
+    paths = [out_dir / "stress.md", out_dir / "stress.csv", out_dir / "stress_map.csv"]
+    atomic.write_text(paths[1], trials_frame(run).to_csv(index=False))
+    atomic.write_text(paths[2], map_frame(run).to_csv(index=False))
+    atomic.write_text(paths[0], markdown(run, prov, plots))
+    return paths + [out_dir / p for p in plots.values()]

@@ -1,0 +1,1 @@
+"""Work-precision sweeps (``harness workprecision``)."""

@@ -1,0 +1,253 @@
+"""Reports of a work-precision sweep: ``workprecision.md``, ``workprecision.csv`` and one
+log-log figure per scene, ``workprecision/<scene>.png``; all written atomically and stamped with
+the provenance of the run."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from harness.io import atomic
+from harness.studies.workprecision.run import TARGETS, SceneSweep, SweepOptions, by_curve, observed_order, points_table, time_table
+from harness.io.figures import new_figure, png_bytes
+
+ENGINE_COLORS = {"mujoco": "tab:blue", "pinocchio": "tab:green", "inhouse": "tab:red"}
+_MARKERS = "os^vDP*Xhp<>"
+
+
+def _fmt(x: float, spec: str = ".3g") -> str:
+    return "—" if x is None or not math.isfinite(x) else format(x, spec)
+
+
+def _style(label: str, index: int) -> dict:
+    engine = label.split()[0]
+    color = ENGINE_COLORS.get(engine, "black")
+    if engine == "mujoco":
+        integ = label.split()[1]
+        color = {"RK4": "tab:blue", "Euler": "tab:cyan", "implicit": "tab:purple", "implicitfast": "tab:olive"}[integ]
+    elif engine == "inhouse":
+        color = {"rk4": "salmon", "euler": "rosybrown", "RK45": "tab:pink", "DOP853": "tab:orange",
+                 "rk4_batched": "tab:red", "rkmk4": "darkred", "euler_batched": "peru", "dop853_fast": "gold",
+                 "gbs_parallel": "black", "rk4_compiled": "magenta", "dop853_compiled": "tab:brown"}[label.split()[1]]
+    elif engine == "pinocchio":
+        color = {"rkmk4": "tab:green", "euler": "yellowgreen"}[label.split()[1]]
+    dashed = "(loop)" in label or "(per-state)" in label or engine == "pinocchio"
+    return {"color": color, "linestyle": "--" if dashed else "-", "marker": _MARKERS[index % len(_MARKERS)],
+            "markersize": 4, "linewidth": 1.4}
+
+
+def plot_scene(sweep: SceneSweep, provenance: dict) -> bytes:
+    """The scene's figure as PNG bytes: state error (max over saved steps) and energy error
+    against run time, log-log, one curve per engine/integrator(/variant)."""
+    groups = by_curve(sweep.points)
+    fig = new_figure(15, 7.5)
+    axes = fig.subplots(1, 2)
+    for ax, key, title in ((axes[0], "state_max", "state error (max over saved steps)"),
+                           (axes[1], "energy_max", "energy error (max over saved steps)")):
+        for i, (label, pts) in enumerate(groups.items()):
+            good = sorted((p for p in pts if p.ok and math.isfinite(getattr(p, key)) and getattr(p, key) > 0),
+                          key=lambda p: p.param, reverse=True)
+            if not good:
+                continue
+            ax.plot([p.time_s for p in good], [max(getattr(p, key), 1e-16) for p in good], label=label,
+                    **_style(label, i))
+        for target in TARGETS:
+            ax.axhline(target, color="grey", linewidth=0.8, linestyle=":")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("run time (s, median; MuJoCo rollout: time inside rollout)")
+        ax.set_ylabel(title)
+        ax.set_ylim(1e-14, 10.0)
+        ax.grid(True, which="major", alpha=0.3)
+        ax.set_title(title)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=9, frameon=False)
+    fig.suptitle(f"{sweep.scene}: work-precision, t_end = {sweep.t_end:g} s, errors at {len(_saves(sweep))} saved "
+                 f"times — MuJoCo {provenance.get('mujoco', '?')}, Pinocchio {provenance.get('pinocchio', '?')}, "
+                 f"{provenance.get('date_utc', '')}", fontsize=11)
+    fig.tight_layout(rect=(0, 0.14, 1, 0.95))
+    return png_bytes(fig, dpi=110)
+
+
+def _saves(sweep: SceneSweep) -> range:
+    return range(int(round(sweep.t_end / sweep.save_every)) + 1)
+
+
+def _best(rows: list[dict], predicate, target: float) -> tuple[str, float]:
+    key = f"t({target:g})"
+    cands = [(r[key], r["label"]) for r in rows if predicate(r["label"]) and math.isfinite(r[key])]
+    if not cands:
+        return "—", float("nan")
+    t, label = min(cands)
+    return label, t
+
+
+def markdown(results: list[SceneSweep], provenance: dict, options: SweepOptions,
+             load: tuple[float, float] | None = None) -> str:
+    """The report (see the module docstring)."""
+    lines = ["# Work-precision: error against run time", ""]
+    lines.append("Made by `harness workprecision` — " + ", ".join(f"{k} {v}" for k, v in provenance.items()) + ".")
+    if load:
+        lines.append(f"Load average of the machine (1 min) before and after the sweep: {load[0]:.2f}, {load[1]:.2f} "
+                     "(other processes share the cores: compare times within one report only).")
+    lines += ["",
+              "Each point is one run: one warm-up (which gives the errors), then the median (and minimum) of "
+              f"up to {options.repeats} timed runs (once only when a run takes more than {options.slow_run_s:g} s). "
+              "Errors are against the reference at the saved times (`harness/workprecision.py` defines them): "
+              "state error = max over bodies and saved steps of max(|Δp|/L, geodesic angle, |Δv|/V, |Δω|/Ω); "
+              "energy and momentum errors relative to their scales. Times: MuJoCo `rollout` = time inside "
+              "`mujoco.rollout`; MuJoCo `loop` = the harness's Python stepping loop (with reading each saved "
+              "sample); Pinocchio and in-house `per-state` = the engine's loop; in-house `batched` = the "
+              "batched integrator alone; in-house `compiled` = the compiled integrator alone (compiled before "
+              "the clock starts). Raw points: `workprecision.csv`.", ""]
+    summary = ["## Summary: in-house against MuJoCo RK4 at equal state error", "",
+               "| scene | target | best in-house (time) | MuJoCo RK4 rollout | ratio | MuJoCo RK4 loop | ratio |",
+               "|---|---|---|---|---|---|---|"]
+    body: list[str] = []
+    for sweep in results:
+        rows = time_table(sweep)
+        for target in TARGETS:
+            ih_label, ih_t = _best(rows, lambda s: s.startswith("inhouse"), target)
+            _, mr_t = _best(rows, lambda s: s == "mujoco RK4 (rollout)", target)
+            _, ml_t = _best(rows, lambda s: s == "mujoco RK4 (loop)", target)
+            summary.append(f"| {sweep.scene} | {target:g} | {ih_label} ({_fmt(ih_t)} s) | {_fmt(mr_t)} s | "
+                           f"{_fmt(ih_t / mr_t if mr_t else float('nan'), '.2f')} | {_fmt(ml_t)} s | "
+                           f"{_fmt(ih_t / ml_t if ml_t else float('nan'), '.2f')} |")
+        body += [f"## {sweep.scene}", "",
+                 f"Horizon {sweep.t_end:g} s, errors at {len(_saves(sweep))} saved times (every {sweep.save_every:g} s). "
+                 f"Reference: {sweep.reference}."]
+        for what, value in sweep.reference_checks.items():
+            body.append(f"Reference against the closed form — {what}: {_fmt(value, '.2e')}.")
+        body += ["", f"![{sweep.scene}](workprecision/{sweep.scene}.png)", "",
+                 "Time to reach a state error, interpolated on each curve (ratio: to the fastest curve; "
+                 "— never reached in the sweep):", "",
+                 "| curve | " + " | ".join(f"t @ {t:g} (s) | ratio" for t in TARGETS) + " |",
+                 "|---|" + "---|---|" * len(TARGETS)]
+        for r in sorted(rows, key=lambda r: (not math.isfinite(r[f"t({TARGETS[0]:g})"]), r[f"t({TARGETS[0]:g})"])):
+            body.append(f"| {r['label']} | " + " | ".join(f"{_fmt(r[f't({t:g})'])} | {_fmt(r[f'ratio({t:g})'], '.1f')}"
+                                                        for t in TARGETS) + " |")
+        body += ["", "Observed order of convergence (fixed step: slope of log error vs log dt; adaptive: effective "
+                 "order -slope vs log accepted steps, and the slope vs log tolerance):", "",
+                 "| curve | nominal | observed | points | range (dt or tol) | slope vs tol | best state error | runs failed |",
+                 "|---|---|---|---|---|---|---|---|"]
+        for label, pts in by_curve(sweep.points).items():
+            o = observed_order(pts, options.error_floor)
+            best = min((p.state_max for p in pts if p.ok), default=float("nan"))
+            bad = sum(not p.ok for p in pts)
+            body.append(f"| {label} | {pts[0].nominal_order} | {_fmt(o['order'], '.2f')} | {o['n']} | {o['range'] or '—'} | "
+                        f"{_fmt(o.get('tol_slope', float('nan')), '.2f')} | {_fmt(best, '.1e')} | {bad} |")
+        over = overhead_rows(sweep)
+        if over:
+            body += ["", "MuJoCo through the harness's stepping loop against `mujoco.rollout` (medians over the "
+                     "timesteps both ran; the first ratio is the harness's own overhead):", "",
+                     "| integrator | loop / rollout | rollout with conversion / rollout | loop with model compile / loop | timesteps |",
+                     "|---|---|---|---|---|"]
+            for integrator, lr, rc, lc, n in over:
+                body.append(f"| {integrator} | {lr:.2f} | {rc:.2f} | {lc:.2f} | {n} |")
+        failed = [p for p in sweep.points if not p.ok]
+        if failed:
+            body += ["", "Failed or blown-up runs (recorded points):", ""]
+            for p in failed:
+                body.append(f"- {p.label} at {p.param:.3g}: {p.status} — {p.message or 'non-finite error'}")
+        body.append("")
+    lines += summary + [""] + h2h_section(results) + [""] + batch_section(results) + [""] + body
+    return "\n".join(lines) + "\n"
+
+
+def overhead_rows(sweep: SceneSweep) -> list[tuple[str, float, float, float, int]]:
+    """Per MuJoCo integrator, medians over the timesteps both variants ran: stepping-loop time
+    over rollout time (the harness's Python overhead), rollout total (with the conversion to
+    maximal coordinates) over rollout time, loop total (with compiling the model) over loop time."""
+    import statistics
+
+    out = []
+    pts = [p for p in sweep.points if p.engine == "mujoco" and p.ok]
+    for integrator in ("Euler", "implicit", "implicitfast", "RK4"):
+        roll = {p.param: p for p in pts if p.integrator == integrator and p.variant == "rollout"}
+        loop = {p.param: p for p in pts if p.integrator == integrator and p.variant == "loop"}
+        common = sorted(set(roll) & set(loop))
+        if not common:
+            continue
+        out.append((integrator,
+                    statistics.median(loop[d].time_s / roll[d].time_s for d in common),
+                    statistics.median(roll[d].time_total_s / roll[d].time_s for d in common),
+                    statistics.median(loop[d].time_total_s / loop[d].time_s for d in common),
+                    len(common)))
+    return out
+
+
+def h2h_section(results: list[SceneSweep]) -> list[str]:
+    rows = [(r.scene, h) for r in results for h in r.head_to_head]
+    if not rows:
+        return []
+    out = ["## Head to head at equal state error (timed in alternation)", "",
+           "For each target, the cheapest recorded in-house run and MuJoCo RK4 run that reach it are timed again "
+           "in alternation (5 rounds, medians), so that both see the same machine load. Ratio < 1: the in-house "
+           "solver is faster.", "",
+           "| scene | target | in-house run | error | time (s) | MuJoCo RK4 rollout run | error | time (s) | ratio | "
+           "MuJoCo RK4 loop time (s) | ratio |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for scene, h in rows:
+        if h.get("status") != "ok":
+            out.append(f"| {scene} | {h.get('target', '—')} | {h.get('status')} | | | | | | | | |")
+            continue
+        ih, mr = h["inhouse"], h["mujoco RK4 (rollout)"]
+        ml = h.get("mujoco RK4 (loop)")
+        out.append(f"| {scene} | {h['target']:g} | {ih['label']} at {ih['param']:.3g} | {ih['state_max']:.1e} | "
+                   f"{ih['time_s']:.4g} | dt {mr['param']:.3g} | {mr['state_max']:.1e} | {mr['time_s']:.4g} | "
+                   f"{h['ratio_rollout']:.2f} | {_fmt(ml['time_s'] if ml else float('nan'), '.4g')} | "
+                   f"{_fmt(h.get('ratio_loop', float('nan')), '.2f')} |")
+    return out
+
+
+def batch_section(results: list[SceneSweep]) -> list[str]:
+    rows = [r.batch for r in results if r.batch]
+    if not rows:
+        return []
+    out = ["## Batched throughput: RK4 over many initial conditions", "",
+           "Same batch of initial conditions (joint coordinates perturbed, `workprecision.batch_initial_states`), "
+           "same dt (the scene's), same number of steps, all timed in alternation (medians): `mujoco.rollout` "
+           "against the compiled in-house `rk4_compiled` (`compiled.run_batch`), each with threads = cores and "
+           "with one thread, and the NumPy `rk4_batched` (one thread). Trajectory-steps per second = "
+           "nbatch × nstep / median wall time. Ratios compare equal thread counts. Last columns: largest state "
+           "difference between the MuJoCo and the compiled batch at the end (relative, as the state error), "
+           "and between the compiled and NumPy in-house batches (relative to the largest state entry).", "",
+           "| scene | nbatch × nstep | dt (s) | threads | rollout (steps/s) | in-house compiled (steps/s) | "
+           "compiled / rollout | rollout 1 thread | compiled 1 thread | ratio 1 thread | in-house NumPy rk4_batched | "
+           "NumPy / rollout | MuJoCo vs in-house | compiled vs NumPy |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for b in rows:
+        if "compiled_steps_per_s" not in b:
+            out.append(f"| {b.get('scene')} | — | — | — | — | — | — | — | — | — | — | — | {b.get('status')} | |")
+            continue
+        out.append(f"| {b['scene']} | {b['nbatch']} × {b['nstep']} | {b['dt']:g} | {b['threads']} | "
+                   f"{b['mujoco_steps_per_s']:.3g} | {b['compiled_steps_per_s']:.3g} | "
+                   f"{b['compiled_steps_per_s'] / b['mujoco_steps_per_s']:.2f} | {b['mujoco_1thread_steps_per_s']:.3g} | "
+                   f"{b['compiled_1thread_steps_per_s']:.3g} | "
+                   f"{b['compiled_1thread_steps_per_s'] / b['mujoco_1thread_steps_per_s']:.2f} | "
+                   f"{_fmt(b.get('numpy_steps_per_s', float('nan')))} | "
+                   f"{_fmt(b.get('numpy_steps_per_s', float('nan')) / b['mujoco_steps_per_s'], '.2f')} | "
+                   f"{b['max_state_difference']:.1e} | {_fmt(b.get('numpy_vs_compiled', float('nan')), '.1e')} |")
+    return out
+
+
+def write_reports(results: list[SceneSweep], provenance: dict, options: SweepOptions, out_dir: Path,
+                  load: tuple[float, float] | None = None) -> list[Path]:
+    """Write ``workprecision.md``, ``workprecision.csv`` and ``workprecision/<scene>.png`` under
+    ``out_dir``; returns the paths."""
+    out_dir = Path(out_dir)
+    paths = []
+    for sweep in results:
+        path = out_dir / "workprecision" / f"{sweep.scene}.png"
+        atomic.write_bytes(path, plot_scene(sweep, provenance))
+        paths.append(path)
+    table = points_table(results)
+    csv_path = out_dir / "workprecision.csv"
+    header = "# " + "; ".join(f"{k}: {v}" for k, v in provenance.items()) + "\n"
+    atomic.write_text(csv_path, header + table.to_csv(index=False))
+    md_path = out_dir / "workprecision.md"
+    atomic.write_text(md_path, markdown(results, provenance, options, load))
+    return [md_path, csv_path] + paths
+
+
+__all__ = ["markdown", "plot_scene", "write_reports"]

@@ -1,0 +1,1 @@
+"""Model debugging: inspect, check, debug, dynamics terms, loaded-model readers."""

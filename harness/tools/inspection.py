@@ -1,0 +1,308 @@
+"""``harness inspect SCENE``: what each engine holds after loading a scene, against the scene.
+
+Loads, each compared with the scene description (``harness.tools.loaded_models``):
+
+* primary, scene parameters applied (what every run uses): MuJoCo from the MJCF by
+  ``load_mjcf``, Pinocchio from the URDF by ``load_urdf``, against the scene at its current
+  parameters (defaults plus ``--set``);
+* primary, files AS WRITTEN (``read_spec().compile()``, ``read_urdf``): against the scene at the
+  defaults of its ``scene.toml``, which the files must hold. ``load_urdf``/``load_mjcf`` overwrite
+  mass properties, so an error in a file shows here only. A URDF cannot state gravity: the
+  URDF-as-written model gets the scene's gravity for the dynamics check;
+* cross-loads, as written, against the defaults: the MJCF into Pinocchio
+  (``buildModelFromMJCF``) and the URDF into MuJoCo (MuJoCo compiles URDF: first as MuJoCo
+  imports it by default, then with the scene's root joint added as Pinocchio adds it). What a
+  cross-parser drops or changes is reported as a finding; a cross-load that fails is a finding.
+
+Then the dynamics check (``harness.tools.dynamics_terms``) on the applied loads, the as-written loads
+and the cross-loads, each against the in-house ``Multibody``.
+
+Exit status (``InspectResult.passed``): disagreements in the primary loads (applied or as
+written, bodies, gravity or dynamics) fail; cross-load findings do not.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+
+from harness.tools import dynamics_terms as dc
+from harness.tools.check import check_spec_inertials, load_mujoco, load_pinocchio
+from harness.engines.mujoco.model import load_mjcf, read_spec
+from harness.engines.pinocchio.model import load_urdf, read_urdf
+from harness.model.errors import InputError
+from harness.tools.loaded_models import (
+    LoadedBody,
+    check_joint_bodies_physical,
+    compare_bodies,
+    gravity_problem,
+    mujoco_bodies,
+    pinocchio_bodies,
+    pinocchio_joint_bodies,
+)
+from harness.model.multibody import Multibody
+from harness.model.scene import Scene, load_scene
+
+AS_WRITTEN_RTOL = 1e-6   # the files carry rounded decimals (e.g. 0.083358333333333)
+APPLIED_RTOL = 1e-9
+ROOT_FOR_MUJOCO = {"free": "free", "spherical": "ball", "none": "none"}
+
+
+@dataclass
+class Load:
+    """One engine's load of one file and what it shows."""
+
+    label: str
+    primary: bool
+    problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    details: list[str] = field(default_factory=list)
+
+
+@dataclass
+class DynamicsBlock:
+    """One dynamics comparison (sources and their differences, or why it could not be made)."""
+
+    label: str
+    primary: bool
+    diffs: list[dc.TermDiff] = field(default_factory=list)
+    error: str = ""
+
+    @property
+    def passed(self) -> bool:
+        return not self.error and all(d.passed for d in self.diffs)
+
+
+@dataclass
+class InspectResult:
+    scene: Scene
+    description: list[str]
+    loads: list[Load]
+    dynamics: list[DynamicsBlock]
+
+    @property
+    def passed(self) -> bool:
+        return (all(not x.problems for x in self.loads if x.primary)
+                and all(b.passed for b in self.dynamics if b.primary))
+
+
+# --------------------------------------------------------------------------- text helpers
+
+
+def _v(x) -> str:
+    return "[" + ", ".join(f"{float(c):.6g}" for c in np.ravel(x)) + "]"
+
+
+def body_lines(name: str, joint: str, axis: np.ndarray, p_PB_P: np.ndarray, mass: float,
+               com: np.ndarray, inertia: np.ndarray) -> list[str]:
+    """Readable mass properties of one body (body frame; kg, m, kg m^2)."""
+    moments, axes = np.linalg.eigh(inertia)
+    lines = [f"  body {name}: joint {joint}" + (f", axis {_v(axis)}" if joint in ("hinge", "slide") else "")
+             + f", frame origin in parent {_v(p_PB_P)} m",
+             f"    mass {mass:.9g} kg, centre of mass {_v(com)} m (body frame)",
+             "    inertia about the centre of mass (body frame, kg m^2): " + ", ".join(_v(r) for r in inertia),
+             f"    principal moments {_v(moments)} kg m^2, principal axes (columns, body frame): "
+             + ", ".join(_v(axes[:, i]) for i in range(3))]
+    return lines
+
+
+def _loaded_lines(bodies: list[LoadedBody]) -> list[str]:
+    out = []
+    for b in bodies:
+        out += body_lines(b.name, b.joint, b.axis_B, b.p_PB_P, b.mass, b.p_BCm_B, b.I_Cm_B)
+    return out
+
+
+def describe_multibody(model: Multibody) -> list[str]:
+    lines = [f"  gravity {_v(model.gravity_W)} m/s^2 (world)"]
+    for b in model.bodies:
+        lines += body_lines(b.name, b.joint, b.axis_B, b.p_PB_P, b.mass, b.p_BCm_B, b.I_Cm_B)
+    return lines
+
+
+def _mujoco_options(m: mujoco.MjModel, scene: Scene) -> str:
+    return (f"  timestep {m.opt.timestep:g} s, integrator {mujoco.mjtIntegrator(m.opt.integrator).name[6:]} "
+            f"(runs use the scene's dt {scene.dt:g} s and {scene.integrators['mujoco']}), "
+            f"gravity {_v(m.opt.gravity)} m/s^2")
+
+
+# --------------------------------------------------------------------------- loads
+
+
+def inspect_scene(scene: Scene, *, n_states: int = dc.DEFAULT_STATES, seed: int = 0) -> InspectResult:
+    """Every load of ``scene`` and every dynamics comparison (see module docstring)."""
+    if n_states < 1:
+        raise InputError(f"--states must be >= 1, got {n_states}")
+    model = scene.multibody()
+    model0 = load_scene(scene.name, models_dir=scene.directory.parent).multibody()
+    loads: list[Load] = []
+    blocks: list[DynamicsBlock] = []
+
+    # Primary, scene parameters applied.
+    m = load_mjcf(scene.mjcf, model)
+    ld = Load(f"MuJoCo <- {scene.mjcf.name} with the scene's parameters (load_mjcf)", True)
+    mb = mujoco_bodies(m, model)
+    ld.details = [_mujoco_options(m, scene)] + _loaded_lines(mb)
+    ld.problems = compare_bodies(mb, model, rtol=APPLIED_RTOL) + _gravity(m.opt.gravity, model)
+    loads.append(ld)
+    pmodel, _ = load_urdf(scene.urdf, scene.urdf_root_joint, model)
+    lp = Load(f"Pinocchio <- {scene.urdf.name} with the scene's parameters (load_urdf, root joint {scene.urdf_root_joint})", True)
+    pb = pinocchio_bodies(pmodel, model)
+    lp.details = [f"  gravity {_v(pmodel.gravity.linear)} m/s^2"] + _loaded_lines(pb)
+    lp.problems = compare_bodies(pb, model, rtol=APPLIED_RTOL) + _gravity(pmodel.gravity.linear, model)
+    loads.append(lp)
+    blocks.append(_dynamics("scene parameters applied: MuJoCo, Pinocchio, in-house", True, model, m, pmodel,
+                            n_states, seed))
+
+    # Primary, files as written, against the defaults.
+    m_file = _compile_as_written(scene)
+    lw = Load(f"MuJoCo <- {scene.mjcf.name} as written (against the scene.toml defaults)", True)
+    lw.details = [_mujoco_options(m_file, scene)]
+    lw.problems = compare_bodies(mujoco_bodies(m_file, model0), model0, rtol=AS_WRITTEN_RTOL) + _gravity(m_file.opt.gravity, model0)
+    loads.append(lw)
+    p_file = read_urdf(scene.urdf, scene.urdf_root_joint)
+    check_joint_bodies_physical(pinocchio_joint_bodies(p_file), str(scene.urdf))
+    lu = Load(f"Pinocchio <- {scene.urdf.name} as written (against the scene.toml defaults)", True)
+    lu.problems = compare_bodies(pinocchio_bodies(p_file, model0), model0, rtol=AS_WRITTEN_RTOL)
+    lu.notes.append(f"a URDF cannot state gravity: Pinocchio's default {_v(p_file.gravity.linear)} m/s^2; "
+                    "load_urdf and this dynamics check set the scene's")
+    p_file.gravity = pin.Motion(np.concatenate([model0.gravity_W, np.zeros(3)]))
+    loads.append(lu)
+    blocks.append(_dynamics("files as written: MuJoCo <- MJCF, Pinocchio <- URDF, in-house (defaults)", True, model0,
+                            m_file, p_file, n_states, seed))
+
+    # Cross-loads, as written.
+    loads.append(_mjcf_into_pinocchio(scene, model0, blocks, n_states, seed))
+    loads += _urdf_into_mujoco(scene, model0, blocks, n_states, seed)
+    return InspectResult(scene, describe_multibody(model), loads, blocks)
+
+
+def _gravity(g, model: Multibody, rtol: float = APPLIED_RTOL) -> list[str]:
+    problem = gravity_problem(np.asarray(g, dtype=float), model.gravity_W, rtol)
+    return [problem] if problem else []
+
+
+def _compile_as_written(scene: Scene) -> mujoco.MjModel:
+    spec = read_spec(scene.mjcf)
+    check_spec_inertials(spec, scene.mjcf)
+    try:
+        return spec.compile()
+    except InputError:
+        raise
+    except Exception as err:
+        raise InputError(f"{scene.mjcf}: MJCF does not compile: {' '.join(str(err).split())}") from None
+
+
+def _dynamics(label: str, primary: bool, model: Multibody, m, pmodel, n_states: int, seed: int,
+              names=("mujoco", "pinocchio", "inhouse")) -> DynamicsBlock:
+    block = DynamicsBlock(label, primary)
+    try:
+        jmap = dc.scene_joint_map(model, m, pmodel)
+    except dc.MappingError as err:
+        block.error = f"not possible: {err}"
+        return block
+    sources = dc.scene_sources(model, m, pmodel, jmap, labels=names)
+    results = dc.evaluate(sources, dc.random_states(jmap, n_states, seed))
+    labels = list(results)
+    pairs = [(a, b) for i, a in enumerate(labels) for b in labels[i + 1:]]
+    block.diffs = dc.compare_terms(results, pairs)
+    return block
+
+
+def _mjcf_into_pinocchio(scene: Scene, model0: Multibody, blocks, n_states, seed) -> Load:
+    ld = Load(f"Pinocchio <- {scene.mjcf.name} (cross-load: pinocchio.buildModelFromMJCF, as written)", False)
+    try:
+        pm = load_pinocchio(scene.mjcf)
+    except InputError as err:
+        ld.problems.append(f"does not load: {err}")
+        return ld
+    ld.problems = compare_bodies(pinocchio_bodies(pm, model0), model0, rtol=AS_WRITTEN_RTOL)
+    g_file = np.asarray(read_spec(scene.mjcf).option.gravity, dtype=float)
+    g_pin = np.array(pm.gravity.linear)
+    if not np.allclose(g_pin, g_file, rtol=0, atol=1e-12):
+        ld.problems.append(f"gravity {_v(g_pin)} m/s^2 where the MJCF's <option gravity> says {_v(g_file)}: "
+                           "Pinocchio's MJCF parser ignores <option>")
+    else:
+        ld.notes.append(f"gravity {_v(g_pin)} m/s^2 equals the MJCF's <option gravity> here, but Pinocchio's MJCF parser "
+                        "does not read <option> (this is its default)")
+    ld.notes.append("dropped: <option> (timestep, integrator, gravity, flags), actuators, sites become frames")
+    armature, damping = np.array(pm.armature), np.array(pm.damping)
+    if np.any(armature) or np.any(damping):
+        ld.notes.append(f"read from the joints: armature {_v(armature)}, damping {_v(damping)}")
+    blocks.append(_dynamics(f"cross-load Pinocchio <- {scene.mjcf.name} vs in-house (defaults)", False, model0, None, pm,
+                            n_states, seed, names=("", "pinocchio<-MJCF", "inhouse")))
+    return ld
+
+
+def _urdf_into_mujoco(scene: Scene, model0: Multibody, blocks, n_states, seed) -> list[Load]:
+    plain = Load(f"MuJoCo <- {scene.urdf.name} (cross-load: MuJoCo's own URDF import, defaults)", False)
+    try:
+        m, _ = load_mujoco(scene.urdf)
+    except InputError as err:
+        plain.problems.append(f"does not load: {err}")
+        return [plain]
+    names = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(m.nbody)}
+    for body in model0.bodies:
+        if body.name not in names:
+            plain.problems.append(f"body {body.name!r} is missing: the URDF gives the root link no joint, and MuJoCo "
+                                  "fuses a link without joint into its parent (fusestatic, the default for URDF), here "
+                                  "the world: its mass is gone from the dynamics")
+    lim = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt) if m.jnt_limited[j]]
+    if lim:
+        plain.notes.append(f"URDF <limit> becomes an enforced joint range in MuJoCo for {', '.join(lim)} "
+                           f"({', '.join(_v(m.jnt_range[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n)]) for n in lim)})")
+    plain.notes.append(f"options are MuJoCo's defaults, URDF has none: timestep {m.opt.timestep:g} s, integrator "
+                       f"{mujoco.mjtIntegrator(m.opt.integrator).name[6:]}, gravity {_v(m.opt.gravity)} m/s^2, "
+                       f"contact on; visual geometry discarded (discardvisual), {m.ngeom} geom(s) left")
+    grav = _gravity(m.opt.gravity, model0)
+    plain.problems += [f"{g} (MuJoCo's default: a URDF cannot state gravity)" for g in grav]
+    out = [plain]
+    root = ROOT_FOR_MUJOCO.get(scene.urdf_root_joint, "none")
+    if root == "none":
+        out[0].problems += compare_bodies(mujoco_bodies(m, model0), model0, rtol=AS_WRITTEN_RTOL)
+        blocks.append(_dynamics(f"cross-load MuJoCo <- {scene.urdf.name} vs in-house (defaults)", False, model0, m, None,
+                                n_states, seed, names=("mujoco<-URDF", "", "inhouse")))
+        return out
+    rooted = Load(f"MuJoCo <- {scene.urdf.name} with a {root} root joint added (as Pinocchio adds {scene.urdf_root_joint})", False)
+    try:
+        m2, _ = load_mujoco(scene.urdf, root_joint=root)
+    except InputError as err:
+        rooted.problems.append(f"does not load: {err}")
+        return out + [rooted]
+    rooted.problems = compare_bodies(mujoco_bodies(m2, model0), model0, rtol=AS_WRITTEN_RTOL)
+    rooted.problems += [f"{g} (MuJoCo's default: a URDF cannot state gravity)" for g in _gravity(m2.opt.gravity, model0)]
+    blocks.append(_dynamics(f"cross-load MuJoCo <- {scene.urdf.name} + {root} root vs in-house (defaults)", False, model0,
+                            m2, None, n_states, seed, names=("mujoco<-URDF", "", "inhouse")))
+    return out + [rooted]
+
+
+# --------------------------------------------------------------------------- output
+
+
+def render(res: InspectResult) -> str:
+    """The readable text ``harness inspect`` prints."""
+    scene = res.scene
+    params = ", ".join(f"{k}={_v(v) if isinstance(v, tuple) else f'{v:g}'}" for k, v in scene.params.items())
+    L = [f"inspect {scene.name}: {scene.title}", f"parameters: {params}", "",
+         "== scene description (the in-house engine runs this Multibody) =="] + res.description
+    for ld in res.loads:
+        kind = "primary" if ld.primary else "cross-load"
+        L += ["", f"== {ld.label} [{kind}] =="] + ld.details
+        if ld.problems:
+            L += [f"  {'DISAGREES' if ld.primary else 'FINDING'}: {p}" for p in ld.problems]
+        else:
+            L.append("  agrees with the scene description")
+        L += [f"  note: {n}" for n in ld.notes]
+    L += ["", f"== dynamics at random states (common coordinates; M kg..kg m^2, C v and g N or N m; "
+              f"relative to the term's largest entry) =="]
+    for b in res.dynamics:
+        L.append(f"-- {b.label} [{'primary' if b.primary else 'cross-load'}]")
+        L += [f"  {b.error}"] if b.error else dc.format_diffs(b.diffs)
+    bad = [ld.label for ld in res.loads if ld.primary and ld.problems]
+    bad += [b.label for b in res.dynamics if b.primary and not b.passed]
+    L += ["", "RESULT: " + ("primary loads agree with the scene description" if res.passed
+                            else "DISAGREEMENT in " + "; ".join(bad))]
+    return "\n".join(L) + "\n"

@@ -1,0 +1,1 @@
+"""``harness validate``: cases run in isolated workers, tolerances, reports."""

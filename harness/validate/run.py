@@ -1,0 +1,321 @@
+"""Validation of scenes: run every engine, compare, check each quantity against its tolerance.
+
+For each scene: an in-house reference run (DOP853, rtol = atol = 1e-12) is made first; then
+each engine runs at the scene's default integrator and step. Checks (those the scene declares
+in ``[checks.*]`` of its ``scene.toml``):
+
+* ``energy_drift`` (unforced) or ``energy_balance`` (forced: E - E0 - work of the forces);
+* ``momentum_drift.<c>`` for each conserved component the scene lists;
+* ``trajectory.position/orientation/velocity/angular_velocity`` against the reference;
+* ``constraint.position/axis``, joint violations from maximal coordinates;
+* ``exact``: against the scene's closed-form solution (``harness.measure.exact``);
+* ``reaction.force/moment`` (scenes with ``[checks.reaction]``): joint reactions against the
+  reference run's, and ``reaction.exact`` against the exact support force where one exists;
+* ``slip``, ``contact_height``, ``contact_force`` (scenes with rolling contacts,
+  ``harness.measure.contact_metrics``): slip speed at the contact point, its height (penetration), and
+  the contact force against the reference's;
+* ``engine_energy``: the engine's own energy against the harness's recomputation.
+
+A ``[checks.trajectory]`` tolerance is a number for every engine or a table per engine (rolling_disk:
+MuJoCo's soft contact is held to what it can reach, the ideal-constraint engines to 1e-9).
+
+The reference run is itself checked (engine ``reference``) for conservation and against the
+exact solution before it judges anything. Every run (reference, and each scene x engine) is
+made in its own worker process (``harness.validate.workers``): cases run in parallel, and a crash, hang
+or blow-up is recorded as that case's failed ``run`` check while every other result is kept.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from harness.measure import compare
+from harness.measure import contact_metrics
+from harness.measure import exact
+from harness.engines import get_engine
+from harness.engines.base import RunSettings
+from harness.model.errors import InputError
+from harness.model.scene import Scene
+from harness.measure.trajectory import Trajectory
+from harness.validate.workers import Outcome, run_cases
+
+REFERENCE_METHOD = "DOP853"
+REFERENCE_TOL = 1e-12
+ENGINE_ENERGY_TOL = 1e-9  # relative; a larger mismatch means the engine's mass model differs
+DEFAULT_TIMEOUT = 300.0   # s per case
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    """One checked quantity of one scene on one engine."""
+
+    scene: str
+    engine: str
+    check: str
+    value: float
+    tolerance: float
+    unit: str
+    passed: bool
+    detail: str = ""
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """How one run was made and how it ended (``settings``: the engine's own description of
+    its integrator and solver settings)."""
+
+    scene: str
+    engine: str
+    integrator: str
+    dt: float
+    rtol: float | None
+    t_end: float
+    status: str
+    message: str
+    wall_s: float
+    steps: float
+    settings: str = ""
+
+
+@dataclass
+class SceneValidation:
+    """Everything validation produced for one scene."""
+
+    scene: str
+    parameters: dict
+    checks: list[CheckResult] = field(default_factory=list)
+    runs: list[RunRecord] = field(default_factory=list)
+    cross: dict[str, dict[str, float]] = field(default_factory=dict)
+    tolerance_changes: list[str] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+
+def save_interval(scene: Scene) -> float:
+    """The scene's save interval, or its step when a force acts: the energy balance integrates
+    the force's power over the saved samples (Simpson, error ~ interval^4), so a forced run is
+    saved at every step."""
+    return scene.dt if scene.multibody().forces else scene.save_every
+
+
+def reference_settings(scene: Scene) -> RunSettings:
+    """The in-house high-accuracy run that judges the engines' trajectories."""
+    save = save_interval(scene)
+    return RunSettings(scene.t_end, save, save, REFERENCE_METHOD, rtol=REFERENCE_TOL, atol=REFERENCE_TOL)
+
+
+def default_settings(scene: Scene, engine: str) -> RunSettings:
+    """The engine's default integrator and the scene's step, horizon and save interval."""
+    return RunSettings(scene.t_end, scene.dt, save_interval(scene), scene.integrators[engine])
+
+
+def reference_case(scene: Scene) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
+    """Worker body: the reference run and its own checks."""
+    settings = reference_settings(scene)
+    t0 = time.perf_counter()
+    traj = get_engine("inhouse").simulate(scene, settings)
+    record = _record(scene, "reference", settings, traj, time.perf_counter() - t0)
+    return traj, record, check_run(scene, "reference", "inhouse", traj, None, settings)
+
+
+def engine_case(scene: Scene, engine: str, ref: Trajectory | None) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
+    """Worker body: one engine's run at the scene's defaults and its checks."""
+    settings = default_settings(scene, engine)
+    t0 = time.perf_counter()
+    traj = get_engine(engine).simulate(scene, settings)
+    record = _record(scene, engine, settings, traj, time.perf_counter() - t0)
+    return traj, record, check_run(scene, engine, engine, traj, ref, settings)
+
+
+def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None,
+             timeout: float = DEFAULT_TIMEOUT, tolerance_changes: dict[str, list[str]] | None = None) -> list[SceneValidation]:
+    """Validate ``scenes`` on ``engines``, each run isolated in a worker process.
+
+    Raises InputError if any case reports bad input (e.g. a model that does not load).
+    """
+    jobs = jobs or os.cpu_count() or 1
+    refs = run_cases([(s.name, reference_case, (s,)) for s in scenes], jobs, timeout)
+    _raise_input_errors(refs)
+    cases = []
+    for s in scenes:
+        ref_outcome = refs[s.name]
+        ref = ref_outcome.value[0] if ref_outcome.status == "ok" else None
+        cases += [((s.name, e), engine_case, (s, e, ref)) for e in engines]
+    outcomes = run_cases(cases, jobs, timeout)
+    _raise_input_errors(outcomes)
+
+    results = []
+    for s in scenes:
+        v = SceneValidation(scene=s.name, parameters={k: _jsonable(x) for k, x in s.params.items()},
+                            tolerance_changes=list((tolerance_changes or {}).get(s.name, [])))
+        _collect(v, s, "reference", refs[s.name], reference_settings(s))
+        trajectories = {}
+        for e in engines:
+            outcome = outcomes[(s.name, e)]
+            _collect(v, s, e, outcome, default_settings(s, e))
+            if outcome.status == "ok" and outcome.value[0].ok:
+                trajectories[e] = outcome.value[0]
+            if refs[s.name].status != "ok" and "trajectory" in s.checks:
+                v.checks.append(CheckResult(s.name, e, "trajectory", float("nan"), 0.0, "", False,
+                                            f"no reference: reference run {refs[s.name].status}: {refs[s.name].message}"))
+        names = list(trajectories)
+        for i, a in enumerate(names):
+            for b in names[i + 1:]:
+                v.cross[f"{a} vs {b}"] = compare.trajectory_error(trajectories[a], trajectories[b])
+        results.append(v)
+    return results
+
+
+def validate_scene(scene: Scene, engines: list[str], **kwargs) -> SceneValidation:
+    """Validate one scene (see ``validate``)."""
+    return validate([scene], engines, **kwargs)[0]
+
+
+def _raise_input_errors(outcomes: dict[Any, Outcome]) -> None:
+    for outcome in outcomes.values():
+        if outcome.status == "input_error":
+            raise InputError(outcome.message)
+
+
+def _collect(v: SceneValidation, scene: Scene, label: str, outcome: Outcome, settings: RunSettings) -> None:
+    """Add one case's run record and checks; a case that died becomes a failed ``run`` check."""
+    if outcome.status == "ok":
+        _, record, checks = outcome.value
+        v.runs.append(record)
+        v.checks.extend(checks)
+        return
+    v.runs.append(RunRecord(scene.name, label, settings.integrator, settings.dt, None, settings.t_end,
+                            outcome.status, outcome.message, outcome.wall_s, float("nan")))
+    v.checks.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False, f"{outcome.status}: {outcome.message}"))
+
+
+def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Trajectory | None,
+              settings: RunSettings) -> list[CheckResult]:
+    """The checks of one run; ``label`` names it in the report, ``engine`` picks tolerances."""
+    model = scene.multibody()
+    checks = scene.checks
+    out: list[CheckResult] = []
+
+    def add(check, value, tol, unit, detail=""):
+        ok = bool(np.isfinite(value) and value <= tol)
+        out.append(CheckResult(scene.name, label, check, float(value), float(tol), unit, ok, detail))
+
+    if not traj.ok:
+        out.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False, f"{traj.status}: {traj.message}"))
+        return out
+    if "energy_drift" in checks:
+        tol = checks["energy_drift"][engine]
+        if model.forces:
+            balance, quad = compare.energy_balance(traj, model)
+            add("energy_balance", balance, tol, "rel", f"E - E0 - W(t) over the energy scale; quadrature error of W ~{quad:.1e}")
+        else:
+            add("energy_drift", compare.energy_drift(traj, model), tol, "rel", "max |E - E0| / energy scale")
+    if "momentum_drift" in checks:
+        spec = checks["momentum_drift"]
+        for comp, value in compare.momentum_drift(traj, model, spec["components"]).items():
+            add(f"momentum_drift.{comp}", value, spec[engine], "rel", "max |c - c0| / momentum scale")
+    if "trajectory" in checks and ref is not None:
+        if not ref.ok:
+            out.append(CheckResult(scene.name, label, "trajectory", float("nan"), 0.0, "", False,
+                                   f"reference run {ref.status}: {ref.message}"))
+        else:
+            err = compare.trajectory_error(traj, ref)
+            scale = compare.motion_scales(ref, model)
+            tol = checks["trajectory"]
+            for key, tol_key, unit, scale_key, what in (
+                ("position", "position", "m", "length", "centre of mass"),
+                ("orientation", "orientation", "rad", None, "geodesic angle on SO(3)"),
+                ("velocity", "velocity", "m/s", "velocity", "centre-of-mass velocity"),
+                ("angular_velocity", "velocity", "rad/s", "angular_velocity", "world frame"),
+            ):
+                value = err[f"{key}_max"]
+                if scale_key is None:
+                    add(f"trajectory.{key}", value, _per_engine(tol[tol_key], engine), unit, f"max over bodies and samples; {what}")
+                else:
+                    add(f"trajectory.{key}", value / scale[scale_key], _per_engine(tol[tol_key], engine), "rel",
+                        f"{value:.2e} {unit} over {scale_key} scale {scale[scale_key]:.3g} {unit}; {what}")
+    if "constraint" in checks:
+        viol = compare.constraint_violation(traj, model)
+        tol = checks["constraint"][engine]
+        add("constraint.position", viol["position"], tol, "m", "joint points coincide")
+        kinds = {b.joint for b in model.bodies}
+        if kinds & {"hinge", "slide"}:
+            what = [w for k, w in (("hinge", "hinge axes stay aligned"), ("slide", "slide frames stay parallel")) if k in kinds]
+            add("constraint.axis", viol["axis"], tol, "rad", ", ".join(what))
+    if "exact" in checks:
+        tol = checks["exact"][engine]
+        try:
+            value, unit, detail = exact.exact_error(scene, engine, traj, settings)
+        except InputError:
+            raise
+        except Exception as err:  # a failing modal run etc. is a failed check, not a crash
+            value, unit, detail = float("nan"), "", f"{type(err).__name__}: {err}"
+        add("exact", value, tol, unit, detail)
+    if "reaction" in checks:
+        _check_reactions(scene, label, engine, traj, ref, model, add)
+    if model.contacts:  # rolling contacts: slip, contact height, contact force (harness.measure.contact_metrics)
+        contact_metrics.add_checks(scene, engine, traj, ref, model, add)
+    mismatch = compare.engine_energy_mismatch(traj, model)
+    if mismatch is not None:
+        add("engine_energy", mismatch, ENGINE_ENERGY_TOL, "rel", "engine's own energy vs harness recomputation")
+    return out
+
+
+def _check_reactions(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Trajectory | None, model, add) -> None:
+    """``reaction.force`` / ``reaction.moment`` against the reference run's reactions, and
+    ``reaction.exact`` against the scene's exact support force where ``harness.measure.exact`` has one;
+    all relative to ``compare.reaction_scales`` of the reference (or of the run itself)."""
+    tol = scene.checks["reaction"][engine]
+    if not traj.reactions:
+        add("reaction", float("nan"), tol, "", f"{traj.engine} gave no joint reactions")
+        return
+    judge = ref if ref is not None and ref.ok and ref.reactions else traj
+    f_scale, m_scale = compare.reaction_scales(judge, model)
+    if ref is not None and ref.ok:
+        err = compare.reaction_error(traj, ref)
+        add("reaction.force", err["force_max"] / f_scale, tol, "rel",
+            f"{err['force_max']:.2e} N over force scale {f_scale:.3g} N; vs the reference's multipliers")
+        add("reaction.moment", err["moment_max"] / m_scale, tol, "rel",
+            f"{err['moment_max']:.2e} N m over moment scale {m_scale:.3g} N m; about the joint point")
+    try:
+        found = exact.exact_reaction(scene, traj)
+    except Exception as err:  # noqa: BLE001 - a failing reference is a failed check, not a crash
+        found = (float("nan"), f"{type(err).__name__}: {err}")
+    if found is not None:
+        value, detail = found
+        add("reaction.exact", value / f_scale, tol, "rel", f"{value:.2e} N over force scale {f_scale:.3g} N; {detail}")
+
+
+def _per_engine(tol, engine: str) -> float:
+    """A tolerance given for all engines (a number) or per engine (a table of numbers)."""
+    return tol[engine] if isinstance(tol, dict) else tol
+
+
+def _record(scene, engine, settings, traj, wall) -> RunRecord:
+    adaptive = settings.integrator in ("RK45", "DOP853", "Radau", "BDF", "LSODA")
+    return RunRecord(scene.name, engine, settings.integrator, settings.dt,
+                     settings.rtol if adaptive else None, settings.t_end, traj.status, traj.message, wall,
+                     float(traj.stats.get("steps", float("nan"))), str(traj.stats.get("settings", "")))
+
+
+def _jsonable(value):
+    return list(value) if isinstance(value, tuple) else value
+
+
+def as_dict(v: SceneValidation) -> dict:
+    return {
+        "scene": v.scene,
+        "passed": v.passed,
+        "parameters": v.parameters,
+        "tolerance_changes": v.tolerance_changes,
+        "runs": [asdict(r) for r in v.runs],
+        "checks": [asdict(c) for c in v.checks],
+        "cross_engine": v.cross,
+    }

@@ -1,0 +1,32 @@
+"""Quaternion conventions and the SO(3) distance."""
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from harness.model import rotations
+
+
+def test_order_conversion_round_trip():
+    q = np.array([0.9, 0.1, -0.3, 0.2])
+    assert np.allclose(rotations.xyzw_to_wxyz(rotations.wxyz_to_xyzw(q)), q)
+    assert np.allclose(rotations.wxyz_to_xyzw(q), [0.1, -0.3, 0.2, 0.9])
+
+
+def test_matrix_matches_scipy_scalar_first():
+    q = rotations.from_axis_angle([1.0, 2.0, 3.0], 0.7)
+    R = Rotation.from_quat(q, scalar_first=True).as_matrix()
+    assert np.allclose(rotations.matrix(q), R)
+
+
+def test_geodesic_angle_is_sign_invariant_and_accurate_for_tiny_angles():
+    a = rotations.from_axis_angle([0.0, 0.0, 1.0], 0.3)
+    for angle in (1e-12, 1e-6, 0.5, 3.0):
+        b = rotations.multiply(a, rotations.from_axis_angle([1.0, -1.0, 0.5], angle))
+        assert np.isclose(rotations.geodesic_angle(a, b), angle, rtol=1e-9)
+        assert np.isclose(rotations.geodesic_angle(a, -b), angle, rtol=1e-9)
+
+
+def test_multiply_composes_rotations():
+    a = rotations.from_axis_angle([1.0, 0.0, 0.0], 0.4)
+    b = rotations.from_axis_angle([0.0, 1.0, 0.0], -1.1)
+    assert np.allclose(rotations.matrix(rotations.multiply(a, b)), rotations.matrix(a) @ rotations.matrix(b))

@@ -1,0 +1,247 @@
+"""``harness stress``: catalogue, stability rule, step search, drift classes, isolation, CLI."""
+
+import math
+import os
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from harness.cli.main import main
+from harness.engines import inhouse
+from harness.engines.pinocchio import engine as pinocchio_engine
+from harness.model.errors import InputError
+from harness.measure.trajectory import failed
+from harness.studies.stress.run import (
+    FAILURE_MODES,
+    Reference,
+    StepSearch,
+    TrialResult,
+    TrialSpec,
+    classify_drift,
+    engine_mode,
+    load_catalogue,
+    run_stress,
+    select,
+    skip_reason,
+    trial_case,
+    variant_scene,
+)
+
+SMALL = """
+[defaults]
+bisect_iters = 0
+search_steps = 0
+band = { exact = 1e-4, position = 1e-3, orientation = 1e-3, velocity = 1e-3, angular_velocity = 1e-3, energy = 1e-3 }
+max_steps = { inhouse = 10000, pinocchio = 10000, mujoco = 100000 }
+integrators = { inhouse = ["rk4"], mujoco = ["RK4"], pinocchio = ["rkmk4"] }
+
+[variants.spin]
+scene = "torque_free"
+set = { omega0 = [10.0, 10.0, 1000.0] }
+t_end = 0.01
+save_every = 1e-3
+dt = 1e-3
+dt_max = 1e-3
+references = ["exact"]
+"""
+
+
+def run(args, capsys):
+    code = main(args)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def fake_result(spec: TrialSpec, stable: bool, mode: str = "energy growth", t_fail=None) -> TrialResult:
+    return TrialResult(spec, "ok", "" if stable else mode, stable, stable, 0.0, "energy", {}, {}, 0.0, 0.0,
+                       spec.t_end, None if stable else t_fail, "", float("nan"), 1.0, float("nan"), 0.0, "")
+
+
+def test_catalogue_covers_the_issue():
+    cat = load_catalogue()
+    tags = {t for v in cat.variants for t in v.tags}
+    assert {"fast_spin", "singular", "ratio", "stiff", "long", "flip"} <= tags
+    spins = [v.sweep for v in cat.variants if "fast_spin" in v.tags]
+    assert max(spins) >= 1e4
+    springs = sorted(v.sweep for v in cat.variants if "stiff" in v.tags)
+    assert springs[0] == 1e2 and springs[-1] == 1e8
+    assert any(v.scene == "rolling_disk" for v in cat.variants)
+    for v in cat.variants:
+        assert "mujoco" in v.integrators and "inhouse" in v.integrators and "pinocchio" in v.integrators
+
+
+def test_catalogue_rejects_unknown_keys_and_integrators(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text(SMALL.replace('scene = "torque_free"', 'scene = "torque_free"\nhorizon = 3'))
+    with pytest.raises(InputError, match="unknown key 'horizon'"):
+        load_catalogue(path)
+    path.write_text(SMALL.replace('mujoco = ["RK4"]', 'mujoco = ["RK5"]'))
+    with pytest.raises(InputError, match="unknown integrator 'RK5' for mujoco"):
+        load_catalogue(path)
+
+
+def test_missing_scene_or_parameter_is_skipped_with_a_reason(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text(SMALL.replace('scene = "torque_free"', 'scene = "no_such_scene"').replace('["exact"]', "[]"))
+    v = load_catalogue(path).variants[0]
+    assert skip_reason(v).startswith("scene not available")
+    path.write_text(SMALL.replace("omega0 = [10.0, 10.0, 1000.0]", "stiffness = 3.0"))
+    v = load_catalogue(path).variants[0]
+    assert "has no parameter 'stiffness'" in skip_reason(v)
+
+
+def test_scaled_bodies_reach_every_engine():
+    from harness.engines.mujoco.model import load_mjcf
+
+    cat = load_catalogue()
+    scene = variant_scene(cat.variant("double_pendulum_mass_1e3"))
+    model = scene.multibody()
+    assert model.body("bar2").mass == pytest.approx(1e3 * model.body("bar1").mass)
+    m = load_mjcf(scene.mjcf, model)
+    assert m.body_mass[2] == pytest.approx(1e3 * m.body_mass[1])
+
+
+def test_drift_classes():
+    t = np.linspace(0.0, 1000.0, 20001)
+    assert classify_drift(t, 1e-6 * np.abs(np.sin(3.0 * t)))[0] == "bounded"
+    assert classify_drift(t, 1e-9 * t * (1.5 + np.sin(3.0 * t)))[0] == "linear"
+    cls, p = classify_drift(t, 1e-12 * t**3)
+    assert cls.startswith("faster") and p == pytest.approx(3.0, rel=1e-3)
+    assert classify_drift(t, 1e-12 * np.exp(t / 50.0))[0] == "faster (exponential)"
+    assert classify_drift(t, np.zeros_like(t))[0] == "bounded"
+
+
+def drive(search: StepSearch, threshold: float) -> None:
+    """Feed a search the answers of a system stable at dt <= threshold."""
+    for _ in range(50):
+        specs = search.next_specs()
+        if not specs:
+            return
+        for spec in specs:
+            search.record(fake_result(spec, spec.dt <= threshold))
+    raise AssertionError("search did not end")
+
+
+def test_step_search_brackets_the_stability_limit():
+    cat = load_catalogue()
+    v = cat.variant("heavy_top_spin_1e3")  # save 1e-4, dt_max 8e-3, horizon 0.2 s
+    search = StepSearch(v, "mujoco", "RK4", cat.bounds)
+    drive(search, 2.345e-3)
+    row = search.summary()
+    assert row.stable_dt <= 2.345e-3 < row.unstable_dt
+    assert row.unstable_dt / row.stable_dt <= 1.0 + cat.bounds.precision + 1e-9 or search.iters == cat.bounds.bisect_iters
+    assert row.mode == "energy growth" and not row.censored
+    for dt, r in row.trials.items():  # every trial lands on the saved times
+        ratio = r.spec.save_every / dt
+        assert abs(ratio - round(ratio)) < 1e-9 and r.spec.save_every / v.save_every == pytest.approx(round(r.spec.save_every / v.save_every))
+
+
+def test_step_search_censored_and_budget_floor():
+    cat = load_catalogue()
+    v = cat.variant("heavy_top_spin_1e3")
+    search = StepSearch(v, "mujoco", "implicit", cat.bounds)
+    drive(search, 1.0)
+    row = search.summary()
+    assert row.censored and row.stable_dt == pytest.approx(v.dt_max) and len(row.trials) == 2
+    search = StepSearch(v, "inhouse", "euler", cat.bounds)  # budget: 1e4 steps over 0.2 s
+    drive(search, 1e-9)
+    row = search.summary()
+    assert row.stable_dt is None and row.unstable_dt >= v.t_end / cat.bounds.max_steps["inhouse"] * (1 - 1e-9)
+    assert any("no stable step" in n for n in row.notes)
+
+
+def test_step_search_stops_on_a_failure_no_step_size_cures():
+    cat = load_catalogue()
+    v = cat.variant("rolling_disk_falling_flat")
+    search = StepSearch(v, "pinocchio", "rkmk4", cat.bounds)
+    for _ in range(10):
+        specs = search.next_specs()
+        if not specs:
+            break
+        for spec in specs:  # the disk lands at 0.0995 s whatever the step
+            search.record(fake_result(spec, False, "singular constraint", t_fail=0.0995))
+    row = search.summary()
+    assert row.stable_dt is None and row.mode == "singular constraint" and len(row.trials) <= 3
+    assert any("not a step-size instability" in n for n in row.notes)
+    search = StepSearch(v, "pinocchio", "rkmk4", cat.bounds)
+    for spec in search.next_specs():  # an instability that shows at the first samples goes on
+        search.record(fake_result(spec, False, "energy growth", t_fail=2e-3))
+    assert search.next_specs()
+
+
+def test_trial_detects_mujoco_bad_acceleration_and_energy_growth():
+    cat = load_catalogue()
+    v = cat.variant("torque_free_spin_1e4")
+    scene = variant_scene(v)
+    ref = Reference(None, True, dict(v.band))
+    spec = TrialSpec(v.name, "mujoco", "Euler", 1e-3, 0.02, 1e-3, 1e-8, "search")
+    r = trial_case(scene, spec, ref, cat.bounds)
+    # MuJoCo's own guard fires (and resets the state), but the energy left its bound earlier
+    assert not r.stable and r.status == "blowup" and "mjWARN_BADQACC" in r.message
+    assert r.mode == "energy growth" and r.t_fail < r.t_reached
+    assert engine_mode(failed("mujoco", "Euler", ["body"], "blowup", r.message)) == "badqacc"
+    spec = TrialSpec(v.name, "pinocchio", "euler", 1e-4, 0.02, 1e-4, 1e-8, "search")
+    r = trial_case(scene, spec, ref, cat.bounds)
+    assert not r.stable and r.mode in ("energy growth", "magnitude growth")
+    spec = TrialSpec(v.name, "mujoco", "implicit", 1e-4, 0.02, 1e-4, 1e-8, "search")
+    r = trial_case(scene, spec, ref, cat.bounds)
+    assert r.stable and r.error_kind == "exact" and r.divergence["exact"] is not None
+
+
+def test_crash_and_timeout_are_recorded_and_the_rest_kept(tmp_path, monkeypatch):
+    path = tmp_path / "c.toml"
+    path.write_text(SMALL)
+    cat = load_catalogue(path)
+
+    def crash(scene, settings):
+        os._exit(3)
+
+    def hang(scene, settings):
+        time.sleep(30)
+
+    monkeypatch.setattr(pinocchio_engine.ENGINE, "simulate", crash)
+    monkeypatch.setattr(inhouse.ENGINE, "simulate", hang)
+    variants, engines = select(cat, None, None)
+    t0 = time.perf_counter()
+    result = run_stress(cat, variants, engines, jobs=2, timeout=1.0)
+    assert time.perf_counter() - t0 < 15
+    rows = {m.engine: m for m in result.rows}
+    assert rows["pinocchio"].nominal.mode == "crash" and "exit code 3" in rows["pinocchio"].nominal.message
+    assert rows["inhouse"].nominal.mode == "timeout"
+    assert rows["mujoco"].stable_dt == pytest.approx(1e-3) and rows["mujoco"].nominal.stable
+
+
+def test_cli_stress_quick_subset(tmp_path, capsys):
+    out = tmp_path / "reports"
+    code, stdout, err = run(["stress", "--variants", "torque_free_spin_1e3,heavy_top_spin_1e3",
+                             "--engines", "mujoco,pinocchio", "--quick", "--jobs", "2", "--out-dir", str(out)], capsys)
+    assert code == 0, err
+    md = (out / "stress.md").read_text()
+    for fragment in ("## Stability map", "## Closing note", "### torque_free_spin_1e3", "mujoco/RK4", "pinocchio/euler"):
+        assert fragment in md
+    trials = pd.read_csv(out / "stress.csv")
+    assert set(trials["variant"]) == {"torque_free_spin_1e3", "heavy_top_spin_1e3"}
+    assert {"reference", "mujoco", "pinocchio"} <= set(trials["engine"])
+    assert set(trials["mode"].dropna()) <= set(FAILURE_MODES)
+    cells = pd.read_csv(out / "stress_map.csv")
+    assert len(cells) == 2 * 6
+    rk4 = cells[(cells.variant == "torque_free_spin_1e3") & (cells.integrator == "RK4")].iloc[0]
+    assert rk4.stable_dt > 0 and math.isfinite(rk4.error_at_stable)
+    assert (out / "stress" / "map.png").read_bytes()[:4] == b"\x89PNG"
+    assert (out / "stress" / "torque_free_spin_1e3.png").is_file()
+    assert not list(out.rglob(".*.tmp"))
+
+
+@pytest.mark.parametrize("args,fragment", [
+    (["--variants", "no_such_variant"], "unknown variant 'no_such_variant'"),
+    (["--engines", "bullet"], "unknown engine 'bullet'"),
+    (["--timeout", "0"], "--timeout must be positive"),
+])
+def test_cli_stress_bad_input(tmp_path, capsys, args, fragment):
+    code, _, err = run(["stress", "--out-dir", str(tmp_path / "r")] + args, capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("harness: error:") and fragment in lines[0], err
+    assert not (tmp_path / "r").exists()

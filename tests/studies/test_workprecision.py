@@ -1,0 +1,164 @@
+"""Work-precision sweeps: the sweep runs and writes its reports, errors and orders are measured
+as documented, failures are recorded points. No wall-clock thresholds: this is a benchmark."""
+
+from __future__ import annotations
+
+import io
+import math
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from harness.cli.main import main
+from harness.engines.base import RunSettings
+from harness.model.scene import load_scene
+from harness.studies.workprecision.run import (
+    ERROR_KEYS,
+    QUICK,
+    Curve,
+    Progress,
+    SweepOptions,
+    WorkPrecisionPoint,
+    errors,
+    measure,
+    observed_order,
+    reference,
+    sweep_scene,
+    time_table,
+    time_to_error,
+)
+
+
+def point(param, err, t, integrator="rk4_batched", status="ok", steps=float("nan")):
+    return WorkPrecisionPoint(scene="s", engine="inhouse", integrator=integrator, variant="batched", param=param,
+                              status=status, message="", time_s=t, time_min_s=t, time_total_s=t, repeats=1,
+                              steps=steps, rhs_evals=float("nan"), rhs_calls=float("nan"), state_final=err, state_max=err, energy_final=err,
+                              energy_max=err, momentum_final=err, momentum_max=err, nominal_order=4)
+
+
+def test_quick_sweep_writes_the_reports(tmp_path, capsys):
+    code = main(["workprecision", "--quick", "--scenes", "torque_free", "--no-progress", "--out-dir", str(tmp_path)])
+    assert code == 0
+    md = (tmp_path / "workprecision.md").read_text()
+    assert "## torque_free" in md and "workprecision/torque_free.png" in md
+    assert "in-house against MuJoCo RK4" in md and "Batched throughput" in md and "mujoco 4" in md
+    assert "Head to head" in md and "loop / rollout" in md and "compiled / rollout" in md
+    png = (tmp_path / "workprecision" / "torque_free.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    table = pd.read_csv(tmp_path / "workprecision.csv", comment="#")
+    assert set(ERROR_KEYS) <= set(table.columns)
+    labels = set(table["label"])
+    for label in ("mujoco RK4 (rollout)", "mujoco RK4 (loop)", "mujoco implicitfast (rollout)", "pinocchio rkmk4",
+                  "inhouse rk4 (per-state)", "inhouse DOP853 (per-state)", "inhouse dop853_fast (batched)",
+                  "inhouse gbs_parallel (batched)", "inhouse rkmk4 (batched)", "inhouse rk4_compiled (compiled)",
+                  "inhouse dop853_compiled (compiled)"):
+        assert label in labels
+    ok = table[table["status"] == "ok"]
+    assert (ok["time_s"] > 0).all() and (ok["time_min_s"] <= ok["time_s"] + 1e-12).all()
+    assert "torque_free:" in capsys.readouterr().out
+
+
+def test_bad_options_exit_2(tmp_path, capsys):
+    assert main(["workprecision", "--repeats", "0", "--out-dir", str(tmp_path)]) == 2
+    assert "--repeats out of range" in capsys.readouterr().err
+    assert not (tmp_path / "workprecision.md").exists()
+
+
+def test_progress_bar_advances_on_its_stream():
+    stream = io.StringIO()
+    bar = Progress(4, stream=stream, width=8)
+    bar.advance(1, "first")
+    bar.advance(3, "rest")
+    bar.close()
+    text = stream.getvalue()
+    assert "[##......] 1/4" in text and "[########] 4/4" in text and text.endswith("\n")
+
+
+@pytest.fixture(scope="module")
+def torque_free_short():
+    scene = load_scene("torque_free")
+    options = replace(QUICK, horizon=2.0, saves=4, dt_levels=7, repeats=1, max_run_s=5.0)
+    ref, _ = reference(scene, 2.0, 0.5)
+    return scene, options, ref
+
+
+def test_errors_of_the_reference_itself_vanish(torque_free_short):
+    scene, _, ref = torque_free_short
+    errs = errors(ref, ref, scene.multibody())
+    assert all(errs[k] == 0.0 for k in ERROR_KEYS)
+    bad = replace(ref, status="blowup")
+    assert all(math.isnan(v) for v in errors(bad, ref, scene.multibody()).values())
+
+
+@pytest.mark.parametrize("curve,lo", [
+    (Curve("mujoco", "RK4", "rollout"), 2), (Curve("mujoco", "Euler", "rollout"), 5),
+    (Curve("mujoco", "implicitfast", "loop"), 5), (Curve("pinocchio", "rkmk4", ""), 2),
+    (Curve("inhouse", "rk4_batched", "batched"), 2), (Curve("inhouse", "rkmk4", "batched"), 2),
+    (Curve("inhouse", "euler_batched", "batched"), 5), (Curve("inhouse", "rk4_compiled", "compiled"), 2),
+])
+def test_observed_orders_are_the_nominal_ones(torque_free_short, curve, lo):
+    scene, options, _ = torque_free_short
+    options = replace(options, dt_levels=lo + 4, error_floor=1e-13)
+    sweep = sweep_scene(scene, [curve.engine], options, curve_list=[curve])
+    pts = [p for p in sweep.points if p.param <= 0.5 / 2**lo]
+    order = observed_order(pts, options.error_floor)
+    assert order["n"] >= 3, pts
+    assert abs(order["order"] - curve.nominal_order) < 0.25 * curve.nominal_order, order
+
+
+@pytest.mark.parametrize("curve", [Curve("inhouse", "dop853_fast", "batched"), Curve("inhouse", "dop853_compiled", "compiled")])
+def test_adaptive_curves_report_tolerance_slope_and_effective_order(torque_free_short, curve):
+    scene, options, _ = torque_free_short
+    options = replace(options, tolerances=(1e-5, 1e-7, 1e-9, 1e-11))
+    sweep = sweep_scene(scene, ["inhouse"], options, curve_list=[curve])
+    assert all(p.ok for p in sweep.points)
+    errs = [p.state_max for p in sweep.points]
+    assert errs == sorted(errs, reverse=True)  # tighter tolerance, smaller error
+    order = observed_order(sweep.points, 1e-13)
+    assert 0.5 < order["tol_slope"] < 1.5 and math.isfinite(order["steps_order"])
+
+
+def test_a_failing_run_is_a_recorded_point():
+    scene = load_scene("double_pendulum").with_params(F0=1.0, omega_f=2.0)
+    ref, _ = reference(scene, 0.5, 0.25)
+    settings = RunSettings(0.5, 0.01, 0.25, "RK4")
+    p = measure(scene, Curve("mujoco", "RK4", "rollout"), settings, ref, scene.multibody(), QUICK)
+    assert p.status == "failed" and "NotImplementedError" in p.message and math.isnan(p.state_max)
+    blow = measure(load_scene("heavy_top"), Curve("mujoco", "Euler", "loop"), RunSettings(0.5, 0.25, 0.25, "Euler"),
+                   reference(load_scene("heavy_top"), 0.5, 0.25)[0], load_scene("heavy_top").multibody(), QUICK)
+    assert blow.status in ("ok", "blowup", "failed")  # recorded either way, never raised
+
+
+def test_time_to_error_interpolates_on_the_lower_envelope():
+    pts = [point(0.1, 1e-4, 1.0), point(0.05, 1e-6, 2.0), point(0.025, 1e-8, 4.0), point(0.01, 2e-8, 8.0)]
+    assert time_to_error(pts, 1e-6) == pytest.approx(2.0)
+    assert time_to_error(pts, 1e-5) == pytest.approx(math.sqrt(2.0))  # half-way in log-log
+    assert math.isnan(time_to_error(pts, 1e-10))
+    assert time_to_error(pts + [point(0.001, float("nan"), 0.1, status="failed")], 1e-4) == pytest.approx(1.0)
+
+
+def test_observed_order_of_an_exact_power_law():
+    pts = [point(h, 3.0 * h**4, 1.0 / h) for h in (0.1, 0.05, 0.025, 0.0125)]
+    o = observed_order(pts, 1e-14)
+    assert o["order"] == pytest.approx(4.0) and o["n"] == 4
+    adaptive = [point(tol, 2 * tol, 1.0, integrator="dop853_fast", steps=tol**-0.125) for tol in (1e-4, 1e-6, 1e-8)]
+    o = observed_order(adaptive, 1e-14)
+    assert o["tol_slope"] == pytest.approx(1.0) and o["steps_order"] == pytest.approx(8.0)
+
+
+def test_time_table_ratios_are_to_the_fastest_curve():
+    from harness.studies.workprecision.run import SceneSweep
+
+    sweep = SceneSweep("s", 1.0, 0.1, "ref")
+    sweep.points = [point(0.1, 1e-7, 1.0), point(0.1, 1e-7, 3.0, integrator="rkmk4")]
+    rows = {r["label"]: r for r in time_table(sweep, targets=(1e-6,))}
+    assert rows["inhouse rk4_batched (batched)"]["ratio(1e-06)"] == 1.0
+    assert rows["inhouse rkmk4 (batched)"]["ratio(1e-06)"] == 3.0
+
+
+def test_default_options_describe_a_full_sweep():
+    o = SweepOptions()
+    assert o.repeats >= 1 and o.batch == 1000 and min(o.tolerances) <= 1e-12
+    assert np.isclose(0.5 / 2 ** (o.dt_levels - 1), 0.5 / 2**15)
