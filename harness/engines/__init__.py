@@ -19,3 +19,11 @@ def get_engine(name: str):
     if name not in ENGINE_MODULES:
         raise InputError(f"unknown engine {name!r} (known: {', '.join(ENGINE_NAMES)})")
     return importlib.import_module(ENGINE_MODULES[name]).ENGINE
+
+
+def integrator(engine: str, method: str):
+    """The ``Integrator`` record of ``method`` on ``engine``; InputError if either is unknown."""
+    table = get_engine(engine).integrators
+    if method not in table:
+        raise InputError(f"unknown integrator {method!r} for engine {engine} (known: {', '.join(table)})")
+    return table[method]

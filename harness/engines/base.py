@@ -17,6 +17,37 @@ from harness.measure.trajectory import Trajectory
 
 
 @dataclass(frozen=True)
+class Integrator:
+    """One integration method of one engine.
+
+    Attributes:
+        name: the name ``--integrator`` takes (as the engine or library spells it).
+        kind: ``"fixed"`` (a fixed step ``dt``) or ``"adaptive"`` (error-controlled at
+            ``rtol``/``atol``; ``dt`` is only the first-step hint).
+        order: nominal order of convergence (global error ~ dt^order, or ~ tol for adaptive
+            methods whose error follows the tolerance).
+        stages: right-hand-side evaluations per step (None where a step has no fixed count:
+            implicit, multistep or extrapolation methods).
+        doc: one line on the method and its constraint handling.
+    """
+
+    name: str
+    kind: str
+    order: int
+    stages: int | None
+    doc: str = ""
+
+    @property
+    def adaptive(self) -> bool:
+        return self.kind == "adaptive"
+
+
+def integrator_table(*methods: Integrator) -> dict[str, Integrator]:
+    """``{name: Integrator}`` in the given order (an engine's ``integrators``)."""
+    return {m.name: m for m in methods}
+
+
+@dataclass(frozen=True)
 class RunSettings:
     """How to run a scene.
 
@@ -45,7 +76,7 @@ class RunSettings:
         return int(round(self.save_every / self.dt))
 
 
-def check_settings(settings: RunSettings, integrators: tuple[str, ...], engine: str) -> None:
+def check_settings(settings: RunSettings, integrators, engine: str) -> None:
     """Raise InputError for a non-positive or non-finite step/horizon, an incommensurate save
     interval, or an integrator the engine does not have."""
     for label in ("t_end", "dt", "save_every"):
@@ -67,7 +98,7 @@ class Engine(Protocol):
     """What every engine provides."""
 
     name: str
-    integrators: tuple[str, ...]
+    integrators: dict[str, Integrator]  # by name, in the engine's order (``integrator_table``)
 
     def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
         """Run ``scene`` and return its trajectory in maximal coordinates.

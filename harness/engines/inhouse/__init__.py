@@ -42,7 +42,7 @@ import numpy as np
 from harness.engines.base import RunSettings, check_settings
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.constraints import DynamicsError, project, violation
-from harness.engines.inhouse.integrators import FIXED_STEP, integrate
+from harness.engines.inhouse.integrators import FIXED_STEP, METHODS, integrate
 from harness.engines.inhouse.model import NEModel, build, from_trajectory, initial_state, split, to_trajectory
 from harness.engines.inhouse.newton_euler import Baumgarte, make_rhs, reaction_series, reactions
 from harness.engines.inhouse.rolling import contact_force_series
@@ -79,7 +79,7 @@ class InhouseEngine:
     """
 
     name = "inhouse"
-    integrators = ("rk4", "euler", "RK45", "DOP853", "Radau", "BDF", "LSODA")
+    integrators = METHODS
 
     def __init__(self, baumgarte_ratio: float = 0.2, baumgarte_zeta: float = 1.0, project: bool = True) -> None:
         self.baumgarte_ratio = float(baumgarte_ratio)

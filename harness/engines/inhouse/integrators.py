@@ -27,6 +27,8 @@ from typing import Callable
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK45, Radau
 
+from harness.engines.base import Integrator, integrator_table
+
 RHS = Callable[[float, np.ndarray], np.ndarray]
 
 
@@ -53,7 +55,15 @@ EULER = ButcherTableau(name="euler", A=((0.0,),), b=(1.0,), c=(0.0,), order=1)
 
 FIXED_STEP: dict[str, ButcherTableau] = {"rk4": RK4, "euler": EULER}
 ADAPTIVE = {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
-METHODS = tuple(FIXED_STEP) + tuple(ADAPTIVE)
+METHODS = integrator_table(
+    Integrator("rk4", "fixed", 4, 4, "classic RK4; quaternions renormalised and joint constraints projected after each step"),
+    Integrator("euler", "fixed", 1, 1, "explicit Euler; projected after each step"),
+    Integrator("RK45", "adaptive", 4, 6, "SciPy Dormand-Prince 5(4); Baumgarte stabilisation, no projection"),
+    Integrator("DOP853", "adaptive", 8, 12, "SciPy DOP853; Baumgarte stabilisation, no projection"),
+    Integrator("Radau", "adaptive", 5, None, "SciPy Radau IIA (implicit); Baumgarte stabilisation"),
+    Integrator("BDF", "adaptive", 1, None, "SciPy BDF, orders 1-5 (implicit multistep); Baumgarte stabilisation"),
+    Integrator("LSODA", "adaptive", 1, None, "SciPy LSODA (Adams/BDF switching); Baumgarte stabilisation"),
+)
 
 _NUMERICAL_ERRORS = (ArithmeticError, np.linalg.LinAlgError)
 

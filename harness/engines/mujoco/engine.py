@@ -28,7 +28,7 @@ import mujoco
 import numpy as np
 
 from harness.engines.base import RunSettings, check_settings
-from harness.engines.mujoco.model import INTEGRATORS, load_mjcf, set_initial_state
+from harness.engines.mujoco.model import INTEGRATOR_METHODS, load_mjcf, set_initial_state
 from harness.engines.mujoco.rolling import ContactForceReader, describe_contact
 from harness.model.errors import InputError
 from harness.model.scene import Scene
@@ -44,7 +44,7 @@ class MujocoEngine:
     """Runs a scene in MuJoCo from its MJCF file."""
 
     name = "mujoco"
-    integrators = tuple(INTEGRATORS)
+    integrators = INTEGRATOR_METHODS
 
     def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
         check_settings(settings, self.integrators, self.name)

@@ -25,7 +25,7 @@ import pinocchio as pin
 
 from harness.model import rotations
 from harness.engines.base import RunSettings, check_settings
-from harness.engines.pinocchio.lie_group_integrators import STEPPERS
+from harness.engines.pinocchio.lie_group_integrators import METHODS, STEPPERS
 from harness.engines.pinocchio.model import initial_configuration, load_urdf
 from harness.model.scene import Scene
 from harness.measure.trajectory import SampleBuffer, Trajectory
@@ -37,7 +37,7 @@ class PinocchioEngine:
     """Runs a scene in Pinocchio from its URDF file."""
 
     name = "pinocchio"
-    integrators = tuple(STEPPERS)
+    integrators = METHODS
 
     def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
         check_settings(settings, self.integrators, self.name)

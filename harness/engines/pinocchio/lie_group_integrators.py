@@ -19,6 +19,8 @@ from typing import Callable
 import numpy as np
 import pinocchio as pin
 
+from harness.engines.base import Integrator, integrator_table
+
 Accel = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 
 RK4_A = ((), (0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))
@@ -51,3 +53,7 @@ def euler_step(model: pin.Model, accel: Accel, t: float, q: np.ndarray, v: np.nd
 
 
 STEPPERS = {"rkmk4": rkmk4_step, "euler": euler_step}
+METHODS = integrator_table(
+    Integrator("rkmk4", "fixed", 4, 4, "Runge-Kutta-Munthe-Kaas RK4 on the configuration Lie group (pin.integrate, dIntegrate)"),
+    Integrator("euler", "fixed", 1, 1, "semi-implicit Euler on the Lie group"),
+)
