@@ -51,7 +51,16 @@ sin(θ/2) = k sin ψ, k = sin(θ_m/2) (smooth integrand, Gauss-Legendre):
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+from harness.measure.exact import extra_run
+from harness.measure.signals import frequency_from_hermite_crossings
+
+if TYPE_CHECKING:  # pragma: no cover
+    from harness.measure.trajectory import Trajectory
+    from harness.model.scene import Scene
 
 __all__ = [
     "pivot_inertia",
@@ -65,6 +74,8 @@ __all__ = [
     "textbook_cart_speed",
     "amplitude",
     "period",
+    "EXACT_NEEDS_RUNS",
+    "exact_error",
 ]
 
 
@@ -152,3 +163,60 @@ def period(M, m, l, I_c, g, theta0: float, dX0: float = 0.0, dtheta0: float = 0.
     J = pivot_inertia(m, l, I_c) - (m * l * np.cos(theta)) ** 2 / S
     f = np.sqrt(J / (m * g * l)) / np.sqrt(1.0 - (k * np.sin(psi)) ** 2)
     return float(4.0 * 0.25 * np.pi * np.sum(w * f))
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact check of a run (``harness.measure.exact``)
+# ---------------------------------------------------------------------------------------------
+EXACT_NEEDS_RUNS = True  # a small-oscillation run of the check's own
+MODAL_AMPLITUDE = 1e-3   # rad, the small-oscillation run's release angle
+
+
+def run_angles(traj: "Trajectory") -> tuple[np.ndarray, np.ndarray]:
+    """Pendulum angle from the downward vertical (toward +x) and its rate, from maximal
+    coordinates: the pivot is the cart's frame origin (its centre of mass); the rate is the
+    pendulum's angular velocity about the hinge axis -y."""
+    cart, bob = traj.p_WCm_W[:, 0], traj.p_WCm_W[:, 1]
+    theta = np.unwrap(np.arctan2(bob[:, 0] - cart[:, 0], cart[:, 2] - bob[:, 2]))
+    return theta, -traj.w_WB_W[:, 1, 1]
+
+
+def exact_error(scene: "Scene", traj: "Trajectory", settings, run) -> tuple[float, str, str]:
+    """The largest of three relative errors: (1) the square of the cart velocity relative to the
+    centre-of-mass drift, (Xdot - P/S)^2, at every sample against its exact value at the run's
+    own pendulum angle from the conservation of energy and horizontal momentum
+    (``relative_speed_squared``; at the vertical this is Ex. 1.6.1), over the squared velocity
+    scale (squared because the speed is ill-conditioned where it vanishes); (2) the period of
+    the run's pendulum (Hermite zero crossings of theta) against the exact period (``period``,
+    Gauss-Legendre quadrature); (3) the small-oscillation frequency (Ex. 1.5.1), measured on a
+    run by ``run`` of 2 periods from rest at theta = MODAL_AMPLITUDE with the step, integrator and
+    tolerances of ``settings`` (the exact period at that amplitude is the reference, so no
+    amplitude bias enters). The bob is a uniform sphere of radius r: I_c = 0.4 m r^2."""
+    p = scene.params
+    M, m, L, g = p["M"], p["m"], p["L"], p["g"]
+    I_c = 0.4 * m * p["r"] ** 2
+    theta, dtheta = run_angles(traj)
+    P = momentum(M, m, L, p["theta0"], p["dX0"], p["dtheta0"])
+    E = relative_energy(M, m, L, I_c, g, p["theta0"], p["dX0"], p["dtheta0"])
+    w = traj.v_WCm_W[:, 0, 0] - P / (M + m)  # cart velocity relative to the centre-of-mass drift
+    v_scale = max(float(np.max(np.abs(traj.v_WCm_W))), 1e-300)
+    # compared squared: w itself is ill-conditioned at the turning points (w -> 0)
+    err_speed = float(np.max(np.abs(w * w - relative_speed_squared(theta, M, m, L, I_c, g, E)))) / v_scale**2
+    T = period(M, m, L, I_c, g, p["theta0"], p["dX0"], p["dtheta0"])
+    w_run = frequency_from_hermite_crossings(traj.t, theta, dtheta)
+    err_period = abs(w_run * T / (2.0 * np.pi) - 1.0)
+    # small oscillations: a second run from rest at MODAL_AMPLITUDE
+    T_small = period(M, m, L, I_c, g, MODAL_AMPLITUDE)
+    modal = scene.with_params(theta0=MODAL_AMPLITUDE, dtheta0=0.0, dX0=0.0)
+    save = settings.dt * max(1, int(round(0.02 * T_small / settings.dt)))
+    n_saves = int(np.ceil(2 * T_small / save))  # 2 periods from a turning point: 4 zero crossings
+    small = extra_run(run, modal, settings, n_saves, save, "small-oscillation run")
+    w_small = frequency_from_hermite_crossings(small.t, *run_angles(small))
+    err_small = abs(w_small * T_small / (2.0 * np.pi) - 1.0)
+    w_lin = small_oscillation_frequency(M, m, L, I_c, g)
+    at_vertical = cart_speed_at_vertical(M, m, L, I_c, g, p["theta0"], p["dX0"], p["dtheta0"])
+    detail = (f"(cart velocity)^2 vs energy+momentum closed form {err_speed:.1e} (|Xdot - P/S| at the vertical "
+              f"{at_vertical:.6f} m/s, Ex. 1.6.1); period {2 * np.pi / w_run:.6f} s vs exact {T:.6f} s ({err_period:.1e}); "
+              f"small-oscillation omega {w_small:.6f} rad/s vs exact {2 * np.pi / T_small:.6f} ({err_small:.1e}; "
+              f"linearised {w_lin:.6f}, Ex. 1.5.1)")
+    return max(err_speed, err_period, err_small), "rel", detail

@@ -58,8 +58,18 @@ which is regular at resonance: G_k → t sin(ω_k t)/(2 ω_k) for ω_f = ω_k (s
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import scipy.linalg
+
+from harness.measure.exact import extra_run
+from harness.measure.signals import frequency_from_zero_crossings
+from harness.model import rotations
+
+if TYPE_CHECKING:  # pragma: no cover
+    from harness.measure.trajectory import Trajectory
+    from harness.model.scene import Scene
 
 __all__ = [
     "thin_bar_inertia",
@@ -69,6 +79,8 @@ __all__ = [
     "modes",
     "unit_modes",
     "linear_response",
+    "EXACT_NEEDS_RUNS",
+    "exact_error",
 ]
 
 
@@ -144,3 +156,83 @@ def linear_response(
             Y[k] += f[k] * G
     xi = U @ Y
     return xi[0], xi[1]
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact check of a run (``harness.measure.exact``)
+# ---------------------------------------------------------------------------------------------
+EXACT_NEEDS_RUNS = True  # modal runs (and a forced run) of the check's own
+MODAL_AMPLITUDE = 1e-3   # rad
+MODAL_PERIODS = 8        # periods of the slow mode measured
+FORCED_AMPLITUDE = 1e-3  # rad, peak of the small-amplitude forced run
+
+
+def _bar_inertia(scene: "Scene") -> float:
+    """The scene's transverse moment of a bar about its centre (kg m²), from its builder."""
+    from harness.model.builders.double_pendulum import bar_inertia
+
+    p = scene.params
+    return bar_inertia(p["m"], p["L"], p["r"])[0, 0]
+
+
+def bar_angles(traj: "Trajectory") -> tuple[np.ndarray, np.ndarray]:
+    """Absolute angles (theta, phi) of the two bars from the downward vertical, toward +x, from
+    the bars' orientations (each bar hangs along its body -z)."""
+    out = []
+    for i in range(2):
+        d = -rotations.matrix(traj.quat_WB[:, i])[:, :, 2]
+        out.append(np.arctan2(d[:, 0], -d[:, 2]))
+    return out[0], out[1]
+
+
+def exact_error(scene: "Scene", traj: "Trajectory", settings, run) -> tuple[float, str, str]:
+    """Max relative error of the two small-oscillation frequencies (``modes``). ``run`` makes a
+    run from each mode shape at MODAL_AMPLITUDE rad (rest, no force) with the step, integrator and
+    tolerances of ``settings``; the frequency is measured from the zero crossings of the upper
+    bar's angle. With a force (F0 != 0) a third run from rest, with the force scaled to a
+    FORCED_AMPLITUDE response at the scene's omega_f, is compared with the exact linear response
+    (Ex. 6.2.1, ``linear_response``), relative to that peak. ``traj`` itself is not judged."""
+    p = scene.params
+    I_c = _bar_inertia(scene)
+    omegas, vectors = modes(p["m"], p["L"], I_c, p["g"])
+    errors, measured = [], []
+    for k in range(2):
+        u = vectors[:, k] / np.max(np.abs(vectors[:, k])) * MODAL_AMPLITUDE
+        modal = scene.with_params(theta0=u[0], phi0=u[1], dtheta0=0.0, dphi0=0.0, F0=0.0)
+        t_end = MODAL_PERIODS * 2 * np.pi / omegas[0]
+        save = settings.dt * max(1, int(round(0.02 * (2 * np.pi / omegas[1]) / settings.dt)))
+        out = extra_run(run, modal, settings, int(np.ceil(t_end / save)), save, f"modal run {k + 1}")
+        # upper bar angle from the vertical, signed toward +x
+        r = out.p_WCm_W[:, 0]
+        theta = np.arctan2(r[:, 0], -r[:, 2])
+        w = frequency_from_zero_crossings(out.t, theta)
+        measured.append(w)
+        errors.append(abs(w - omegas[k]) / omegas[k])
+    detail = (f"omega = {measured[0]:.6f}, {measured[1]:.6f} rad/s measured; exact {omegas[0]:.6f}, {omegas[1]:.6f} "
+              f"= {omegas[0] / np.sqrt(p['g'] / p['L']):.4f}, {omegas[1] / np.sqrt(p['g'] / p['L']):.4f} sqrt(g/L)")
+    if p["F0"] != 0.0:
+        err, note = _forced_error(scene, settings, run, I_c, omegas)
+        errors.append(err)
+        detail += "; " + note
+    return float(max(errors)), "rel", detail
+
+
+def _forced_error(scene: "Scene", settings, run, I_c: float, omegas: np.ndarray) -> tuple[float, str]:
+    """Small-amplitude forced response (Ex. 6.2.1, from rest) against the exact linear response
+    ``linear_response`` at the scene's forcing frequency: the force is scaled so that the exact
+    response peaks at FORCED_AMPLITUDE rad over two slow periods; error = max |(theta, phi) -
+    exact| over that peak (nonlinear terms ~ amplitude^2)."""
+    p = scene.params
+    t_end = 2.0 * 2.0 * np.pi / omegas[0]
+    save = settings.dt * max(1, int(round(0.01 * (2 * np.pi / omegas[1]) / settings.dt)))
+    n_saves = int(np.ceil(t_end / save))
+    t = np.arange(n_saves + 1) * save
+    unit = np.abs(np.array(linear_response(t, p["m"], p["L"], I_c, p["g"], 0.0, 0.0, 0.0, 0.0, 1.0, p["omega_f"]))).max()
+    F_small = FORCED_AMPLITUDE / unit
+    forced = scene.with_params(theta0=0.0, phi0=0.0, dtheta0=0.0, dphi0=0.0, F0=F_small)
+    out = extra_run(run, forced, settings, n_saves, save, "forced run")
+    theta, phi = bar_angles(out)
+    ex_theta, ex_phi = linear_response(out.t, p["m"], p["L"], I_c, p["g"], 0.0, 0.0, 0.0, 0.0, F_small, p["omega_f"])
+    err = float(max(np.max(np.abs(theta - ex_theta)), np.max(np.abs(phi - ex_phi)))) / FORCED_AMPLITUDE
+    return err, (f"forced from rest at omega_f = {p['omega_f']:g} rad/s with F0 = {F_small:.3e} N (peak {FORCED_AMPLITUDE:g} rad) "
+                 f"vs the exact linear response (Ex. 6.2.1): {err:.1e} of the peak")

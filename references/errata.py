@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-BOOK = "Boström, *Rigid body dynamics* (OCR'd copy `/work/shared/textbook/rigid-body-dynamics.txt`)"
+BOOK = "Boström, *Rigid body dynamics* (OCR'd copy `shared/textbook/rigid-body-dynamics.txt` beside the repository)"
 ERRATA_PATH = Path(__file__).resolve().parent / "ERRATA.md"
 
 
@@ -49,7 +49,7 @@ ERRATA: tuple[Erratum, ...] = (
         correct="ω rotates at the rate γ ω_3, γ = (I_3 − I_1)/I_1: positive only when ω_3 > 0 as well; "
                 "for ω_3 < 0 it rotates the other way.",
         why="The rate is γ ω_3 (Eqs. 4.66–4.69), which changes sign with ω_3.",
-        tests=("tests/references/test_closed_forms.py::test_symmetric_precession_rate_textbook",),
+        tests=("tests/references/test_torque_free.py::test_symmetric_precession_rate_textbook",),
     ),
     Erratum(
         location="§4.7, after Eq. 4.73 (l. 2370)",
@@ -60,7 +60,7 @@ ERRATA: tuple[Erratum, ...] = (
                 "lies inside the body cone, and the body cone rolls around it. (The slender-body statement, "
                 "external contact with α_3 = α_b + α_s, is right.)",
         why="tan α_3 = (I_1/I_3) tan α_b from Eqs. 4.70 and 4.72, so α_3 < α_b when I_1 < I_3.",
-        tests=("tests/references/test_closed_forms.py::test_torque_free_cone_geometry",),
+        tests=("tests/references/test_torque_free.py::test_torque_free_cone_geometry",),
     ),
     Erratum(
         location="Ex. 4.7.2 (l. 2447, 2458)",
@@ -88,7 +88,7 @@ ERRATA: tuple[Erratum, ...] = (
             "+½mL²θ̇² sin(φ−θ). With the printed sign the energy drifts by more than 1e-2 relative; with "
             "the corrected sign by less than 1e-10. (The OCR line carries a stray ')'; either way the printed "
             "sign is not physical.)",
-        tests=("tests/references/test_closed_forms.py::test_double_pendulum_ex522_printed_sign_breaks_energy",),
+        tests=("tests/references/test_double_pendulum.py::test_double_pendulum_ex522_printed_sign_breaks_energy",),
     ),
     Erratum(
         location="Ex. 5.2.3 (l. 2856–2905)",
@@ -146,8 +146,8 @@ ERRATA: tuple[Erratum, ...] = (
         correct="(4/3)θ̈ + ½φ̈ + (3g/2L)θ = F_0 cos(ωt)/(mL)   (or, undivided, mL²[…] = F_0 L cos ωt)",
         why="The left-hand side has been divided by mL², the right-hand side has not. Ex. 6.2.1 then uses the "
             "undivided M and Q consistently, so its result is unaffected.",
-        tests=("tests/references/test_closed_forms.py::test_double_pendulum_linear_response_exact",
-               "tests/references/test_closed_forms.py::test_double_pendulum_nonlinear_small_amplitude"),
+        tests=("tests/references/test_double_pendulum.py::test_double_pendulum_linear_response_exact",
+               "tests/references/test_double_pendulum.py::test_double_pendulum_nonlinear_small_amplitude"),
     ),
     Erratum(
         location="Ex. 6.2.1 (l. 3329)",
@@ -157,7 +157,7 @@ ERRATA: tuple[Erratum, ...] = (
         correct="m_1 = u_1ᵀ M u_1 = 1.13118 mL² (m_2 = 0.13 mL² is right)",
         why="1.12 is what the two-digit rounded mode vector (0.57, 0.82) gives (1.1247): the rounding error of "
             "Ex. 6.1.1 was carried into a printed result, about 1 % off.",
-        tests=("tests/references/test_closed_forms.py::test_double_pendulum_textbook_ex611_ex621_numbers",),
+        tests=("tests/references/test_double_pendulum.py::test_double_pendulum_textbook_ex611_ex621_numbers",),
     ),
 )
 
@@ -185,7 +185,7 @@ VERIFIED: tuple[tuple[str, str, str], ...] = (
     ("Ex. 1.6.1", "Ẋ = √(2m²gL/(M(M + m)))",
      "tests/references/test_cart_pendulum.py::test_textbook_ex161_cart_speed_and_ex151_frequency"),
     ("Ex. 2.2.1", "angular velocity of a top in the non-spinning frame",
-     "tests/references/test_closed_forms.py::test_heavy_top_cos_theta_matches_integration"),
+     "tests/references/test_heavy_top.py::test_heavy_top_cos_theta_matches_integration"),
     ("Ex. 4.2.1, 4.5.1", "plate inertia m(a² + b²)/3 and (4/3)m(a² + b²) about the corner",
      "tests/references/test_plate_pendulum.py::test_textbook_plate_inertia"),
     ("Ex. 4.5.1", "ω_max = √(3g(√(a² + b²) − b)/(2(a² + b²)))",
@@ -195,13 +195,13 @@ VERIFIED: tuple[tuple[str, str, str], ...] = (
     ("Ex. 4.6.1", "plate on a skew axis: L, dL/dt = −(1/3)ma²ω² cos φ sin φ e_y, F = ma²ω² cos φ sin φ/(6d)",
      "tests/references/test_rotating_plate.py::test_couple_is_the_rate_of_angular_momentum"),
     ("§4.7, Eqs. 4.60–4.73", "Euler's equations, stability β, symmetric solution, cone angles",
-     "tests/references/test_closed_forms.py::test_torque_free_textbook_stability_beta"),
+     "tests/references/test_torque_free.py::test_torque_free_textbook_stability_beta"),
     ("Ex. 5.3.1", "Lagrange's equations, r* = L + mg/k, ω_1 = √(k/m), ω_2 = √(g/r*)",
      "tests/references/test_spring_pendulum.py::test_textbook_frequencies_from_small_oscillations"),
     ("Ex. 6.1.1", "ω = 0.86, 2.30 √(g/L); mode ratios 1.43, −2.10; unit vectors",
-     "tests/references/test_closed_forms.py::test_double_pendulum_textbook_ex611_ex621_numbers"),
+     "tests/references/test_double_pendulum.py::test_double_pendulum_textbook_ex611_ex621_numbers"),
     ("Ex. 6.2.1", "Y_k = L F_0 u_1^k (cos ωt − cos ω_k t)/(m_k(ω_k² − ω²)); m_2 = 0.13 mL²",
-     "tests/references/test_closed_forms.py::test_double_pendulum_ex621_formula"),
+     "tests/references/test_double_pendulum.py::test_double_pendulum_ex621_formula"),
 )
 
 

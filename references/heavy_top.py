@@ -10,7 +10,7 @@ fixed point (4.35)-(4.37), and cyclic coordinates / first integrals (5.24) of §
 Status of the printed pieces: Ex. 2.2.1's ω and angular acceleration re-derived and correct.
 Everything below is derived here (standard result, e.g. Goldstein §5.7, Landau §35) and
 verified against a tight integration of Euler's equations about the tip plus rotation-matrix
-kinematics (``tests/references/test_closed_forms.py``).
+kinematics (``tests/references/test_heavy_top.py``).
 
 Frames, conventions, units (SI)
 -------------------------------
@@ -71,11 +71,17 @@ Degenerate initial states (documented behaviour)
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.special import elliprf
 
+from harness.model import rotations
 from harness.references.torque_free import ellipj
+
+if TYPE_CHECKING:  # pragma: no cover
+    from harness.measure.trajectory import Trajectory
+    from harness.model.scene import Scene
 
 __all__ = [
     "TopParams",
@@ -91,6 +97,10 @@ __all__ = [
     "steady_precession_rates",
     "steady_precession_state",
     "tilt_about_y",
+    "EXACT_NEEDS_RUNS",
+    "exact_error",
+    "exact_error_series",
+    "exact_reaction",
 ]
 
 
@@ -369,3 +379,53 @@ def steady_precession_state(params, theta0: float, omega3: float, branch: str = 
     w = rate * R0[2, :]
     w[2] = omega3
     return R0, w
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact checks of a run (``harness.measure.exact``)
+# ---------------------------------------------------------------------------------------------
+EXACT_NEEDS_RUNS = False  # the run itself is judged: no extra runs
+
+
+def _scene_top(scene: "Scene") -> tuple[dict, np.ndarray]:
+    """The scene's top parameters (mass, l, I1, I3, g) and its initial orientation R0 (the
+    scene's own, from its multibody)."""
+    p = scene.params
+    R0 = rotations.matrix(scene.multibody().q0["top"])
+    return {k: p[k] for k in ("mass", "l", "I1", "I3", "g")}, R0
+
+
+def exact_error_series(scene: "Scene", traj: "Trajectory") -> np.ndarray:
+    """|cos theta(t) - u_exact(t)|, the nutation (cos theta = e3 . z, the vertical component of
+    the symmetry axis) against the Jacobi elliptic solution (dimensionless)."""
+    params, R0 = _scene_top(scene)
+    R = rotations.matrix(traj.quat_WB[:, 0])
+    return np.abs(R[:, 2, 2] - cos_theta(traj.t, params, R0, np.asarray(scene.params["omega0"], float)))
+
+
+def exact_error(scene: "Scene", traj: "Trajectory", settings=None, run=None) -> tuple[float, str, str]:
+    """Max over samples of |cos theta(t) - u_exact(t)| (dimensionless; ``exact_error_series``),
+    with the nutation bounds in the detail. ``settings`` and ``run`` are unused (no extra runs)."""
+    params, R0 = _scene_top(scene)
+    lo, hi = nutation_bounds(params, R0, scene.params["omega0"])
+    return (float(np.max(exact_error_series(scene, traj))), "",
+            f"cos(theta) vs elliptic solution; nutation between {np.degrees(lo):.3f} and {np.degrees(hi):.3f} deg")
+
+
+def exact_reaction(scene: "Scene", traj: "Trajectory") -> tuple[float, str]:
+    """Max over samples of |F(t) - F_exact(t)| (N): the tip's reaction force on the top against
+    ``tip_force`` (m a_cm + m g z of the elliptic solution), its cylindrical components taken
+    about the run's own symmetry axis (horizontal components only where the axis is off the
+    vertical)."""
+    params, R0 = _scene_top(scene)
+    exact = tip_force(traj.t, params, R0, scene.params["omega0"])
+    e3 = rotations.matrix(traj.quat_WB[:, 0])[:, :, 2]
+    h = np.hypot(e3[:, 0], e3[:, 1])
+    e_rho = np.stack([e3[:, 0] / h, e3[:, 1] / h, np.zeros_like(h)], axis=1)
+    e_phi = np.stack([-e_rho[:, 1], e_rho[:, 0], np.zeros_like(h)], axis=1)
+    exact_W = exact[:, :1] * e_rho + exact[:, 1:2] * e_phi + exact[:, 2:3] * np.array([0.0, 0.0, 1.0])
+    force = traj.reactions["top"][0]
+    ok = h > 1e-6  # the horizontal components need the axis off the vertical
+    err_h = float(np.max(np.linalg.norm(force[ok] - exact_W[ok], axis=-1), initial=0.0))
+    err_z = float(np.max(np.abs(force[:, 2] - exact[:, 2])))
+    return max(err_h, err_z), "tip force vs m a_cm + m g from the elliptic u(t) (cylindrical components about the run's own axis)"

@@ -56,9 +56,15 @@ Support force on the plate (Newton's law for the centre of mass, F + m g = m a_c
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from harness.references.torque_free import ellipf, ellipj
+
+if TYPE_CHECKING:  # pragma: no cover
+    from harness.measure.trajectory import Trajectory
+    from harness.model.scene import Scene
 
 __all__ = [
     "pivot_inertia",
@@ -71,6 +77,10 @@ __all__ = [
     "pendulum_motion",
     "com_motion",
     "support_force",
+    "EXACT_NEEDS_RUNS",
+    "exact_error",
+    "exact_error_series",
+    "exact_reaction",
 ]
 
 
@@ -187,3 +197,53 @@ def support_force(t, m: float, a: float, b: float, g: float, phi0: float, dphi0:
     pivot exerts no couple (see the module docstring)."""
     _, _, acc, _ = com_motion(t, a, b, g, phi0, dphi0)
     return m * acc + np.array([0.0, 0.0, m * g])
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact checks of a run (``harness.measure.exact``)
+# ---------------------------------------------------------------------------------------------
+EXACT_NEEDS_RUNS = False  # the run itself is judged: no extra runs
+
+
+def _release_angle(scene: "Scene") -> float:
+    """phi0: the scene's initial angle of the centre of mass from the downward vertical (the
+    diagonal's atan2(a, b) plus the scene's theta0)."""
+    p = scene.params
+    return float(np.arctan2(p["a"], p["b"])) + p["theta0"]
+
+
+def exact_error_series(scene: "Scene", traj: "Trajectory") -> np.ndarray:
+    """|phi(t) - phi_exact(t)| (rad), the angle of the centre of mass from the downward vertical
+    through the pivot against the Jacobi-elliptic closed form (``pendulum_motion``)."""
+    p = scene.params
+    phi0 = _release_angle(scene)
+    r = traj.p_WCm_W[:, 0]
+    phi = np.unwrap(np.arctan2(r[:, 0], -r[:, 2]))
+    phi += 2.0 * np.pi * np.round((phi0 - phi[0]) / (2.0 * np.pi))
+    exact, _, _ = pendulum_motion(traj.t, natural_frequency(p["a"], p["b"], p["g"]), phi0, p["dtheta0"])
+    return np.abs(phi - exact)
+
+
+def exact_error(scene: "Scene", traj: "Trajectory", settings=None, run=None) -> tuple[float, str, str]:
+    """Max over samples of |phi(t) - phi_exact(t)| (rad; ``exact_error_series``); the detail gives
+    the largest angular velocity (Ex. 4.5.1). ``settings`` and ``run`` are unused (no extra runs)."""
+    p = scene.params
+    w_max = largest_angular_velocity(p["a"], p["b"], p["g"], _release_angle(scene), p["dtheta0"])
+    w_seen = float(np.max(np.linalg.norm(traj.w_WB_W[:, 0], axis=-1)))
+    return (float(np.max(exact_error_series(scene, traj))), "rad",
+            f"angle of the centre of mass vs elliptic solution; largest angular velocity {w_max:.6f} rad/s exact "
+            f"(Ex. 4.5.1), {w_seen:.6f} rad/s largest sample")
+
+
+def exact_reaction(scene: "Scene", traj: "Trajectory") -> tuple[float, str]:
+    """Max over samples of |F(t) - F_exact(t)| (N): the pivot force on the plate against
+    ``support_force`` (m a_cm + m g z of the elliptic solution); the detail adds the largest
+    reaction moment (exact: zero) and the textbook's instant of Ex. 4.5.2."""
+    p = scene.params
+    phi0 = _release_angle(scene)
+    force, moment = traj.reactions["plate"]
+    exact = support_force(traj.t, p["m"], p["a"], p["b"], p["g"], phi0, p["dtheta0"])
+    err = float(np.max(np.linalg.norm(force - exact, axis=-1)))
+    at_bottom = support_force_at_largest_velocity(p["m"], p["a"], p["b"], p["g"], phi0, p["dtheta0"])
+    return err, (f"pivot force vs m a_cm + m g of the elliptic solution; largest moment {np.max(np.linalg.norm(moment, axis=-1)):.1e} N m "
+                 f"(exact 0); at the bottom F_z = {at_bottom[2]:.6f} N (Ex. 4.5.2)")

@@ -103,8 +103,15 @@ the wrong Lagrangian is otherwise the same as the correct one.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+from harness.model import rotations
+
+if TYPE_CHECKING:  # pragma: no cover
+    from harness.measure.trajectory import Trajectory
+    from harness.model.scene import Scene
 
 
 @dataclass(frozen=True)
@@ -260,3 +267,64 @@ def printed_523_rhs(g: float, R: float):
         return np.array([dph, dth, dps, ddph, ddth, ddps])
 
     return f
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact check of a run (``harness.measure.exact``)
+# ---------------------------------------------------------------------------------------------
+EXACT_NEEDS_RUNS = False  # the run itself is judged: no extra runs
+
+
+def _scene_steady(scene: "Scene") -> tuple[DiskParams, dict | None, str]:
+    """The scene's disk, its steady circular motion, and "" -- or (disk, None, why) when the
+    scene's initial state is not a steady motion (needs dphi0 != 0, dtheta0 = 0 and dpsi0 the
+    steady spin for theta0, dphi0)."""
+    p = scene.params
+    disk = DiskParams(p["mass"], p["R"], p["h"], p["g"])
+    theta0, dphi0 = p["theta0"], p["dphi0"]
+    if dphi0 == 0.0 or p["dtheta0"] != 0.0:
+        return disk, None, "no closed form: the initial state is not a steady circular motion (needs dphi0 != 0, dtheta0 = 0)"
+    steady = steady_motion(disk, theta0, dphi0)
+    if abs(p["dpsi0"] - steady["dpsi"]) > 1e-9 * max(1.0, abs(steady["dpsi"])):
+        return disk, None, (f"no closed form: dpsi0 = {p['dpsi0']:.10g} rad/s is not the steady spin "
+                            f"{steady['dpsi']:.15g} rad/s for theta0 = {theta0:g}, dphi0 = {dphi0:g}")
+    return disk, steady, ""
+
+
+def _lean(traj: "Trajectory") -> np.ndarray:
+    """theta(t): the angle of the run's symmetry axis (body z) from the vertical (rad)."""
+    R = rotations.matrix(traj.quat_WB[:, 0])
+    return np.arccos(np.clip(R[:, 2, 2], -1.0, 1.0))
+
+
+def exact_error_series(scene: "Scene", traj: "Trajectory") -> np.ndarray:
+    """|theta(t) - theta0| (rad), the lean of the symmetry axis from the vertical against the
+    steady circular motion's constant lean (Ex. 4.7.2).
+
+    Raises ValueError when the scene's initial state is not a steady motion."""
+    _, steady, why = _scene_steady(scene)
+    if steady is None:
+        raise ValueError(why)
+    return np.abs(_lean(traj) - scene.params["theta0"])
+
+
+def exact_error(scene: "Scene", traj: "Trajectory", settings=None, run=None) -> tuple[float, str, str]:
+    """Steady circular motion (Ex. 4.7.2): max |theta(t) - theta0| (rad), theta the angle of the
+    symmetry axis from the vertical; the detail adds the centre's distance from the exact circle.
+    NaN unless the scene's initial state is a steady motion (dpsi0 = the steady spin).
+    ``settings`` and ``run`` are unused (no extra runs)."""
+    p = scene.params
+    theta0, dphi0 = p["theta0"], p["dphi0"]
+    _, steady, why = _scene_steady(scene)
+    if steady is None:
+        return float("nan"), "rad", why
+    theta = _lean(traj)
+    # circle centre: A0 - (v_y'/dphi) e_h at t = 0, e_h the horizontal of e_x' (phi0 = 0)
+    e = frame(theta0, 0.0)
+    vy = float(traj.v_WCm_W[0, 0] @ e[:, 1])
+    centre = traj.p_WCm_W[0, 0, :2] - (vy / dphi0) * np.array([1.0, 0.0])
+    radius = np.linalg.norm(traj.p_WCm_W[:, 0, :2] - centre, axis=-1)
+    return (float(np.max(np.abs(theta - theta0))), "rad",
+            f"lean (axis from vertical) vs constant theta0 = {theta0:g} rad; centre's circle radius "
+            f"{steady['radius']:.6g} m exact, max deviation {np.max(np.abs(radius - steady['radius'])):.2e} m; "
+            f"speed {steady['speed']:.6g} m/s")

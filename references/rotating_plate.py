@@ -36,9 +36,18 @@ centre of mass and the bearings' couple is perpendicular to the axis.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-__all__ = ["principal_moments", "couple", "bearing_force", "textbook_bearing_force"]
+from harness.model import rotations
+
+if TYPE_CHECKING:  # pragma: no cover
+    from harness.measure.trajectory import Trajectory
+    from harness.model.scene import Scene
+
+__all__ = ["principal_moments", "couple", "bearing_force", "textbook_bearing_force", "EXACT_NEEDS_RUNS", "exact_error",
+           "exact_error_series", "exact_reaction"]
 
 
 def principal_moments(m: float, a: float, h: float = 0.0) -> np.ndarray:
@@ -61,3 +70,46 @@ def bearing_force(m: float, a: float, h: float, phi: float, omega: float, d: flo
 def textbook_bearing_force(m: float, a: float, phi: float, omega: float, d: float) -> float:
     """Ex. 4.6.1 as printed: F = m a² ω² cos φ sin φ / (6 d) (N)."""
     return float(m * a * a * omega * omega * np.cos(phi) * np.sin(phi) / (6.0 * d))
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact checks of a run (``harness.measure.exact``)
+# ---------------------------------------------------------------------------------------------
+EXACT_NEEDS_RUNS = False  # the run itself is judged: no extra runs
+
+
+def exact_error_series(scene: "Scene", traj: "Trajectory") -> np.ndarray:
+    """Geodesic angle (rad) between the run's orientation and the exact uniform rotation
+    R_z(omega t) about the fixed axis (the rate stays constant: no moment about the axis)."""
+    p = scene.params
+    exact = np.stack([rotations.from_axis_angle(np.array([0.0, 0.0, 1.0]), p["omega"] * t) for t in traj.t])
+    return rotations.geodesic_angle(traj.quat_WB[:, 0], exact)
+
+
+def exact_error(scene: "Scene", traj: "Trajectory", settings=None, run=None) -> tuple[float, str, str]:
+    """Max over samples of the geodesic angle (rad) between the run's orientation and R_z(omega t)
+    (``exact_error_series``); the detail adds the largest |w - omega z|. ``settings`` and ``run``
+    are unused (no extra runs)."""
+    p = scene.params
+    err = float(np.max(exact_error_series(scene, traj)))
+    dw = float(np.max(np.linalg.norm(traj.w_WB_W[:, 0] - np.array([0.0, 0.0, p["omega"]]), axis=-1)))
+    return err, "rad", f"orientation vs uniform rotation about the axis; |w - omega z| <= {dw:.1e} rad/s"
+
+
+def exact_reaction(scene: "Scene", traj: "Trajectory") -> tuple[float, str]:
+    """The larger of the force error and the couple error over 2d (the bearing forces' error),
+    max over samples (N): force m g z, couple ``couple`` along the plate's turning y axis
+    (Ex. 4.6.1)."""
+    p = scene.params
+    force, moment = traj.reactions["plate"]
+    c, s = np.cos(p["omega"] * traj.t), np.sin(p["omega"] * traj.t)
+    y_W = np.stack([-s, c, np.zeros_like(c)], axis=1)  # the plate's y axis turns about z
+    M_exact = couple(p["m"], p["a"], p["h"], p["phi"], p["omega"]) * y_W
+    F_exact = np.array([0.0, 0.0, p["m"] * p["g"]])
+    err_f = float(np.max(np.linalg.norm(force - F_exact, axis=-1)))
+    err_m = float(np.max(np.linalg.norm(moment - M_exact, axis=-1)))
+    F_run = float(np.max(np.linalg.norm(moment, axis=-1))) / (2.0 * p["d"])
+    return max(err_f, err_m / (2.0 * p["d"])), (
+        f"force vs m g z, couple/(2d) vs the exact bearing forces; bearing force {F_run:.9f} N in the run, "
+        f"{bearing_force(p['m'], p['a'], p['h'], p['phi'], p['omega'], p['d']):.9f} N exact, "
+        f"{textbook_bearing_force(p['m'], p['a'], p['phi'], p['omega'], p['d']):.9f} N Ex. 4.6.1 (thin plate)")

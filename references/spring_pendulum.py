@@ -49,7 +49,17 @@ measure of the exchange): E_r = ½ m ṙ² + ½ k (r − r*)², E_θ = ½ (m r*�
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+from harness.measure.exact import extra_run
+from harness.measure.signals import frequency_from_hermite_crossings
+
+if TYPE_CHECKING:  # pragma: no cover
+    from harness.measure.trajectory import Trajectory
+    from harness.model.multibody import Multibody
+    from harness.model.scene import Scene
 
 __all__ = [
     "equilibrium_length",
@@ -58,6 +68,8 @@ __all__ = [
     "resonance_length",
     "radial_motion",
     "mode_energies",
+    "EXACT_NEEDS_RUNS",
+    "exact_error",
 ]
 
 
@@ -106,3 +118,64 @@ def mode_energies(r, theta, dr, dtheta, m: float, k: float, L: float, g: float, 
     E_r = 0.5 * m * dr * dr + 0.5 * k * (r - rs) ** 2
     E_t = 0.5 * (m * rs * rs + J) * dtheta * dtheta + 0.5 * m * g * rs * theta * theta
     return E_r, E_t
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact check of a run (``harness.measure.exact``)
+# ---------------------------------------------------------------------------------------------
+EXACT_NEEDS_RUNS = True  # a radial run and a swing run of the check's own
+SWING_AMPLITUDE = 1e-4   # rad, the swing run's release angle: amplitude shift ~ theta^2/16 ~ 6e-10
+
+
+def run_polar(traj: "Trajectory", model: "Multibody") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(r, theta, r', theta') of the bob from maximal coordinates: r the slide coordinate,
+    theta the angle of the bob from the downward vertical (toward +x), rates from the bob's
+    velocity and the hub's angular velocity about -y."""
+    from harness.measure.invariants import slide_coordinate
+
+    r = slide_coordinate(traj, model, "bob")
+    p, v = traj.p_WCm_W[:, 1], traj.v_WCm_W[:, 1]
+    theta = np.unwrap(np.arctan2(p[:, 0], -p[:, 2]))
+    e_r = p / np.linalg.norm(p, axis=-1, keepdims=True)
+    return r, theta, np.einsum("ti,ti->t", v, e_r), -traj.w_WB_W[:, 0, 1]
+
+
+def exact_error(scene: "Scene", traj: "Trajectory", settings, run) -> tuple[float, str, str]:
+    """The larger of two relative errors, each on a run of its own by ``run`` (the step,
+    integrator and tolerances of ``settings``) from the scene's parameters: (1) the purely radial
+    motion (theta = 0, r0 = 1.1 r*, 1.2 periods), exact at any amplitude (``radial_motion``):
+    max |r(t) - r_exact(t)| over the amplitude; (2) the swing frequency measured on a run from
+    rest at theta = SWING_AMPLITUDE, r = r* (1.6 periods, Hermite zero crossings) against
+    omega2 = sqrt(m g r* / (m r*^2 + J)). The detail adds the spring and swing frequencies
+    (Ex. 5.3.1) and how much of ``traj``'s energy reached the swing mode (the 2:1 internal
+    resonance)."""
+    from harness.model.builders.spring_pendulum import swing_inertia
+
+    p = scene.params
+    m, k, L, g = p["m"], p["k"], p["L"], p["g"]
+    J = swing_inertia(p)
+    w1, w2 = frequencies(m, k, L, g, J)
+    rs = equilibrium_length(m, k, L, g)
+
+    def own_run(periods, omega, what, **start):
+        T = 2.0 * np.pi / omega
+        save = settings.dt * max(1, int(round(0.02 * T / settings.dt)))
+        case = scene.with_params(dr0=0.0, dtheta0=0.0, **start)
+        return extra_run(run, case, settings, int(np.ceil(periods * T / save)), save, what), case.multibody()
+
+    amp = 0.1 * rs
+    radial, model = own_run(1.2, w1, "radial run", theta0=0.0, r0=rs + amp)
+    r = run_polar(radial, model)[0]
+    err_radial = float(np.max(np.abs(r - radial_motion(radial.t, m, k, L, g, rs + amp)[0]))) / amp
+    swing, model = own_run(1.6, w2, "swing run", theta0=SWING_AMPLITUDE, r0=rs)  # 1.6 periods: 3 zero crossings
+    _, theta, _, dtheta = run_polar(swing, model)
+    w_swing = frequency_from_hermite_crossings(swing.t, theta, dtheta)
+    err_swing = abs(w_swing / w2 - 1.0)
+    r, theta, dr, dtheta = run_polar(traj, scene.multibody())
+    E_r, E_t = mode_energies(r, theta, dr, dtheta, m, k, L, g, J)
+    share = E_t / (E_r + E_t)
+    detail = (f"radial mode vs exact {err_radial:.1e} of its amplitude; swing omega {w_swing:.6f} rad/s vs exact {w2:.6f} "
+              f"({err_swing:.1e}); spring omega1 = {w1:.6f} rad/s, ratio {w1 / w2:.6f}; textbook sqrt(g/r*) = "
+              f"{np.sqrt(g / rs):.6f} (Ex. 5.3.1, J = 0); swing share of the modal energy {share[0]:.3f} at t = 0, "
+              f"max {share.max():.3f} at t = {traj.t[int(np.argmax(share))]:.2f} s")
+    return max(err_radial, err_swing), "rel", detail

@@ -35,7 +35,7 @@ Verified formulas
   (I_3 > I_1) L lies *between* the symmetry axis and ω, so α_s = α_b − α_3 < α_b: the space
   cone lies *inside* the body cone and the body cone rolls around (outside of) it.  The text's
   "the body cone rolls inside the space cone" for I_1 < I_3 is the wrong way round
-  (status: wrong remark; evidence: ``tests/references/test_closed_forms.py::
+  (status: wrong remark; evidence: ``tests/references/test_torque_free.py::
   test_torque_free_cone_geometry_oblate``).  For a slender body (I_1 > I_3) the text's
   "body cone rolls outside the space cone" is correct.
 * General asymmetric body (not printed in the text; Landau & Lifshitz, Mechanics §37, derived
@@ -69,9 +69,17 @@ Verified formulas
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from scipy import special as scipy_special
 from scipy.special import elliprf
+
+from harness.model import rotations
+
+if TYPE_CHECKING:  # pragma: no cover
+    from harness.measure.trajectory import Trajectory
+    from harness.model.scene import Scene
 
 __all__ = [
     "omega_body",
@@ -80,6 +88,9 @@ __all__ = [
     "cone_angles",
     "ellipj",
     "ellipf",
+    "EXACT_NEEDS_RUNS",
+    "exact_error",
+    "exact_error_series",
 ]
 
 
@@ -291,3 +302,39 @@ def omega_body(t, I, omega0) -> np.ndarray:
     out[:, b] = par * sig[1] * y
     out[:, c_] = sig[2] * z
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact check of a run (``harness.measure.exact``)
+# ---------------------------------------------------------------------------------------------
+EXACT_NEEDS_RUNS = False  # the run itself is judged: no extra runs
+
+
+def body_rate_deviation(scene: "Scene", traj: "Trajectory") -> tuple[np.ndarray, float]:
+    """The run's body-frame angular velocity minus ``omega_body`` at every sample, shape (n, 3)
+    (rad/s), and the scale |omega0| (1 rad/s when omega0 = 0). Scene parameters I1, I2, I3 and
+    omega0 (body frame); the body is the run's first."""
+    p = scene.params
+    R = rotations.matrix(traj.quat_WB[:, 0])
+    w_B = np.einsum("tji,tj->ti", R, traj.w_WB_W[:, 0])
+    exact = omega_body(traj.t, (p["I1"], p["I2"], p["I3"]), p["omega0"])
+    return w_B - exact, float(np.linalg.norm(p["omega0"])) or 1.0
+
+
+def exact_error_series(scene: "Scene", traj: "Trajectory") -> np.ndarray:
+    """|w_B(t) - w_B_exact(t)| / |w0|, the body-frame angular velocity against the Jacobi
+    elliptic solution (Euclidean norm per sample).
+
+    ``exact_error`` takes the largest component instead (max |w_B,i - w_B_exact,i| / |w0|), so it
+    is not the maximum of this series; each keeps the measure its study has always reported."""
+    dev, scale = body_rate_deviation(scene, traj)
+    return np.linalg.norm(dev, axis=-1) / scale
+
+
+def exact_error(scene: "Scene", traj: "Trajectory", settings=None, run=None) -> tuple[float, str, str]:
+    """Max over samples and components of |w_B(t) - w_B_exact(t)| / |omega0| (relative): the
+    body-frame angular velocity against the Jacobi-elliptic solution of Euler's equations.
+    ``settings`` and ``run`` are unused (no extra runs)."""
+    dev, scale = body_rate_deviation(scene, traj)
+    err = float(np.max(np.abs(dev)))
+    return err / scale, "rel", f"body-frame angular velocity vs Jacobi elliptic solution: {err:.2e} rad/s over |omega0|"

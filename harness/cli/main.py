@@ -85,7 +85,7 @@ def cmd_simulate(args) -> int:
     from harness.engines import get_engine
     from harness.engines.base import RunSettings
     from harness.model.scene import load_scene
-    from harness.measure.trajectory import to_frame
+    from harness.io.trajectory_csv import to_frame
 
     scene = load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir)
     engine = get_engine(args.engine)

@@ -11,6 +11,8 @@ import numpy as np
 
 from harness.measure import invariants
 from harness.model import rotations
+from harness.model.joints import JOINTS, joint_frames
+from harness.model.joints import angular_conditions as joints_angular_conditions
 from harness.model.multibody import Multibody
 from harness.measure.trajectory import Trajectory
 
@@ -138,46 +140,35 @@ def momentum_drift(traj: Trajectory, model: Multibody, components) -> dict[str, 
 
 
 def constraint_violation(traj: Trajectory, model: Multibody) -> dict[str, float]:
-    """Largest violation of the joints, recomputed from maximal coordinates.
+    """Largest violation of the joints' conditions (``harness.model.joints``: each
+    ``Condition.violation``), recomputed from maximal coordinates.
 
-    ``position``: max distance (m) between a joint's point as located from the child and from
-    the parent (or the world); for a slide joint, the distance of the child's point from the
-    parent's line along the axis. ``axis``: max angle (rad) between a hinge's axis in the child
-    and in the parent, and for a slide joint the geodesic angle of the child's orientation
-    relative to the parent's (the frames stay parallel). Free joints impose nothing.
+    ``position`` (m): for a joint point that must coincide (``POINT``), the max distance between
+    it as located from the child and from the parent (or the world); for one that must stay on
+    the axis line (``ON_AXIS``, a slide joint), the distance of the child's point from the
+    parent's line. ``axis`` (rad): for axes that stay aligned (``ALIGNED``, a hinge), the max
+    angle between the axis in the child and in the parent; for frames that stay parallel
+    (``PARALLEL``, a slide joint), the geodesic angle of the child's orientation relative to
+    the parent's. A joint without conditions (free) imposes nothing.
     """
-    pos, ang = 0.0, 0.0
-    index = {name: i for i, name in enumerate(traj.body_names)}
+    worst = {"position": 0.0, "axis": 0.0}
     R_all = rotations.matrix(traj.quat_WB.reshape(-1, 4)).reshape(traj.quat_WB.shape[:2] + (3, 3))
     for body in model.bodies:
-        if body.joint == "free":
+        conditions = JOINTS[body.joint].conditions
+        if not conditions:
             continue
-        i = index[body.name]
-        origin_child = traj.p_WCm_W[:, i] - R_all[:, i] @ body.p_BCm_B
-        if body.parent is None:
-            origin_parent = np.broadcast_to(body.p_PB_P, origin_child.shape)
-            R_parent = np.broadcast_to(np.eye(3), R_all[:, i].shape)
-        else:
-            j = index[body.parent]
-            parent = model.body(body.parent)
-            R_parent = R_all[:, j]
-            origin_parent = traj.p_WCm_W[:, j] + R_parent @ (body.p_PB_P - parent.p_BCm_B)
-        gap = origin_child - origin_parent
-        if body.joint == "slide":
-            a_W = R_parent @ body.axis_B
-            gap = gap - np.einsum("ti,ti->t", gap, a_W)[:, None] * a_W
-            R_rel = np.swapaxes(R_parent, -1, -2) @ R_all[:, i]
-            cos = np.clip((np.trace(R_rel, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
-            skew = np.stack([R_rel[:, 2, 1] - R_rel[:, 1, 2], R_rel[:, 0, 2] - R_rel[:, 2, 0], R_rel[:, 1, 0] - R_rel[:, 0, 1]], axis=-1)
-            ang = max(ang, float(np.max(np.arctan2(0.5 * np.linalg.norm(skew, axis=-1), cos))))
-        pos = max(pos, float(np.max(np.linalg.norm(gap, axis=-1))))
-        if body.joint == "hinge":
-            a_child = R_all[:, i] @ body.axis_B
-            a_parent = R_parent @ body.axis_B
-            s = np.linalg.norm(np.cross(a_child, a_parent), axis=-1)
-            c = np.einsum("ti,ti->t", a_child, a_parent)
-            ang = max(ang, float(np.max(np.arctan2(s, c))))
-    return {"position": pos, "axis": ang}
+        frames = joint_frames(traj, model, body.name, R_all)
+        for condition in conditions:
+            value = float(np.max(condition.violation(*frames, body.axis_B)))
+            worst[condition.measure] = max(worst[condition.measure], value)
+    return worst
+
+
+def angular_conditions(model: Multibody) -> list[str]:
+    """What ``constraint_violation``'s ``axis`` measures for ``model``: "<kind> <condition>"
+    per angular condition of its joint kinds (e.g. "hinge axes stay aligned"); empty when its
+    joints impose none."""
+    return joints_angular_conditions(b.joint for b in model.bodies)
 
 
 def reaction_scales(traj: Trajectory, model: Multibody) -> tuple[float, float]:

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from harness.model import rotations
+from harness.model import forces, joints, rotations
 from harness.model.multibody import Multibody
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -31,27 +31,16 @@ def _masses(traj: "Trajectory", model: Multibody) -> np.ndarray:
 def slide_coordinate(traj: "Trajectory", model: Multibody, name: str) -> np.ndarray:
     """The coordinate q (m) of body ``name``'s slide joint recovered from maximal coordinates:
     (x_c - x_p)·a_W, x_c the body's frame origin, x_p the parent's point ``p_PB_P``, a_W the
-    axis in world through the parent's orientation; shape (n,)."""
-    body = model.body(name)
-    i = traj.body_index(name)
-    R_all = rotations.matrix(traj.quat_WB.reshape(-1, 4)).reshape(traj.quat_WB.shape[:2] + (3, 3))
-    x_c = traj.p_WCm_W[:, i] - R_all[:, i] @ body.p_BCm_B
-    if body.parent is None:
-        x_p = np.broadcast_to(body.p_PB_P, x_c.shape)
-        a_W = np.broadcast_to(body.axis_B, x_c.shape)
-    else:
-        j = traj.body_index(body.parent)
-        x_p = traj.p_WCm_W[:, j] + R_all[:, j] @ (body.p_PB_P - model.body(body.parent).p_BCm_B)
-        a_W = R_all[:, j] @ body.axis_B
-    return np.einsum("ti,ti->t", x_c - x_p, a_W)
+    axis in world through the parent's orientation; shape (n,) (``harness.model.joints.coordinate``)."""
+    return joints.coordinate(traj, model, name)
 
 
 def energies(traj: "Trajectory", model: Multibody) -> dict[str, np.ndarray]:
     """Kinetic, gravitational potential (zero at z = 0 for g along -z) and total energy, (n,).
 
-    With joint springs (``model.springs``) also ``elastic``, their potential
-    sum k (q - q_ref)^2 / 2, which the total ``energy`` includes (``potential`` stays the
-    gravitational part)."""
+    With force elements that store energy (``ForceType.potential`` in
+    ``harness.model.forces``: joint springs, sum k (q - q_ref)^2 / 2) also ``elastic``, their
+    potential, which the total ``energy`` includes (``potential`` stays the gravitational part)."""
     m = _masses(traj, model)
     I_W = _inertia_world(traj, model)
     w = traj.w_WB_W
@@ -59,12 +48,12 @@ def energies(traj: "Trajectory", model: Multibody) -> dict[str, np.ndarray]:
     kin_rot = 0.5 * np.einsum("tbi,tbij,tbj->t", w, I_W, w)
     potential = -np.einsum("b,tbi,i->t", m, traj.p_WCm_W, model.gravity_W)
     kinetic = kin_lin + kin_rot
-    springs = getattr(model, "springs", ())
-    if not springs:
+    stored = [(ft, element) for ft, element in forces.elements(model) if ft.potential is not None]
+    if not stored:
         return {"kinetic": kinetic, "potential": potential, "energy": kinetic + potential}
     elastic = np.zeros(len(traj.t))
-    for sp in springs:
-        elastic += 0.5 * sp.stiffness * (slide_coordinate(traj, model, sp.body) - sp.q_ref) ** 2
+    for ft, element in stored:
+        elastic += ft.potential(traj, model, element)
     return {"kinetic": kinetic, "potential": potential, "elastic": elastic, "energy": kinetic + potential + elastic}
 
 
@@ -83,15 +72,12 @@ def angular_momentum(traj: "Trajectory", model: Multibody) -> np.ndarray:
 
 
 def power_of_forces(traj: "Trajectory", model: Multibody) -> np.ndarray:
-    """Power (W) of the scene's prescribed point forces along the trajectory, shape (n,)."""
+    """Power (W) of the scene's force elements that do work (``ForceType.power``: the
+    prescribed point forces) along the trajectory, shape (n,)."""
     power = np.zeros(len(traj.t))
-    for force in model.forces:
-        i = traj.body_index(force.body)
-        R = rotations.matrix(traj.quat_WB[:, i])
-        r_W = R @ (force.p_BQ_B - model.body(force.body).p_BCm_B)
-        v_Q = traj.v_WCm_W[:, i] + np.cross(traj.w_WB_W[:, i], r_W)
-        f = np.stack([force.force_W(t) for t in traj.t])
-        power += np.einsum("ti,ti->t", f, v_Q)
+    for ft, element in forces.elements(model):
+        if ft.power is not None:
+            power += ft.power(traj, model, element)
     return power
 
 

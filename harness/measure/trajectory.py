@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from harness.measure import invariants
 from harness.model.multibody import Multibody
 
 BODY_FIELDS = ("x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
@@ -123,37 +122,3 @@ def failed(engine: str, integrator: str, body_names, status: str, message: str) 
         status=status,
         message=message,
     )
-
-
-def to_frame(traj: Trajectory, model: Multibody) -> pd.DataFrame:
-    """The trajectory as a table with the documented CSV columns (energies recomputed here)."""
-    energy = invariants.energies(traj, model)
-    p_W = invariants.linear_momentum(traj, model)
-    L_W = invariants.angular_momentum(traj, model)
-    cols: dict[str, np.ndarray] = {
-        "t": traj.t,
-        "kinetic": energy["kinetic"],
-        "potential": energy["potential"],
-        "energy": energy["energy"],
-        "px": p_W[:, 0],
-        "py": p_W[:, 1],
-        "pz": p_W[:, 2],
-        "Lx": L_W[:, 0],
-        "Ly": L_W[:, 1],
-        "Lz": L_W[:, 2],
-    }
-    for i, name in enumerate(traj.body_names):
-        block = np.concatenate(
-            [traj.p_WCm_W[:, i], traj.quat_WB[:, i], traj.v_WCm_W[:, i], traj.w_WB_W[:, i]], axis=1
-        )
-        for j, f in enumerate(BODY_FIELDS):
-            cols[f"{name}.{f}"] = block[:, j]
-    for key, values in traj.engine_energy.items():
-        cols[f"engine_{key}"] = values
-    if "elastic" in energy:
-        cols["elastic"] = energy["elastic"]
-    for name, (force, moment) in traj.reactions.items():
-        block = np.concatenate([force, moment], axis=1)
-        for j, f in enumerate(REACTION_FIELDS):
-            cols[f"{name}.{f}"] = block[:, j]
-    return pd.DataFrame(cols)

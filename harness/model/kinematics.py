@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from harness.model import rotations
+from harness.model.joints import JOINTS
 from harness.model.multibody import Multibody
 
 
@@ -30,7 +31,7 @@ class BodyState:
 def forward(model: Multibody, q: dict[str, np.ndarray], v: dict[str, np.ndarray]) -> dict[str, BodyState]:
     """Maximal-coordinate state of every body from joint coordinates ``q``, ``v`` (per body name).
 
-    Joint conventions are those of ``harness.model.multibody``.
+    Joint conventions and each joint's relative motion are those of ``harness.model.joints``.
     """
     # Per body: origin position, rotation, origin velocity, angular velocity (all world).
     frames: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -42,30 +43,15 @@ def forward(model: Multibody, q: dict[str, np.ndarray], v: dict[str, np.ndarray]
             p_WP, R_WP, v_WP, w_WP = np.zeros(3), np.eye(3), np.zeros(3), np.zeros(3)
         else:
             p_WP, R_WP, v_WP, w_WP = frames[body.parent]
-        if body.joint == "free":
-            p_WB = qb[:3]
-            R_WB = rotations.matrix(qb[3:7] / np.linalg.norm(qb[3:7]))
-            v_WB = vb[:3]
-            w_WB = R_WB @ vb[3:6]
-        else:
-            p_WB = p_WP + R_WP @ body.p_PB_P
-            v_WB = v_WP + np.cross(w_WP, R_WP @ body.p_PB_P)
-            if body.joint == "ball":
-                R_PB = rotations.matrix(qb / np.linalg.norm(qb))
-                R_WB = R_WP @ R_PB
-                w_WB = w_WP + R_WB @ vb
-            elif body.joint == "hinge":
-                R_PB = rotations.matrix(rotations.from_axis_angle(body.axis_B, qb[0]))
-                R_WB = R_WP @ R_PB
-                w_WB = w_WP + R_WB @ (body.axis_B * vb[0])
-            elif body.joint == "slide":
-                p_PB_W = R_WP @ (body.p_PB_P + body.axis_B * qb[0])
-                p_WB = p_WP + p_PB_W
-                v_WB = v_WP + np.cross(w_WP, p_PB_W) + R_WP @ (body.axis_B * vb[0])
-                R_WB = R_WP
-                w_WB = w_WP
-            else:  # pragma: no cover - guarded when the model is built
-                raise ValueError(f"unknown joint type {body.joint!r}")
+        # The joint's relative motion (``harness.model.joints``), composed with the parent's.
+        p_rel, R_PB, v_rel, w_rel = JOINTS[body.joint].motion(body, qb, vb)
+        p_PB_W = R_WP @ p_rel
+        p_WB = p_WP + p_PB_W
+        v_WB = v_WP + np.cross(w_WP, p_PB_W)
+        if v_rel is not None:
+            v_WB = v_WB + R_WP @ v_rel
+        R_WB = R_WP if R_PB is None else R_WP @ R_PB
+        w_WB = w_WP if w_rel is None else w_WP + R_WB @ w_rel
         frames[body.name] = (p_WB, R_WB, v_WB, w_WB)
         r_W = R_WB @ body.p_BCm_B
         out[body.name] = BodyState(

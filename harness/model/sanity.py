@@ -1,11 +1,15 @@
-"""Physical sanity of a ``Multibody``: positive masses, valid inertia tensors, finite state."""
+"""Physical sanity of a ``Multibody``: positive masses, valid inertia tensors, finite state; the
+joint rules come from the joint table (``harness.model.joints``), the force elements' rules from
+the force table (``harness.model.forces``)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from harness.model.errors import InputError
-from harness.model.multibody import JOINT_TYPES, NQ, NV, Multibody
+from harness.model.forces import check_forces
+from harness.model.joints import JOINTS, TRANSLATIONAL
+from harness.model.multibody import Multibody
 
 
 def check_inertia(I: np.ndarray, what: str, source: str) -> None:
@@ -31,12 +35,13 @@ def check_multibody(model: Multibody, source: str) -> None:
     """Raise InputError naming the first non-physical quantity in ``model``."""
     names = set()
     for b in model.bodies:
-        if b.joint not in JOINT_TYPES:
+        jt = JOINTS.get(b.joint)
+        if jt is None:
             raise InputError(f"{source}: body {b.name!r}: unknown joint type {b.joint!r}")
         if b.parent is not None and b.parent not in names:
             raise InputError(f"{source}: body {b.name!r}: parent {b.parent!r} must come first")
-        if b.joint == "free" and b.parent is not None:
-            raise InputError(f"{source}: body {b.name!r}: a free joint must attach to the world")
+        if jt.root_only and b.parent is not None:
+            raise InputError(f"{source}: body {b.name!r}: a {jt.name} joint must attach to the world")
         names.add(b.name)
         if not (np.isfinite(b.mass) and b.mass > 0.0):
             raise InputError(f"{source}: body {b.name!r}: mass must be positive and finite, got {b.mass!r}")
@@ -44,18 +49,13 @@ def check_multibody(model: Multibody, source: str) -> None:
         for label, vec in (("p_PB_P", b.p_PB_P), ("p_BCm_B", b.p_BCm_B), ("axis_B", b.axis_B)):
             if not np.all(np.isfinite(vec)):
                 raise InputError(f"{source}: body {b.name!r}: {label} is not finite")
-        if b.joint == "slide" and abs(float(np.linalg.norm(b.axis_B)) - 1.0) > 1e-9:
-            raise InputError(f"{source}: body {b.name!r}: a slide axis must be a unit vector, got {np.asarray(b.axis_B).tolist()}")
+        if jt.axis == TRANSLATIONAL and abs(float(np.linalg.norm(b.axis_B)) - 1.0) > 1e-9:  # q is a length along it
+            raise InputError(f"{source}: body {b.name!r}: a {jt.name} axis must be a unit vector, got {np.asarray(b.axis_B).tolist()}")
         q, v = np.asarray(model.q0[b.name], float), np.asarray(model.v0[b.name], float)
-        if q.shape != (NQ[b.joint],) or v.shape != (NV[b.joint],):
+        if q.shape != (jt.nq,) or v.shape != (jt.nv,):
             raise InputError(f"{source}: body {b.name!r}: initial state has the wrong size for a {b.joint} joint")
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
             raise InputError(f"{source}: body {b.name!r}: initial state is not finite")
     if not np.all(np.isfinite(model.gravity_W)):
         raise InputError(f"{source}: gravity is not finite")
-    joints = {b.name: b.joint for b in model.bodies}
-    for sp in getattr(model, "springs", ()):
-        if joints.get(sp.body) != "slide":
-            raise InputError(f"{source}: spring on {sp.body!r}: springs act on slide joints only")
-        if not (np.isfinite(sp.stiffness) and sp.stiffness >= 0.0 and np.isfinite(sp.q_ref)):
-            raise InputError(f"{source}: spring on {sp.body!r}: stiffness must be finite and >= 0, rest position finite")
+    check_forces(model, source)

@@ -60,6 +60,12 @@ class Scene:
         t_end, dt, save_every: default horizon, step and save interval (s).
         integrators: default integrator per engine.
         checks: check name -> settings (tolerances per engine or per quantity).
+        builder: the module of ``harness.model.builders`` that builds the multibody (the
+            scene's name unless its ``scene.toml`` names another, e.g. a copied scene).
+
+    The multibody is built once per ``Scene`` (on first use of ``multibody()``) and shared by
+    every engine, check and tool that runs this scene; a copy with other parameters
+    (``with_params``) builds its own.
     """
 
     name: str
@@ -76,6 +82,16 @@ class Scene:
     save_every: float
     integrators: Mapping[str, str]
     checks: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    builder: str = ""
+    _built: Multibody | None = field(default=None, init=False, repr=False, compare=False)
+
+    def __getstate__(self) -> dict:
+        # the built multibody may hold closures (prescribed forces): a pickled scene rebuilds it
+        return {k: v for k, v in self.__dict__.items() if k != "_built"}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.__dict__["_built"] = None
 
     @property
     def params(self) -> dict[str, ParamValue]:
@@ -83,11 +99,19 @@ class Scene:
         return {k: p.value for k, p in self.parameters.items()}
 
     def multibody(self) -> Multibody:
-        """The scene's mechanical system, built from the parameter values and checked."""
-        module = importlib.import_module(f"harness.model.builders.{self.name}")
-        model = module.build(self.params)
-        check_multibody(model, source=str(self.directory / "scene.toml"))
-        return model
+        """The scene's mechanical system, built from the parameter values and checked (once:
+        later calls return the same object, which nobody may modify)."""
+        if self._built is None:
+            name = self.builder or self.name
+            try:
+                module = importlib.import_module(f"harness.model.builders.{name}")
+            except ModuleNotFoundError:
+                raise InputError(f"{self.directory / 'scene.toml'}: no builder harness.model.builders.{name} for scene "
+                                 f"{self.name!r} (a copied scene names its system with builder = \"<original scene>\")") from None
+            model = module.build(self.params)
+            check_multibody(model, source=str(self.directory / "scene.toml"))
+            object.__setattr__(self, "_built", model)
+        return self._built
 
     def with_params(self, **overrides: Any) -> "Scene":
         """A copy with parameters overridden (values as numbers, sequences or strings)."""
@@ -145,6 +169,7 @@ def _scene_from_toml(data: dict, path: Path) -> Scene:
         save_every=float(sim["save_every"]),
         integrators=dict(data.get("integrators", {})),
         checks=dict(data.get("checks", {})),
+        builder=str(data.get("builder", "")),
     )
     for engine in ("inhouse", "mujoco", "pinocchio"):
         if engine not in scene.integrators:

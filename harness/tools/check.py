@@ -41,15 +41,17 @@ import pinocchio as pin
 
 from harness.io import atomic
 from harness.tools import dynamics_terms as dc
-from harness.model import rotations
 from harness.engines.pinocchio.lie_group_integrators import rkmk4_step
+from harness.engines.pinocchio.model import from_pinocchio, root_joint_model
+from harness.engines.pinocchio.model import joint_type as pin_joint_type
+from harness.model import rotations
 from harness.model.errors import InputError
+from harness.model.joints import FREE, JOINTS
 from harness.tools.loaded_models import (
     JointBody,
     check_joint_bodies_physical,
     compare_joint_bodies,
     mujoco_joint_bodies,
-    pin_joint_kind,
     pinocchio_joint_bodies,
 )
 from harness.model.sanity import check_inertia
@@ -133,25 +135,29 @@ def check_spec_inertials(spec: mujoco.MjSpec, source: Path) -> None:
 
 
 def add_root_joint(spec: mujoco.MjSpec, kind: str, source: Path) -> None:
-    """Give the root body (first child of the world) a ``free`` or ``ball`` joint named
-    ``root_joint`` (what Pinocchio adds with a root joint); ``none`` leaves it welded."""
+    """Give the root body (first child of the world) a joint of kind ``kind`` named
+    ``root_joint``: one Pinocchio can add as a root joint (``JointType.pinocchio_root``: free or
+    ball); ``none`` leaves it welded."""
     if kind == "none":
         return
+    jt = JOINTS.get(kind)
+    if jt is None or jt.pinocchio_root is None:
+        raise InputError(f"{source}: a {kind} joint cannot be a root joint Pinocchio adds")
     roots = [b for b in spec.bodies if b.name != "world" and b.parent is not None and b.parent.name == "world"]
     if not roots:
         raise InputError(f"{source}: no root body to attach a {kind} joint to")
     root = roots[0]
     joint = root.first_joint()
     if joint is not None:
-        wanted = mujoco.mjtJoint.mjJNT_FREE if kind == "free" else mujoco.mjtJoint.mjJNT_BALL
+        wanted = getattr(mujoco.mjtJoint, jt.mujoco)
         if joint.type == wanted and root.next_joint(joint) is None:
             joint.name = "root_joint"  # an MJCF that has the root joint already: match Pinocchio's name
             return
         raise InputError(f"{source}: root body {root.name!r} already has a joint that is not a single {kind} joint")
-    if kind == "free":
+    if jt is FREE:
         root.add_freejoint(name="root_joint")
     else:
-        root.add_joint(name="root_joint", type=mujoco.mjtJoint.mjJNT_BALL)
+        root.add_joint(name="root_joint", type=getattr(mujoco.mjtJoint, jt.mujoco))
 
 
 def strip_geometry(spec: mujoco.MjSpec) -> tuple[int, int]:
@@ -198,7 +204,8 @@ def load_mujoco(path: Path, *, root_joint: str = "none", strip: bool = False,
     return compile_spec(spec, path), notes
 
 
-PIN_ROOTS = {"none": None, "free": pin.JointModelFreeFlyer, "ball": pin.JointModelSpherical}
+# root joint kind (harness name) -> the joint model Pinocchio adds
+PIN_ROOTS = {"none": None} | {jt.name: root_joint_model(jt) for jt in JOINTS.values() if jt.pinocchio_root}
 
 
 def load_pinocchio(path: Path, *, root_joint: str = "none") -> pin.Model:
@@ -223,9 +230,8 @@ def load_pinocchio(path: Path, *, root_joint: str = "none") -> pin.Model:
 def check_mappable_joints(pmodel: pin.Model, source: Path) -> None:
     """InputError for a joint type ``harness check`` cannot put into common coordinates."""
     for jid in range(1, pmodel.njoints):
-        kind = pin_joint_kind(pmodel.joints[jid])
-        if kind not in dc.NV:
-            name = kind.removeprefix("JointModel").lower()
+        if pin_joint_type(pmodel.joints[jid]) is None:
+            name = pmodel.joints[jid].shortname().removeprefix("JointModel").lower()
             raise InputError(f"{source}: joint {pmodel.names[jid]!r} of type {name} cannot be compared between engines "
                              "(supported: revolute, continuous, prismatic, fixed, and a free root)")
 
@@ -287,7 +293,7 @@ def load_pair(mjcf: Path | None, urdf: Path | None, *, floating_base: bool = Fal
         _require_file(path)
     mode = {(True, True): "MJCF -> MuJoCo, URDF -> Pinocchio", (False, True): "URDF -> MuJoCo and Pinocchio",
             (True, False): "MJCF -> MuJoCo and Pinocchio"}[(mjcf is not None, urdf is not None)]
-    root = "free" if floating_base else "none"
+    root = FREE.name if floating_base else "none"
     # Parse and check the file-level inertials first, so that every bad value gets the same message.
     for path in {mj_file, pin_file}:
         spec = read_mujoco_spec(path)
@@ -369,7 +375,7 @@ def importer_notes(m: mujoco.MjModel, pmodel: pin.Model, jmap: dc.JointMap, mj_f
                      "m/s^2); visual geometry is discarded (discardvisual), collision geometry kept")
     rows = {"limits": [], "damping": [], "armature": [], "friction": []}
     for s in jmap.slots:
-        if s.kind not in ("hinge", "slide"):
+        if s.joint.axis is None:
             continue
         j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, s.name)
         dof = m.jnt_dofadr[j]
@@ -470,45 +476,24 @@ def _moving_bodies(m: mujoco.MjModel) -> list[str]:
 def _common_from_mujoco(jmap: dc.JointMap, qpos: np.ndarray, qvel: np.ndarray):
     q, v = np.zeros(jmap.nq), np.zeros(jmap.nv)
     for s in jmap.slots:
-        q[s.qc:s.qc + dc.NQ[s.kind]] = qpos[s.mj_q:s.mj_q + dc.NQ[s.kind]]
-        v[s.vc:s.vc + dc.NV[s.kind]] = qvel[s.mj_v:s.mj_v + dc.NV[s.kind]]
+        s.q(q)[:] = qpos[s.mj_q:s.mj_q + s.joint.nq]
+        s.v(v)[:] = qvel[s.mj_v:s.mj_v + s.joint.nv]
     return q, v
 
 
 def _common_from_pinocchio(pmodel: pin.Model, jmap: dc.JointMap, qp: np.ndarray, vp: np.ndarray):
-    """Inverse of ``dynamics_check.pinocchio_state``."""
+    """Inverse of ``dynamics_terms.pinocchio_state`` (``harness.engines.pinocchio.model.from_pinocchio``)."""
     q, v = np.zeros(jmap.nq), np.zeros(jmap.nv)
     for s in jmap.slots:
-        if s.kind in ("hinge", "slide"):
-            q[s.qc] = np.arctan2(qp[s.pin_q + 1], qp[s.pin_q]) if s.pin_nq == 2 else qp[s.pin_q]
-            v[s.vc] = vp[s.pin_v]
-        elif s.kind == "ball":
-            q[s.qc:s.qc + 4] = rotations.xyzw_to_wxyz(qp[s.pin_q:s.pin_q + 4])
-            v[s.vc:s.vc + 3] = vp[s.pin_v:s.pin_v + 3]
-        else:
-            X = pmodel.jointPlacements[s.pin_joint] * pin.XYZQUATToSE3(qp[s.pin_q:s.pin_q + 7])
-            q[s.qc:s.qc + 3] = X.translation
-            q[s.qc + 3:s.qc + 7] = rotations.from_matrix(X.rotation)
-            v[s.vc:s.vc + 3] = X.rotation @ vp[s.pin_v:s.pin_v + 3]
-            v[s.vc + 3:s.vc + 6] = vp[s.pin_v + 3:s.pin_v + 6]
+        s.q(q)[:], s.v(v)[:] = from_pinocchio(s.joint, qp[s.pin_q:s.pin_q + s.pin_nq],
+                                              vp[s.pin_v:s.pin_v + s.joint.nv], pmodel.jointPlacements[s.pin_joint])
     return q, v
 
 
 def _joint_distance(jmap: dc.JointMap, a: np.ndarray, b: np.ndarray) -> float:
-    """Largest per-joint distance: |dq| for hinge/slide, geodesic angle and position for ball/free."""
-    out = 0.0
-    for s in jmap.slots:
-        if s.kind in ("hinge", "slide"):
-            diff = a[s.qc] - b[s.qc]
-            if s.kind == "hinge":
-                diff = (diff + np.pi) % (2 * np.pi) - np.pi
-            out = max(out, abs(float(diff)))
-        elif s.kind == "ball":
-            out = max(out, float(rotations.geodesic_angle(a[s.qc:s.qc + 4], b[s.qc:s.qc + 4])))
-        else:
-            out = max(out, float(np.linalg.norm(a[s.qc:s.qc + 3] - b[s.qc:s.qc + 3])),
-                      float(rotations.geodesic_angle(a[s.qc + 3:s.qc + 7], b[s.qc + 3:s.qc + 7])))
-    return out
+    """Largest per-joint distance (``JointType.distance``): |dq| for hinge (wrapped) and slide,
+    geodesic angle for ball, position and geodesic angle for free."""
+    return max((s.joint.distance(s.q(a), s.q(b)) for s in jmap.slots), default=0.0)
 
 
 # --------------------------------------------------------------------------- report

@@ -8,8 +8,10 @@ For a few seeded random joint states (q, v) every source gives, in COMMON coordi
   ``M a + C v + g = tau`` (MuJoCo's ``qfrc_bias`` at v = 0, Pinocchio's
   ``computeGeneralizedGravity``).
 
-Common coordinates are those of ``harness.model.multibody``, which are MuJoCo's, joint by joint in the
-order of a ``JointMap``:
+Common coordinates are those of the joint table (``harness.model.joints``), which are MuJoCo's,
+joint by joint in the order of a ``JointMap``; sizes, random states and the retraction come from
+the table, the conversions to Pinocchio's coordinates from ``harness.engines.pinocchio.model``
+(``to_pinocchio``, ``velocity_transform``):
 
 * ``hinge`` / ``slide``: q = angle (rad) / displacement (m), v = its rate;
 * ``ball``: q = quaternion ``wxyz`` of the body relative to its parent, v = angular velocity of
@@ -46,27 +48,19 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
+from harness.engines.mujoco.model import joint_kind as mujoco_joint_kind
+from harness.engines.pinocchio.model import joint_kind as pin_joint_kind
+from harness.engines.pinocchio.model import to_pinocchio, velocity_transform
 from harness.measure import invariants
-from harness.model import kinematics
-from harness.model import rotations
-from harness.tools.loaded_models import pin_joint_kind
+from harness.model import kinematics, rotations
+from harness.model.joints import JOINTS, JointType
 from harness.model.multibody import Multibody
 from harness.measure.trajectory import Trajectory
 
-NQ = {"free": 7, "ball": 4, "hinge": 1, "slide": 1}
-NV = {"free": 6, "ball": 3, "hinge": 1, "slide": 1}
 TERMS = ("M", "bias", "gravity")
 DEFAULT_RTOL = 1e-8     # relative to the term's largest entry; engines agree to ~1e-14
 DEFAULT_STATES = 4
 FD_STEP = 1e-3          # rad or m; fourth-order differences, truncation ~FD_STEP^4
-
-MJ_KINDS = {
-    mujoco.mjtJoint.mjJNT_FREE: "free",
-    mujoco.mjtJoint.mjJNT_BALL: "ball",
-    mujoco.mjtJoint.mjJNT_HINGE: "hinge",
-    mujoco.mjtJoint.mjJNT_SLIDE: "slide",
-}
-
 
 class MappingError(ValueError):
     """Two models' joints cannot be put into common coordinates (missing joint, other type)."""
@@ -81,7 +75,7 @@ class JointSlot:
 
     Attributes:
         name: body name (scene maps) or joint name (maps by joint name).
-        kind: ``free``, ``ball``, ``hinge`` or ``slide``.
+        kind: the joint kind, a key of ``harness.model.joints.JOINTS``.
         qc, vc: offsets in the common q and v vectors.
         mj_q, mj_v: ``qpos``/``qvel`` addresses in MuJoCo (-1 where there is no MuJoCo model).
         pin_q, pin_v, pin_joint: ``idx_q``, ``idx_v`` and joint id in Pinocchio (-1 where none).
@@ -101,6 +95,19 @@ class JointSlot:
     pin_nq: int = 0
     limits: tuple[float, float] | None = None
 
+    @property
+    def joint(self) -> JointType:
+        """The joint kind's record in the joint table."""
+        return JOINTS[self.kind]
+
+    def q(self, q: np.ndarray) -> np.ndarray:
+        """This joint's entries of a common configuration vector."""
+        return q[self.qc:self.qc + self.joint.nq]
+
+    def v(self, v: np.ndarray) -> np.ndarray:
+        """This joint's entries of a common velocity vector."""
+        return v[self.vc:self.vc + self.joint.nv]
+
 
 @dataclass(frozen=True)
 class JointMap:
@@ -110,16 +117,16 @@ class JointMap:
 
     @property
     def nq(self) -> int:
-        return sum(NQ[s.kind] for s in self.slots)
+        return sum(s.joint.nq for s in self.slots)
 
     @property
     def nv(self) -> int:
-        return sum(NV[s.kind] for s in self.slots)
+        return sum(s.joint.nv for s in self.slots)
 
     def dof_names(self) -> list[str]:
         names = []
         for s in self.slots:
-            n = NV[s.kind]
+            n = s.joint.nv
             names += [s.name] if n == 1 else [f"{s.name}[{i}]" for i in range(n)]
         return names
 
@@ -128,7 +135,7 @@ def _build(entries) -> JointMap:
     slots, qc, vc = [], 0, 0
     for e in entries:
         slots.append(JointSlot(qc=qc, vc=vc, **e))
-        qc, vc = qc + NQ[e["kind"]], vc + NV[e["kind"]]
+        qc, vc = qc + JOINTS[e["kind"]].nq, vc + JOINTS[e["kind"]].nv
     return JointMap(tuple(slots))
 
 
@@ -148,7 +155,7 @@ def scene_joint_map(model: Multibody, m: mujoco.MjModel | None = None, pmodel: p
             if m.body_jntnum[bid] != 1:
                 raise MappingError(f"MuJoCo body {body.name!r} has {m.body_jntnum[bid]} joints, the scene says one {body.joint}")
             jid = m.body_jntadr[bid]
-            kind = MJ_KINDS.get(mujoco.mjtJoint(m.jnt_type[jid]), "?")
+            kind = mujoco_joint_kind(m, jid, "?")
             if kind != body.joint:
                 raise MappingError(f"MuJoCo body {body.name!r} has a {kind} joint, the scene says {body.joint}")
             e.update(mj_q=int(m.jnt_qposadr[jid]), mj_v=int(m.jnt_dofadr[jid]))
@@ -181,13 +188,13 @@ def named_joint_map(m: mujoco.MjModel, pmodel: pin.Model) -> JointMap:
         raise MappingError("; ".join(parts))
     entries = []
     for j, name in enumerate(mj_names):
-        kind = MJ_KINDS.get(mujoco.mjtJoint(m.jnt_type[j]), "?")
+        kind = mujoco_joint_kind(m, j, "?")
         pid = int(pmodel.getJointId(name))
         pkind = pin_joint_kind(pmodel.joints[pid])
         if pkind != kind:
             raise MappingError(f"joint {name!r} is {kind} in MuJoCo and {pkind} in Pinocchio")
         limits = None
-        if kind in ("hinge", "slide") and m.jnt_limited[j]:
+        if JOINTS[kind].axis is not None and m.jnt_limited[j]:
             limits = (float(m.jnt_range[j][0]), float(m.jnt_range[j][1]))
         entries.append({"name": name, "kind": kind, "mj_q": int(m.jnt_qposadr[j]), "mj_v": int(m.jnt_dofadr[j]),
                         "pin_q": int(pmodel.joints[pid].idx_q), "pin_v": int(pmodel.joints[pid].idx_v),
@@ -199,7 +206,8 @@ def named_joint_map(m: mujoco.MjModel, pmodel: pin.Model) -> JointMap:
 
 
 def random_states(jmap: JointMap, n: int, seed: int = 0) -> list[tuple[np.ndarray, np.ndarray]]:
-    """``n`` seeded random states (q, v) in common coordinates.
+    """``n`` seeded random states (q, v) in common coordinates, each joint drawn by its kind
+    (``JointType.draw``):
 
     Hinge: angle uniform in [-pi, pi] intersected with its limits, rate ~ N(0, 1) rad/s; slide:
     uniform in [-0.5, 0.5] m intersected with its limits, rate ~ N(0, 0.5) m/s (a range that
@@ -212,51 +220,19 @@ def random_states(jmap: JointMap, n: int, seed: int = 0) -> list[tuple[np.ndarra
     for _ in range(n):
         q, v = np.zeros(jmap.nq), np.zeros(jmap.nv)
         for s in jmap.slots:
-            if s.kind in ("hinge", "slide"):
-                span = np.pi if s.kind == "hinge" else 0.5
-                lo, hi = s.limits if s.limits else (-span, span)
-                if max(lo, -span) < min(hi, span):  # very wide limits (1e16 for "unlimited"): the usual range
-                    lo, hi = max(lo, -span), min(hi, span)
-                q[s.qc] = rng.uniform(lo, hi)
-                v[s.vc] = rng.normal(0.0, 1.0 if s.kind == "hinge" else 0.5)
-            elif s.kind == "ball":
-                q[s.qc:s.qc + 4] = _random_quat(rng)
-                v[s.vc:s.vc + 3] = rng.normal(0.0, 1.0, 3)
-            else:
-                q[s.qc:s.qc + 3] = rng.uniform(-1.0, 1.0, 3)
-                q[s.qc + 3:s.qc + 7] = _random_quat(rng)
-                v[s.vc:s.vc + 6] = rng.normal(0.0, 1.0, 6)
+            s.q(q)[:], s.v(v)[:] = s.joint.draw(rng, s.limits)
         out.append((q, v))
     return out
 
 
-def _random_quat(rng) -> np.ndarray:
-    quat = rng.normal(size=4)
-    return rotations.canonical(quat / np.linalg.norm(quat))
-
-
 def retract(jmap: JointMap, q: np.ndarray, delta: np.ndarray) -> np.ndarray:
     """q "plus" a tangent vector ``delta`` (common velocity coordinates): the configuration
-    reached in unit time at constant common velocity ``delta`` (hinge/slide q + d; ball
-    quat * exp(d); free p + d_lin (world), quat * exp(d_ang) (body frame))."""
+    reached in unit time at constant common velocity ``delta`` (``JointType.retract``: hinge/slide
+    q + d; ball quat * exp(d); free p + d_lin (world), quat * exp(d_ang) (body frame))."""
     out = np.array(q, dtype=float)
     for s in jmap.slots:
-        d = delta[s.vc:s.vc + NV[s.kind]]
-        if s.kind in ("hinge", "slide"):
-            out[s.qc] += d[0]
-        elif s.kind == "ball":
-            out[s.qc:s.qc + 4] = _quat_exp_right(out[s.qc:s.qc + 4], d)
-        else:
-            out[s.qc:s.qc + 3] += d[:3]
-            out[s.qc + 3:s.qc + 7] = _quat_exp_right(out[s.qc + 3:s.qc + 7], d[3:])
+        s.q(out)[:] = s.joint.retract(s.q(out), s.v(delta))
     return out
-
-
-def _quat_exp_right(quat: np.ndarray, w: np.ndarray) -> np.ndarray:
-    angle = float(np.linalg.norm(w))
-    if angle == 0.0:
-        return quat.copy()
-    return rotations.multiply(quat, rotations.from_axis_angle(w, angle))
 
 
 # --------------------------------------------------------------------------- terms
@@ -278,17 +254,17 @@ def mujoco_state(m: mujoco.MjModel, jmap: JointMap, q: np.ndarray, v: np.ndarray
     """MuJoCo ``qpos``/``qvel`` for a common state (unmapped joints at ``qpos0``, at rest)."""
     qpos, qvel = np.array(m.qpos0, dtype=float), np.zeros(m.nv)
     for s in jmap.slots:
-        qpos[s.mj_q:s.mj_q + NQ[s.kind]] = q[s.qc:s.qc + NQ[s.kind]]
-        qvel[s.mj_v:s.mj_v + NV[s.kind]] = v[s.vc:s.vc + NV[s.kind]]
+        qpos[s.mj_q:s.mj_q + s.joint.nq] = s.q(q)
+        qvel[s.mj_v:s.mj_v + s.joint.nv] = s.v(v)
     return qpos, qvel
 
 
 def _mj_dofs(jmap: JointMap) -> np.ndarray:
-    return np.array([i for s in jmap.slots for i in range(s.mj_v, s.mj_v + NV[s.kind])], dtype=int)
+    return np.array([i for s in jmap.slots for i in range(s.mj_v, s.mj_v + s.joint.nv)], dtype=int)
 
 
 def _pin_dofs(jmap: JointMap) -> np.ndarray:
-    return np.array([i for s in jmap.slots for i in range(s.pin_v, s.pin_v + NV[s.kind])], dtype=int)
+    return np.array([i for s in jmap.slots for i in range(s.pin_v, s.pin_v + s.joint.nv)], dtype=int)
 
 
 def mujoco_terms(m: mujoco.MjModel, jmap: JointMap, q: np.ndarray, v: np.ndarray, d: mujoco.MjData | None = None) -> Terms:
@@ -313,21 +289,9 @@ def pinocchio_state(pmodel: pin.Model, jmap: JointMap, q: np.ndarray, v: np.ndar
     continuous revolute joint's angle as (cos, sin)."""
     qp, vp = pin.neutral(pmodel), np.zeros(pmodel.nv)
     for s in jmap.slots:
-        qs, vs = q[s.qc:s.qc + NQ[s.kind]], v[s.vc:s.vc + NV[s.kind]]
-        if s.kind in ("hinge", "slide"):
-            if s.pin_nq == 2:  # continuous revolute joint: (cos, sin)
-                qp[s.pin_q:s.pin_q + 2] = np.cos(qs[0]), np.sin(qs[0])
-            else:
-                qp[s.pin_q] = qs[0]
-            vp[s.pin_v] = vs[0]
-        elif s.kind == "ball":
-            qp[s.pin_q:s.pin_q + 4] = rotations.wxyz_to_xyzw(qs)
-            vp[s.pin_v:s.pin_v + 3] = vs
-        else:
-            R = rotations.matrix(qs[3:7])
-            X = pmodel.jointPlacements[s.pin_joint].actInv(pin.SE3(R, qs[:3]))
-            qp[s.pin_q:s.pin_q + 7] = pin.SE3ToXYZQUAT(X)
-            vp[s.pin_v:s.pin_v + 6] = np.concatenate([R.T @ vs[:3], vs[3:6]])
+        qj, vj = to_pinocchio(s.joint, s.q(q), s.v(v), s.pin_nq, pmodel.jointPlacements[s.pin_joint])
+        qp[s.pin_q:s.pin_q + len(qj)] = qj
+        vp[s.pin_v:s.pin_v + len(vj)] = vj
     return qp, vp
 
 
@@ -335,10 +299,10 @@ def velocity_map(jmap: JointMap, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarr
     """T (common v = T v_pin) and dT/dt v_pin, both in common dof order (see module docstring)."""
     T, Tdot_v = np.eye(jmap.nv), np.zeros(jmap.nv)
     for s in jmap.slots:
-        if s.kind == "free":
-            R = rotations.matrix(q[s.qc + 3:s.qc + 7])
-            T[s.vc:s.vc + 3, s.vc:s.vc + 3] = R
-            Tdot_v[s.vc:s.vc + 3] = np.cross(R @ v[s.vc + 3:s.vc + 6], v[s.vc:s.vc + 3])
+        block = velocity_transform(s.joint, s.q(q), s.v(v))
+        if block is not None:
+            dofs = slice(s.vc, s.vc + s.joint.nv)
+            T[dofs, dofs], Tdot_v[dofs] = block
     return T, Tdot_v
 
 
@@ -392,8 +356,8 @@ def _snapshot(model: Multibody, jmap: JointMap, q: np.ndarray, v: np.ndarray) ->
 
 
 def _per_body(jmap: JointMap, q: np.ndarray, v: np.ndarray):
-    qd = {s.name: q[s.qc:s.qc + NQ[s.kind]] for s in jmap.slots}
-    vd = {s.name: v[s.vc:s.vc + NV[s.kind]] for s in jmap.slots}
+    qd = {s.name: s.q(q) for s in jmap.slots}
+    vd = {s.name: s.v(v) for s in jmap.slots}
     return qd, vd
 
 

@@ -34,6 +34,7 @@ from harness.tools.check import check_spec_inertials, load_mujoco, load_pinocchi
 from harness.engines.mujoco.model import load_mjcf, read_spec
 from harness.engines.pinocchio.model import load_urdf, read_urdf
 from harness.model.errors import InputError
+from harness.model.joints import JOINTS, by_urdf_root
 from harness.tools.loaded_models import (
     LoadedBody,
     check_joint_bodies_physical,
@@ -48,7 +49,6 @@ from harness.model.scene import Scene, load_scene
 
 AS_WRITTEN_RTOL = 1e-6   # the files carry rounded decimals (e.g. 0.083358333333333)
 APPLIED_RTOL = 1e-9
-ROOT_FOR_MUJOCO = {"free": "free", "spherical": "ball", "none": "none"}
 
 
 @dataclass
@@ -100,7 +100,7 @@ def body_lines(name: str, joint: str, axis: np.ndarray, p_PB_P: np.ndarray, mass
                com: np.ndarray, inertia: np.ndarray) -> list[str]:
     """Readable mass properties of one body (body frame; kg, m, kg m^2)."""
     moments, axes = np.linalg.eigh(inertia)
-    lines = [f"  body {name}: joint {joint}" + (f", axis {_v(axis)}" if joint in ("hinge", "slide") else "")
+    lines = [f"  body {name}: joint {joint}" + (f", axis {_v(axis)}" if joint in JOINTS and JOINTS[joint].axis else "")
              + f", frame origin in parent {_v(p_PB_P)} m",
              f"    mass {mass:.9g} kg, centre of mass {_v(com)} m (body frame)",
              "    inertia about the centre of mass (body frame, kg m^2): " + ", ".join(_v(r) for r in inertia),
@@ -260,7 +260,8 @@ def _urdf_into_mujoco(scene: Scene, model0: Multibody, blocks, n_states, seed) -
     grav = _gravity(m.opt.gravity, model0)
     plain.problems += [f"{g} (MuJoCo's default: a URDF cannot state gravity)" for g in grav]
     out = [plain]
-    root = ROOT_FOR_MUJOCO.get(scene.urdf_root_joint, "none")
+    root_type = by_urdf_root(scene.urdf_root_joint)  # the joint kind Pinocchio adds as the URDF's root
+    root = root_type.name if root_type is not None else "none"
     if root == "none":
         out[0].problems += compare_bodies(mujoco_bodies(m, model0), model0, rtol=AS_WRITTEN_RTOL)
         blocks.append(_dynamics(f"cross-load MuJoCo <- {scene.urdf.name} vs in-house (defaults)", False, model0, m, None,

@@ -13,14 +13,18 @@ per joint, the rigid body it moves (fixed children merged) in the frame of its c
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 import pinocchio as pin
 
+from harness.engines.mujoco.model import joint_kind as mujoco_joint_kind
+from harness.engines.pinocchio.model import joint_kind as pin_joint_kind
+from harness.engines.pinocchio.model import joint_type as pin_joint_type
 from harness.model import rotations
+from harness.model.forces import JOINT_SPRINGS
+from harness.model.joints import JOINTS, ROTATIONAL
 from harness.model.multibody import Multibody
 
 
@@ -37,14 +41,6 @@ class LoadedBody:
     axis_B: np.ndarray
 
 
-MJ_JOINTS = {
-    mujoco.mjtJoint.mjJNT_FREE: "free",
-    mujoco.mjtJoint.mjJNT_BALL: "ball",
-    mujoco.mjtJoint.mjJNT_HINGE: "hinge",
-    mujoco.mjtJoint.mjJNT_SLIDE: "slide",
-}
-
-
 def mujoco_bodies(m: mujoco.MjModel, model: Multibody) -> list[LoadedBody]:
     """Read back the scene's bodies from a compiled ``MjModel`` (missing bodies are skipped)."""
     out = []
@@ -57,7 +53,7 @@ def mujoco_bodies(m: mujoco.MjModel, model: Multibody) -> list[LoadedBody]:
         joint, axis = "none", np.zeros(3)
         if m.body_jntnum[bid] >= 1:
             jid = m.body_jntadr[bid]
-            joint = MJ_JOINTS.get(mujoco.mjtJoint(m.jnt_type[jid]), str(m.jnt_type[jid]))
+            joint = mujoco_joint_kind(m, jid)
             axis = np.array(m.jnt_axis[jid])
         out.append(LoadedBody(body.name, float(m.body_mass[bid]), np.array(m.body_ipos[bid]), I,
                               np.array(m.body_pos[bid]), joint, axis))
@@ -74,11 +70,7 @@ def pinocchio_bodies(pmodel: pin.Model, model: Multibody) -> list[LoadedBody]:
             continue
         jid = pmodel.frames[pmodel.getFrameId(body.name)].parentJoint
         inertia = pmodel.inertias[jid]
-        joint, axis = pin_joint_kind(pmodel.joints[jid]), np.zeros(3)
-        if joint == "hinge":
-            axis = np.array(data.joints[jid].S).reshape(6, -1)[3:6, 0].copy()
-        elif joint == "slide":  # prismatic: the motion subspace's linear part
-            axis = np.array(data.joints[jid].S).reshape(6, -1)[0:3, 0].copy()
+        joint, axis = pin_joint_kind(pmodel.joints[jid]), _pin_axis(data, jid, pin_joint_type(pmodel.joints[jid]))
         out.append(LoadedBody(body.name, float(inertia.mass), np.array(inertia.lever), np.array(inertia.inertia),
                               np.array(pmodel.jointPlacements[jid].translation), joint, axis))
     return out
@@ -89,7 +81,7 @@ def mujoco_spring_problems(m: mujoco.MjModel, model: Multibody, rtol: float = 1e
     stiffness (N/m) and ``springref`` (m) of each spring's joint; joints with a stiffness the
     scene does not declare are reported too."""
     problems = []
-    declared = {sp.body: sp for sp in model.springs}
+    declared = {sp.body: sp for sp in JOINT_SPRINGS.elements(model)}
     for body in model.bodies:
         bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body.name)
         if bid < 0 or m.body_jntnum[bid] != 1:
@@ -127,11 +119,11 @@ def compare_bodies(loaded: list[LoadedBody], model: Multibody, rtol: float = 1e-
         if np.abs(lb.I_Cm_B - body.I_Cm_B).max() > rtol * scale:
             problems.append(f"{lb.name}: inertia about the centre of mass {np.round(lb.I_Cm_B, 12).tolist()} kg m^2, "
                             f"scene says {np.round(body.I_Cm_B, 12).tolist()} kg m^2")
-        if body.joint != "free" and np.linalg.norm(lb.p_PB_P - body.p_PB_P) > rtol * length:
+        if JOINTS[body.joint].constrained and np.linalg.norm(lb.p_PB_P - body.p_PB_P) > rtol * length:
             problems.append(f"{lb.name}: joint position in parent {lb.p_PB_P.tolist()} m, scene says {body.p_PB_P.tolist()} m")
         if lb.joint != body.joint:
             problems.append(f"{lb.name}: joint type {lb.joint}, scene says {body.joint}")
-        elif body.joint in ("hinge", "slide") and np.linalg.norm(lb.axis_B / np.linalg.norm(lb.axis_B) - body.axis_B) > 1e-9:
+        elif JOINTS[body.joint].axis and np.linalg.norm(lb.axis_B / np.linalg.norm(lb.axis_B) - body.axis_B) > 1e-9:
             problems.append(f"{lb.name}: {body.joint} axis {lb.axis_B.tolist()}, scene says {body.axis_B.tolist()}")
     return problems
 
@@ -207,8 +199,8 @@ def mujoco_joint_bodies(m: mujoco.MjModel) -> list[JointBody]:
         mass, com, inertia = _composite(parts) if parts else (0.0, np.zeros(3), np.zeros((3, 3)))
         pb = owner[m.body_parentid[b]]
         R_WP, p_WP = d.xmat[pb].reshape(3, 3), d.xpos[pb]
-        kind = MJ_JOINTS.get(mujoco.mjtJoint(m.jnt_type[j]), str(m.jnt_type[j]))
-        axis = np.array(m.jnt_axis[j]) if kind in ("hinge", "slide") else np.zeros(3)
+        kind = mujoco_joint_kind(m, j)
+        axis = np.array(m.jnt_axis[j]) if _has_axis(kind) else np.zeros(3)
         out.append(JointBody(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}",
                              mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}", kind, mass, com, inertia,
                              mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, pb) or "world",
@@ -216,20 +208,19 @@ def mujoco_joint_bodies(m: mujoco.MjModel) -> list[JointBody]:
     return out
 
 
-def pin_joint_kind(jmodel) -> str:
-    """``free``, ``ball``, ``hinge`` (revolute, aligned or not, bounded or continuous: a
-    continuous joint has nq = 2, cos and sin), ``slide`` (prismatic), else Pinocchio's name."""
-    short = jmodel.shortname()
-    kind = short.removeprefix("JointModel")
-    if kind == "FreeFlyer":
-        return "free"
-    if kind == "Spherical":
-        return "ball"
-    if re.fullmatch(r"R[XYZ]|RevoluteUnaligned|RUB[XYZ]|RevoluteUnboundedUnaligned", kind):
-        return "hinge"
-    if re.fullmatch(r"P[XYZ]|PrismaticUnaligned", kind):
-        return "slide"
-    return short
+def _has_axis(kind: str) -> bool:
+    """Whether a joint of kind ``kind`` (a harness name or an engine's own) moves along an axis."""
+    jt = JOINTS.get(kind)
+    return jt is not None and jt.axis is not None
+
+
+def _pin_axis(data: pin.Data, jid: int, jt) -> np.ndarray:
+    """The axis of a 1-dof joint from its motion subspace (joint frame): the angular part for a
+    rotational axis, the linear part for a translational one; zeros without an axis."""
+    if jt is None or jt.axis is None:
+        return np.zeros(3)
+    S = np.array(data.joints[jid].S).reshape(6, -1)[:, 0]
+    return (S[3:6] if jt.axis == ROTATIONAL else S[0:3]).copy()
 
 
 def _pin_body_frame(pmodel: pin.Model, jid: int) -> int:
@@ -262,10 +253,7 @@ def pinocchio_joint_bodies(pmodel: pin.Model) -> list[JointBody]:
         pMb = oMp.actInv(oMb)
         jm = pmodel.joints[jid]
         kind = pin_joint_kind(jm)
-        axis = np.zeros(3)
-        if kind in ("hinge", "slide"):
-            S = np.array(data.joints[jid].S).reshape(6, -1)[:, 0]
-            axis = jMb.rotation.T @ (S[3:6] if kind == "hinge" else S[0:3])
+        axis = jMb.rotation.T @ _pin_axis(data, jid, pin_joint_type(jm))
         out.append(JointBody(pmodel.names[jid], pmodel.frames[fid].name, kind, float(inertia.mass),
                              np.array(inertia.lever), np.array(inertia.inertia),
                              pmodel.frames[frames[parent]].name if parent > 0 else "world",
@@ -299,16 +287,22 @@ def compare_joint_bodies(a: list[JointBody], b: list[JointBody], labels=("A", "B
         if np.abs(x.I_Cm_B - y.I_Cm_B).max() > rtol * scale:
             problems.append(f"{who}: inertia about the centre of mass {np.round(x.I_Cm_B, 9).tolist()} kg m^2 in {labels[0]}, "
                             f"{np.round(y.I_Cm_B, 9).tolist()} kg m^2 in {labels[1]}")
-        if x.kind != "free":
+        if _constrained(x.kind):
             if np.linalg.norm(x.p_PB_P - y.p_PB_P) > rtol * length:
                 problems.append(f"{who}: position in parent {np.round(x.p_PB_P, 9).tolist()} m in {labels[0]}, "
                                 f"{np.round(y.p_PB_P, 9).tolist()} m in {labels[1]}")
             if np.abs(x.R_PB - y.R_PB).max() > max(rtol, 1e-12):
                 problems.append(f"{who}: orientation in parent differs by "
                                 f"{_angle(x.R_PB.T @ y.R_PB):.3e} rad between {labels[0]} and {labels[1]}")
-        if x.kind == y.kind and x.kind in ("hinge", "slide") and np.linalg.norm(x.axis_B - y.axis_B) > max(rtol, 1e-12):
+        if x.kind == y.kind and _has_axis(x.kind) and np.linalg.norm(x.axis_B - y.axis_B) > max(rtol, 1e-12):
             problems.append(f"{who}: axis {np.round(x.axis_B, 9).tolist()} in {labels[0]}, {np.round(y.axis_B, 9).tolist()} in {labels[1]}")
     return problems
+
+
+def _constrained(kind: str) -> bool:
+    """Whether a joint of kind ``kind`` has a joint point (all but free; an engine's own kind counts)."""
+    jt = JOINTS.get(kind)
+    return jt is None or jt.constrained
 
 
 def _angle(R: np.ndarray) -> float:

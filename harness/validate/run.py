@@ -34,16 +34,16 @@ from typing import Any
 
 import numpy as np
 
-from harness.measure import compare
-from harness.measure import contact_metrics
-from harness.measure import exact
-from harness.engines import get_engine
+from harness.engines import get_engine, integrator
 from harness.engines.base import RunSettings
+from harness.measure import compare, contact_metrics, exact
+from harness.measure.trajectory import Trajectory
+from harness.model import forces
 from harness.model.errors import InputError
 from harness.model.scene import Scene
-from harness.measure.trajectory import Trajectory
 from harness.validate.workers import Outcome, run_cases
 
+REFERENCE_ENGINE = "inhouse"  # the engine of the reference run (``reference_case``)
 REFERENCE_METHOD = "DOP853"
 REFERENCE_TOL = 1e-12
 ENGINE_ENERGY_TOL = 1e-9  # relative; a larger mismatch means the engine's mass model differs
@@ -102,7 +102,7 @@ def save_interval(scene: Scene) -> float:
     """The scene's save interval, or its step when a force acts: the energy balance integrates
     the force's power over the saved samples (Simpson, error ~ interval^4), so a forced run is
     saved at every step."""
-    return scene.dt if scene.multibody().forces else scene.save_every
+    return scene.dt if forces.does_work(scene.multibody()) else scene.save_every
 
 
 def reference_settings(scene: Scene) -> RunSettings:
@@ -120,9 +120,9 @@ def reference_case(scene: Scene) -> tuple[Trajectory, RunRecord, list[CheckResul
     """Worker body: the reference run and its own checks."""
     settings = reference_settings(scene)
     t0 = time.perf_counter()
-    traj = get_engine("inhouse").simulate(scene, settings)
+    traj = get_engine(REFERENCE_ENGINE).simulate(scene, settings)
     record = _record(scene, "reference", settings, traj, time.perf_counter() - t0)
-    return traj, record, check_run(scene, "reference", "inhouse", traj, None, settings)
+    return traj, record, check_run(scene, "reference", REFERENCE_ENGINE, traj, None, settings)
 
 
 def engine_case(scene: Scene, engine: str, ref: Trajectory | None) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
@@ -212,7 +212,7 @@ def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Traj
         return out
     if "energy_drift" in checks:
         tol = checks["energy_drift"][engine]
-        if model.forces:
+        if forces.does_work(model):
             balance, quad = compare.energy_balance(traj, model)
             add("energy_balance", balance, tol, "rel", f"E - E0 - W(t) over the energy scale; quadrature error of W ~{quad:.1e}")
         else:
@@ -245,14 +245,13 @@ def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Traj
         viol = compare.constraint_violation(traj, model)
         tol = checks["constraint"][engine]
         add("constraint.position", viol["position"], tol, "m", "joint points coincide")
-        kinds = {b.joint for b in model.bodies}
-        if kinds & {"hinge", "slide"}:
-            what = [w for k, w in (("hinge", "hinge axes stay aligned"), ("slide", "slide frames stay parallel")) if k in kinds]
+        what = compare.angular_conditions(model)  # e.g. "hinge axes stay aligned" (joint table)
+        if what:
             add("constraint.axis", viol["axis"], tol, "rad", ", ".join(what))
     if "exact" in checks:
         tol = checks["exact"][engine]
         try:
-            value, unit, detail = exact.exact_error(scene, engine, traj, settings)
+            value, unit, detail = exact.exact_error(scene, traj, settings, run=get_engine(engine).simulate)
         except InputError:
             raise
         except Exception as err:  # a failing modal run etc. is a failed check, not a crash
@@ -299,7 +298,7 @@ def _per_engine(tol, engine: str) -> float:
 
 
 def _record(scene, engine, settings, traj, wall) -> RunRecord:
-    adaptive = settings.integrator in ("RK45", "DOP853", "Radau", "BDF", "LSODA")
+    adaptive = integrator(REFERENCE_ENGINE if engine == "reference" else engine, settings.integrator).adaptive
     return RunRecord(scene.name, engine, settings.integrator, settings.dt,
                      settings.rtol if adaptive else None, settings.t_end, traj.status, traj.message, wall,
                      float(traj.stats.get("steps", float("nan"))), str(traj.stats.get("settings", "")))

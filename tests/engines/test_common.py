@@ -9,13 +9,13 @@ from harness.engines import ENGINE_NAMES, get_engine
 from harness.engines.base import RunSettings
 from harness.model.errors import InputError
 from harness.model.kinematics import forward
-from harness.model.scene import load_scene
+from harness.model.scene import available_scenes, load_scene
 
 DEFAULT_INTEGRATOR = {"inhouse": "rk4", "mujoco": "RK4", "pinocchio": "rkmk4"}
 
 
 @pytest.mark.parametrize("engine", ENGINE_NAMES)
-@pytest.mark.parametrize("name", ["torque_free", "heavy_top", "double_pendulum"])
+@pytest.mark.parametrize("name", available_scenes())
 def test_first_sample_is_the_scene_initial_state(engine, name):
     scene = load_scene(name)
     model = scene.multibody()

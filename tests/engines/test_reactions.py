@@ -12,7 +12,8 @@ from harness.measure import compare
 from harness.engines import ENGINE_NAMES, get_engine
 from harness.engines.base import RunSettings
 from harness.model.scene import load_scene
-from harness.measure.trajectory import REACTION_FIELDS, to_frame
+from harness.io.trajectory_csv import to_frame
+from harness.measure.trajectory import REACTION_FIELDS
 
 DEFAULT = {"inhouse": "rk4", "mujoco": "RK4", "pinocchio": "rkmk4"}
 

@@ -114,20 +114,3 @@ def test_validation_adds_the_contact_checks(scene, runs):
     for name in ("energy_drift", "slip", "contact_height", "contact_force", "exact", "trajectory.position"):
         assert name in checks and checks[name].passed, (name, checks.get(name))
     assert checks["trajectory.position"].tolerance == scene.checks["trajectory"]["position"]["mujoco"]
-
-
-def test_exact_needs_a_steady_initial_state(scene, runs):
-    from harness.measure import exact
-
-    value, _, detail = exact.exact_error(scene.with_params(theta0=1.1), "mujoco", runs["mujoco"], None)
-    assert np.isnan(value) and "not the steady spin" in detail
-
-
-def test_rolling_study_quick_writes_the_report(tmp_path, capsys):
-    from harness.cli.main import main
-
-    code = main(["rolling-study", "--quick", "--out-dir", str(tmp_path)])
-    assert code == 0
-    text = (tmp_path / "rolling_disk.md").read_text()
-    assert "MuJoCo defaults" in text and "printed" in text and "**(best)**" in text
-    assert (tmp_path / "rolling_disk_threshold.png").is_file()

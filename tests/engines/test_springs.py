@@ -13,7 +13,7 @@ from harness.engines.base import RunSettings
 from harness.engines.mujoco.model import load_mjcf, read_spec
 from harness.tools.loaded_models import mujoco_spring_problems
 from harness.model.scene import load_scene
-from harness.measure.trajectory import to_frame
+from harness.io.trajectory_csv import to_frame
 
 DEFAULT = {"inhouse": "rk4", "mujoco": "RK4", "pinocchio": "rkmk4"}
 

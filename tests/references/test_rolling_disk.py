@@ -2,7 +2,8 @@
 disk in maximal coordinates (rotation matrix, world angular velocity) with the contact force
 solved from the no-slip condition at acceleration level (3x3 solve), the contact point's motion
 by central differences, SciPy DOP853 at tight tolerances. No code shared with the harness or the
-reference's Euler-angle equations."""
+reference's Euler-angle equations. Last, the exact check of a run (``exact_error``): it applies to
+steady initial states only."""
 
 import numpy as np
 import pytest
@@ -169,3 +170,20 @@ def test_ex_523_printed_equations_disagree_with_newton_euler():
     assert np.ptp(w3_printed) < 1e-8 * abs(w3_printed[0])
     assert np.ptp(w3_true) > 0.5
     assert np.max(np.abs(sol.y[1] - _theta(y))) > 0.05
+
+
+def test_exact_check_needs_a_steady_initial_state():
+    from harness.engines import get_engine
+    from harness.engines.base import RunSettings
+    from harness.model.scene import load_scene
+
+    scene = load_scene("rolling_disk")
+    settings = RunSettings(0.05, scene.dt, 0.01, scene.integrators["mujoco"])
+    traj = get_engine("mujoco").simulate(scene, settings)
+    value, unit, detail = rd.exact_error(scene, traj, settings, None)
+    assert unit == "rad" and value < 1e-3 and value == float(np.max(rd.exact_error_series(scene, traj)))
+    leaning = scene.with_params(theta0=1.1)  # dpsi0 is no longer the steady spin
+    value, _, detail = rd.exact_error(leaning, traj, settings, None)
+    assert np.isnan(value) and "not the steady spin" in detail
+    with pytest.raises(ValueError, match="not the steady spin"):
+        rd.exact_error_series(leaning, traj)

@@ -92,6 +92,56 @@ def test_missing_scene_or_parameter_is_skipped_with_a_reason(tmp_path):
     assert "has no parameter 'stiffness'" in skip_reason(v)
 
 
+def test_exact_needs_a_per_sample_closed_form_and_unscaled_bodies(tmp_path):
+    """``references = ["exact"]`` takes the scene's ``exact_error_series`` (references/<scene>.py):
+    a scene whose exact check makes runs of its own has none; scaled bodies leave the closed form."""
+    from harness.measure import exact
+    from harness.model.scene import available_scenes
+
+    path = tmp_path / "c.toml"
+    with_runs = [s for s in available_scenes() if exact.needs_runs(s)]
+    assert with_runs and not any(exact.has_error_series(s) for s in with_runs)
+    path.write_text(SMALL.replace('scene = "torque_free"', f'scene = "{with_runs[0]}"'))
+    with pytest.raises(InputError, match="no exact solution .* per sample"):
+        load_catalogue(path)
+    path.write_text(SMALL.replace('references = ["exact"]', 'references = ["exact"]\nscale = { body = 2.0 }'))
+    with pytest.raises(InputError, match="with scaled bodies"):
+        load_catalogue(path)
+
+
+def _series_scenes():
+    from harness.measure import exact
+    from harness.model.scene import available_scenes
+
+    return [s for s in available_scenes() if exact.has_error_series(s)]
+
+
+@pytest.mark.parametrize("name", _series_scenes())
+def test_a_trial_follows_the_reference_error_per_sample(tmp_path, name):
+    """Every scene with a per-sample closed form can be stressed against it: ``exact`` is the
+    reference module's series, its maximum the run's error."""
+    from harness.engines import get_engine
+    from harness.engines.base import RunSettings
+    from harness.measure import exact
+    from harness.model.scene import load_scene
+
+    scene = load_scene(name)
+    path = tmp_path / "c.toml"
+    spec_text = SMALL.replace('scene = "torque_free"', f'scene = "{name}"').replace("set = { omega0 = [10.0, 10.0, 1000.0] }\n", "")
+    spec_text = spec_text.replace("save_every = 1e-3\ndt = 1e-3\ndt_max = 1e-3",
+                                  f"save_every = {scene.save_every!r}\ndt = {scene.dt!r}\ndt_max = {scene.dt!r}")
+    spec_text = spec_text.replace("t_end = 0.01", f"t_end = {10 * scene.save_every!r}")
+    path.write_text(spec_text)
+    cat = load_catalogue(path)
+    v = cat.variants[0]
+    ref = Reference(None, True, dict(v.band))
+    spec = TrialSpec(v.name, "mujoco", scene.integrators["mujoco"], v.dt, v.t_end, v.save_every, 1e-8, "nominal")
+    r = trial_case(variant_scene(v), spec, ref, cat.bounds)
+    traj = get_engine("mujoco").simulate(scene, RunSettings(v.t_end, v.dt, v.save_every, scene.integrators["mujoco"]))
+    assert r.stable and r.error_kind == "exact"
+    assert r.max_errors["exact"] == float(np.max(exact.exact_error_series(scene, traj)))
+
+
 def test_scaled_bodies_reach_every_engine():
     from harness.engines.mujoco.model import load_mjcf
 

@@ -11,7 +11,7 @@ import pytest
 from harness.tools import dynamics_terms as dc
 from harness.engines.mujoco.model import load_mjcf
 from harness.engines.pinocchio.model import load_urdf
-from harness.model.scene import load_scene
+from harness.model.scene import available_scenes, load_scene
 
 
 def loaded(name, model=None):
@@ -37,7 +37,7 @@ def offset_free_body():
     return replace(model, bodies=(body,), gravity_W=np.array([0.3, -0.5, -9.81]))
 
 
-@pytest.mark.parametrize("name", ["torque_free", "heavy_top", "double_pendulum"])
+@pytest.mark.parametrize("name", available_scenes())
 def test_three_sources_agree_on_every_scene(name):
     _, _, results = terms(*loaded(name))
     diffs = dc.compare_terms(results)

@@ -7,7 +7,7 @@ import shutil
 import pytest
 
 from harness.cli.main import main
-from harness.model.scene import MODELS_DIR
+from harness.model.scene import available_scenes, MODELS_DIR
 
 BAR2_URDF_INERTIA = '<inertia ixx="0.083358333333333" ixy="0" ixz="0" iyy="0.083358333333333" iyz="0" izz="0.00005"/>'
 
@@ -35,7 +35,7 @@ def edit_bar2(models, old, new):
     path.write_text(head + tail.replace(old, new, 1))
 
 
-@pytest.mark.parametrize("name", ["torque_free", "heavy_top", "double_pendulum"])
+@pytest.mark.parametrize("name", available_scenes())
 def test_scenes_agree(name, capsys):
     code, out, _ = run(["inspect", name], capsys)
     assert code == 0, out

@@ -34,6 +34,9 @@ and three orientation rows C = (R_c u_k).(R_p v_k) with (u_k, v_k) = (e_y, e_z),
 (e_x, e_y), whose J and gamma have the form of the hinge rows above (a = R_c u_k, n = R_p v_k).
 The slide bias needs the linear velocities: ``evaluate`` takes them as ``v_ext``.
 
+The slide rows' multipliers give the joint's reaction (``slide_reactions``): ``lambda_1 n_1 +
+lambda_2 n_2`` the force on the child at x_c, ``sum_k lambda_{2+k} (a_k x n_k)`` the couple.
+
 Rolling-contact rows (no slip and height of a rim edge on the plane z = 0) come last; they are
 built in ``rolling`` (``rolling_rows``).
 
@@ -215,6 +218,21 @@ def slide_rows(nem: NEModel, P_ext: np.ndarray, R_ext: np.ndarray, w_ext: np.nda
             gamma[r0 : r0 + 2] = N @ (Z[0] - Z[1]) + 2.0 * (wn @ dd) + Z[2:4] @ d
             gamma[r0 + 2 : r0 + 5] = (Z[4:7] + Z[7:10]) @ (wc - wp)
     return C, J, gamma
+
+
+def slide_reactions(nem: NEModel, R_ext: np.ndarray, lam_slide: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per slide joint, from its 5 multipliers (``lam_slide``: the slide rows' multipliers, in
+    order) and the world-extended rotations ``R_ext`` (``frames``): the force (N, world) the
+    parent exerts on the child at its joint point, perpendicular to the axis, and the couple
+    (N m, world) of the orientation rows."""
+    out = {}
+    for j, sl in enumerate(nem.slides):
+        lj = lam_slide[5 * j : 5 * j + 5]
+        Rc, Rp = R_ext[sl.child], R_ext[sl.parent]
+        N = sl.b @ Rp.T
+        A, Nr = _ROT_U @ Rc.T, _ROT_V @ Rp.T
+        out[sl.name] = (lj[:2] @ N, lj[2:] @ np.cross(A, Nr))
+    return out
 
 
 def rows(nem: NEModel, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

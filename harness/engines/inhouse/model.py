@@ -15,9 +15,12 @@ The generalised velocity of the Newton-Euler equations is the contiguous tail
 ``M = blockdiag(m_1 I3, ..., m_nb I3, I_1, ..., I_nb)`` with ``I_i`` the inertia about the
 centre of mass in the body frame (kg m^2).
 
-Joints (``harness.model.multibody``) become constraints between a child body c and its parent p
-(p = world when ``parent`` is None; the world is handled as an extra body, index nb, at rest at
-the origin with identity orientation):
+Joints become constraints between a child body c and its parent p (p = world when ``parent`` is
+None; the world is handled as an extra body, index nb, at rest at the origin with identity
+orientation). Rows are built from the conditions each joint kind imposes
+(``harness.model.joints``: ``JointType.conditions``), in two blocks (``_BLOCKS``): joint points
+that coincide, with or without aligned axes (ball, hinge), and a joint point on the axis line
+with parallel frames (slide):
 
 * ``ball``: the joint point coincides in world, 3 rows. In the child it is the body-frame
   origin, i.e. ``r_c = -p_BCm_B`` from the child's centre of mass (child frame); in the parent it
@@ -33,8 +36,9 @@ the origin with identity orientation):
   (u_k, v_k) = (e_y, e_z), (e_z, e_x), (e_x, e_y).
 * ``free``: no constraint.
 
-Joint springs (``harness.model.multibody.JointSpring``, slide joints only) are force elements, not
-constraints: ``SpringElement`` (see ``newton_euler``).
+Force elements (``harness.model.forces``): prescribed point forces enter ``NEModel.forces``;
+joint springs (slide joints only) are ``SpringElement``s (see ``newton_euler``), not constraints.
+A force type the in-house engine does not model is refused when the model is built.
 
 Rolling contacts (``harness.model.multibody.RollingContact``: a rim edge rolling without slip on the
 plane z = 0) are constraints of 3 rows each, appended after the slide rows (``rolling``).
@@ -49,6 +53,8 @@ import numpy as np
 
 from harness.model import kinematics
 from harness.model import rotations
+from harness.model.forces import FORCES, JOINT_SPRINGS, POINT_FORCES
+from harness.model.joints import ALIGNED, JOINTS, ON_AXIS, PARALLEL, POINT
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.rolling import RollingRows, build_contacts
 from harness.model.multibody import Multibody
@@ -95,6 +101,23 @@ class SpringElement:
 _ROT_U = np.eye(3)[[1, 2, 0]]  # (u_k, v_k) = (e_y, e_z), (e_z, e_x), (e_x, e_y)
 _ROT_V = np.eye(3)[[2, 0, 1]]
 
+# The in-house row blocks, by the conditions a joint kind imposes (``harness.model.joints``):
+# "point": 3 rows for the joint point, plus 2 orientation rows for aligned axes (the vectorised
+# ball/hinge block); "line": 2 rows for the point on the axis line and 3 for parallel frames
+# (``SlideJoint``, rows in ``constraints.slide_rows``); "none": a free joint.
+_BLOCKS = {(): "none", (POINT,): "point", (POINT, ALIGNED): "point", (ON_AXIS, PARALLEL): "line"}
+_MODELLED_FORCES = (POINT_FORCES, JOINT_SPRINGS)
+
+
+def row_block(kind: str) -> str:
+    """The in-house row block of a joint kind (``_BLOCKS``); NotImplementedError for a kind whose
+    conditions have no rows here."""
+    conditions = JOINTS[kind].conditions
+    if conditions not in _BLOCKS:
+        raise NotImplementedError(f"the in-house engine has no constraint rows for a {kind} joint "
+                                  f"({', '.join(c.name for c in conditions)})")
+    return _BLOCKS[conditions]
+
 
 @dataclass(frozen=True)
 class NEModel:
@@ -114,7 +137,7 @@ class NEModel:
         weight_W: (nb, 3) gravity force m g in world (N).
         Minv: (6nb, 6nb) inverse mass matrix for ``u = [v_WCm_W..., w_WB_B...]``.
         joint_names: child body name of each constrained joint.
-        joint_types: ``"ball"`` or ``"hinge"`` per constrained joint.
+        joint_types: the joint kind (``Body.joint``: ball or hinge) per constrained joint.
         ends: (2nj,) body index of each end (child ends, then parent ends; nb = world).
         K_end: (2nj, 3, 3) constant factor of the ball rows' body-frame rotational blocks,
             ``-[r]x`` for a child end and ``+[r]x`` for a parent end (r = first column of D_end),
@@ -213,9 +236,14 @@ def build(model: Multibody) -> NEModel:
         k = 3 * nb + 3 * i
         Minv[k : k + 3, k : k + 3] = Iinv_B[i]
 
-    joints = [b for b in model.bodies if b.joint in ("ball", "hinge")]
+    for ft in FORCES.values():
+        if ft not in _MODELLED_FORCES and ft.elements(model):
+            raise NotImplementedError(f"the in-house engine does not model {ft.label}s ({ft.name})")
+    block = {b.name: row_block(b.joint) for b in model.bodies}
+    joints = [b for b in model.bodies if block[b.name] == "point"]
+    aligned = {b.name: ALIGNED in JOINTS[b.joint].conditions for b in joints}
     nj = len(joints)
-    has_hinge = any(b.joint == "hinge" for b in joints)
+    has_hinge = any(aligned.values())
     rpj = 5 if has_hinge else 3
     child = [index[b.name] for b in joints]
     parent = [nb if b.parent is None else index[b.parent] for b in joints]
@@ -228,14 +256,14 @@ def build(model: Multibody) -> NEModel:
             D_end[nj + j, :, 0] = p_PB_P
         else:
             D_end[nj + j, :, 0] = p_PB_P - np.asarray(model.body(b.parent).p_BCm_B, dtype=float)
-        if b.joint == "hinge":
+        if aligned[b.name]:
             axis = np.asarray(b.axis_B, dtype=float)
             D_end[j, :, 1] = axis / np.linalg.norm(axis)
             D_end[nj + j, :, 1:] = perpendiculars(axis).T
     exists = np.ones((nj, rpj), dtype=bool)
     if has_hinge:
         for j, b in enumerate(joints):
-            exists[j, 3:] = b.joint == "hinge"
+            exists[j, 3:] = aligned[b.name]
     keep_all = np.flatnonzero(exists.ravel())
     nc = len(keep_all)
     row_of = -np.ones(nj * rpj, dtype=int)
@@ -268,14 +296,14 @@ def build(model: Multibody) -> NEModel:
     all_taken = len(take) == 2 * nj * rpj * 3 and np.array_equal(take, np.arange(len(take)))
 
     forces = []
-    for f in model.forces:
+    for f in POINT_FORCES.elements(model):
         i = index[f.body]
         r_B = np.asarray(f.p_BQ_B, dtype=float) - np.asarray(model.bodies[i].p_BCm_B, dtype=float)
         forces.append((i, r_B, f.force_W))
 
     slides = []
     for b in model.bodies:
-        if b.joint != "slide":
+        if block[b.name] != "line":
             continue
         axis = np.asarray(b.axis_B, dtype=float)
         axis = axis / np.linalg.norm(axis)
@@ -285,7 +313,7 @@ def build(model: Multibody) -> NEModel:
                                  -np.asarray(b.p_BCm_B, dtype=float), r_p, axis, perpendiculars(axis)))
     slide_of = {sl.name: k for k, sl in enumerate(slides)}
     springs = tuple(SpringElement(slide_of[sp.body], float(sp.stiffness), float(sp.q_ref))
-                    for sp in getattr(model, "springs", ()))
+                    for sp in JOINT_SPRINGS.elements(model))
 
     contacts = build_contacts(model, index)
 

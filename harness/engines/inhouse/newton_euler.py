@@ -31,9 +31,9 @@ from typing import Callable
 import numpy as np
 from scipy.linalg.lapack import dposv
 
-from harness.engines.inhouse import algebra
-from harness.engines.inhouse.constraints import DynamicsError, evaluate, frames, linear_velocities
-from harness.engines.inhouse.model import _ROT_U, _ROT_V, NEModel, build
+from harness.engines.inhouse import algebra, rolling
+from harness.engines.inhouse.constraints import DynamicsError, evaluate, frames, linear_velocities, slide_reactions
+from harness.engines.inhouse.model import NEModel, build
 from harness.model.multibody import Multibody
 
 
@@ -190,10 +190,18 @@ def _reactions_from_multipliers(nem: NEModel, y: np.ndarray, lam: np.ndarray) ->
     out = {name: (full[j, :3].copy(), moments[j].copy()) for j, name in enumerate(nem.joint_names)}
     if nem.slides:
         _, R_ext, _, _ = frames(nem.nb, y, with_velocity=False)
-        for j, sl in enumerate(nem.slides):
-            lj = lam_slide[5 * j : 5 * j + 5]
-            Rc, Rp = R_ext[sl.child], R_ext[sl.parent]
-            N = sl.b @ Rp.T
-            A, Nr = _ROT_U @ Rc.T, _ROT_V @ Rp.T
-            out[sl.name] = (lj[:2] @ N, lj[2:] @ np.cross(A, Nr))
+        out.update(slide_reactions(nem, R_ext, lam_slide))
+    return out
+
+
+def contact_force_series(nem, t: np.ndarray, ys: np.ndarray, gains) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """``contact_forces`` at every sample of a run (times ``t`` (n,) s, states ``ys``
+    (n, 13 nb)): per contact ``(force_W (n, 3) N, moment_W (n, 3) N m)``."""
+    dynamics = make_dynamics(nem, gains)
+    k = len(nem.contacts)
+    out = {c.name: (np.zeros((len(t), 3)), np.zeros((len(t), 3))) for c in nem.contacts}
+    for n, (tk, y) in enumerate(zip(t, np.asarray(ys, dtype=float))):
+        _, lam = dynamics(float(tk), y)
+        for name, (f, _) in rolling.contact_forces(nem.contacts, lam[len(lam) - 3 * k :]).items():
+            out[name][0][n] = f
     return out

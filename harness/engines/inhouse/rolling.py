@@ -95,18 +95,3 @@ def contact_forces(contacts: tuple[RollingRows, ...], lam_contacts: np.ndarray) 
     point contact)."""
     return {c.name: (np.array(lam_contacts[3 * j : 3 * j + 3], dtype=float), np.zeros(3))
             for j, c in enumerate(contacts)}
-
-
-def contact_force_series(nem, t: np.ndarray, ys: np.ndarray, gains) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """``contact_forces`` at every sample of a run (times ``t`` (n,) s, states ``ys``
-    (n, 13 nb)): per contact ``(force_W (n, 3) N, moment_W (n, 3) N m)``."""
-    from harness.engines.inhouse.newton_euler import make_dynamics
-
-    dynamics = make_dynamics(nem, gains)
-    k = len(nem.contacts)
-    out = {c.name: (np.zeros((len(t), 3)), np.zeros((len(t), 3))) for c in nem.contacts}
-    for n, (tk, y) in enumerate(zip(t, np.asarray(ys, dtype=float))):
-        _, lam = dynamics(float(tk), y)
-        for name, (f, _) in contact_forces(nem.contacts, lam[len(lam) - 3 * k :]).items():
-            out[name][0][n] = f
-    return out

@@ -28,9 +28,12 @@ import mujoco
 import numpy as np
 
 from harness.engines.base import RunSettings, check_settings
-from harness.engines.mujoco.model import INTEGRATOR_METHODS, load_mjcf, set_initial_state
+from harness.engines.mujoco.integrators import INTEGRATOR_METHODS
+from harness.engines.mujoco.model import joint_type, load_mjcf, set_initial_state
 from harness.engines.mujoco.rolling import ContactForceReader, describe_contact
 from harness.model.errors import InputError
+from harness.model.forces import POINT_FORCES
+from harness.model.joints import JOINTS, ROTATIONAL, TRANSLATIONAL
 from harness.model.scene import Scene
 from harness.measure.trajectory import SampleBuffer, Trajectory
 
@@ -55,7 +58,7 @@ class MujocoEngine:
         body_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b.name) for b in model.bodies]
         control = _force_controller(m, model, scene)
         rolling = ContactForceReader(m, model, settings.n_saves + 1) if model.contacts else None  # mujoco_rolling
-        jointed = [(b.name, bid) for b, bid in zip(model.bodies, body_ids) if b.joint != "free"] if "reaction" in scene.checks else []
+        jointed = [(b.name, bid) for b, bid in zip(model.bodies, body_ids) if JOINTS[b.joint].constrained] if "reaction" in scene.checks else []
         force_sites = _force_sites(m, model) if jointed else []
 
         n = settings.n_saves + 1
@@ -120,9 +123,11 @@ def joint_reaction(m: mujoco.MjModel, d: mujoco.MjData, bid: int, force_sites=()
     moment = d.cfrc_int[bid][:3] + np.cross(c - p_joint, force)
     jid = m.body_jntadr[bid]
     passive = d.qfrc_passive[m.jnt_dofadr[jid]]
-    if m.jnt_type[jid] == mujoco.mjtJoint.mjJNT_SLIDE:
+    jt = joint_type(m, jid)
+    axis = jt.axis if jt is not None else None  # a passive force along a joint axis: a force or a moment
+    if axis == TRANSLATIONAL:
         force -= passive * d.xaxis[jid]
-    elif m.jnt_type[jid] == mujoco.mjtJoint.mjJNT_HINGE:
+    elif axis == ROTATIONAL:
         moment -= passive * d.xaxis[jid]
     for site, body, ids in force_sites:
         if _in_subtree(m, body, bid):
@@ -144,7 +149,7 @@ def _in_subtree(m: mujoco.MjModel, body: int, root: int) -> bool:
 def _force_sites(m: mujoco.MjModel, model) -> list[tuple[int, int, list[int]]]:
     """``(site id, body id, motor ids)`` of each prescribed force (motors ``<name>_fx/_fy/_fz``)."""
     out = []
-    for force in model.forces:
+    for force in POINT_FORCES.elements(model):
         site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, force.name)
         ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{force.name}_f{a}") for a in "xyz"]
         if site >= 0 and min(ids) >= 0:
@@ -163,10 +168,10 @@ def _describe(m: mujoco.MjModel) -> str:
 
 def _force_controller(m: mujoco.MjModel, model, scene: Scene):
     """A ``mjcb_control`` callback setting each force's three motors to ``force_W(d.time)``."""
-    if not model.forces:
+    if not POINT_FORCES.elements(model):
         return None
     slots = []
-    for force in model.forces:
+    for force in POINT_FORCES.elements(model):
         ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{force.name}_f{a}") for a in "xyz"]
         if min(ids) < 0:
             raise InputError(f"{scene.mjcf}: MJCF needs motors {force.name}_fx, _fy, _fz for the force at {force.name!r}")

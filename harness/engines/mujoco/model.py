@@ -4,6 +4,10 @@ The MJCF file is the model as a user writes it; ``load_mjcf`` rewrites, from the
 ``Multibody``, what parameters can change (body positions, masses, centres of mass, inertias,
 gravity, the site where a prescribed force acts, joint springs) and sets timestep and integrator.
 Joint types and axes are not rewritten: they are checked (``harness.tools.loaded_models``).
+
+Joint kinds map to MuJoCo's ``mjtJoint`` through the joint table (``JointType.mujoco``,
+``MJ_JOINTS``, ``joint_type``); each force type of the force table (``harness.model.forces``)
+that an MJCF can express has its writer in ``MJCF_WRITERS``.
 """
 
 from __future__ import annotations
@@ -15,22 +19,29 @@ import numpy as np
 
 from harness.model import rotations
 from harness.model.errors import InputError
+from harness.model.forces import FORCES, JOINT_SPRINGS, POINT_FORCES, JointSpring, PointForce
+from harness.model.joints import JOINTS, JointType
 from harness.model.multibody import Multibody
 
-from harness.engines.base import Integrator, integrator_table
+from harness.engines.mujoco.integrators import INTEGRATORS
+from harness.engines.mujoco.rolling import apply_contacts
 
-INTEGRATOR_METHODS = integrator_table(
-    Integrator("Euler", "fixed", 1, 1, "semi-implicit Euler (MuJoCo's default)"),
-    Integrator("implicit", "fixed", 1, 1, "implicit in the velocity (damping and Coriolis terms), Euler in position"),
-    Integrator("implicitfast", "fixed", 1, 1, "as implicit, without the Coriolis derivatives"),
-    Integrator("RK4", "fixed", 4, 4, "classic RK4 on MuJoCo's configuration manifold"),
-)
-INTEGRATORS = {
-    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-    "RK4": mujoco.mjtIntegrator.mjINT_RK4,
-}
+
+MJ_JOINTS: dict[mujoco.mjtJoint, JointType] = {getattr(mujoco.mjtJoint, jt.mujoco): jt for jt in JOINTS.values()}
+
+
+def joint_type(m: mujoco.MjModel, jid: int) -> JointType | None:
+    """The joint kind (``harness.model.joints``) of joint ``jid`` of a compiled model, None for a
+    kind the harness does not know."""
+    return MJ_JOINTS.get(mujoco.mjtJoint(m.jnt_type[jid]))
+
+
+def joint_kind(m: mujoco.MjModel, jid: int, unknown: str | None = None) -> str:
+    """The harness name of joint ``jid``'s kind, or ``unknown`` (default: MuJoCo's own name)."""
+    jt = joint_type(m, jid)
+    if jt is not None:
+        return jt.name
+    return str(m.jnt_type[jid]) if unknown is None else unknown
 
 
 def read_spec(path: Path) -> mujoco.MjSpec:
@@ -53,8 +64,8 @@ def principal_axes(I: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def apply_multibody(spec: mujoco.MjSpec, model: Multibody, source: Path) -> None:
-    """Write the scene's mass properties, body positions, gravity, force sites and joint springs
-    (``stiffness`` and ``springref`` of the spring's joint) into ``spec``."""
+    """Write the scene's mass properties, body positions, gravity and force elements (each by
+    its ``MJCF_WRITERS`` entry: force sites, joint springs) into ``spec``."""
     for body in model.bodies:
         sb = spec.body(body.name)
         if sb is None:
@@ -68,24 +79,37 @@ def apply_multibody(spec: mujoco.MjSpec, model: Multibody, source: Path) -> None
         sb.fullinertia = [np.nan] * 6
         sb.inertia = moments
         sb.explicitinertial = True
-    for spring in model.springs:
-        joints = spec.body(spring.body).joints
-        if len(joints) != 1:
-            raise InputError(f"{source}: body {spring.body!r} needs exactly one joint for its spring")
-        stiffness = np.zeros(len(np.atleast_1d(joints[0].stiffness)))
-        stiffness[0] = spring.stiffness  # linear spring; MuJoCo's higher-order coefficients zero
-        joints[0].stiffness = stiffness if stiffness.size > 1 else float(stiffness[0])
-        joints[0].springref = spring.q_ref
-    for force in model.forces:
-        site = spec.site(force.name)
-        if site is None:
-            raise InputError(f"{source}: MJCF has no site named {force.name!r} for the force at {force.body!r}")
-        site.pos = force.p_BQ_B
+    for ft in FORCES.values():
+        elements = ft.elements(model)
+        if elements and ft.name not in MJCF_WRITERS:
+            raise NotImplementedError(f"MuJoCo: no MJCF writer for {ft.label}s ({ft.name})")
+        for element in elements:
+            MJCF_WRITERS[ft.name](spec, element, source)
     spec.option.gravity = model.gravity_W
     if getattr(model, "contacts", ()):  # rolling rims: cylinder size from the scene (mujoco_rolling)
-        from harness.engines.mujoco.rolling import apply_contacts
-
         apply_contacts(spec, model, source)
+
+
+def _write_spring(spec: mujoco.MjSpec, spring: JointSpring, source: Path) -> None:
+    """``stiffness`` and ``springref`` of the spring's joint."""
+    joints = spec.body(spring.body).joints
+    if len(joints) != 1:
+        raise InputError(f"{source}: body {spring.body!r} needs exactly one joint for its spring")
+    stiffness = np.zeros(len(np.atleast_1d(joints[0].stiffness)))
+    stiffness[0] = spring.stiffness  # linear spring; MuJoCo's higher-order coefficients zero
+    joints[0].stiffness = stiffness if stiffness.size > 1 else float(stiffness[0])
+    joints[0].springref = spring.q_ref
+
+
+def _write_point_force(spec: mujoco.MjSpec, force: PointForce, source: Path) -> None:
+    """The position of the force's site (its motors ``<name>_fx/_fy/_fz`` act there)."""
+    site = spec.site(force.name)
+    if site is None:
+        raise InputError(f"{source}: MJCF has no site named {force.name!r} for the force at {force.body!r}")
+    site.pos = force.p_BQ_B
+
+
+MJCF_WRITERS = {JOINT_SPRINGS.name: _write_spring, POINT_FORCES.name: _write_point_force}
 
 
 def load_mjcf(path: Path, model: Multibody, *, dt: float | None = None, integrator: str | None = None) -> mujoco.MjModel:
@@ -105,8 +129,8 @@ def load_mjcf(path: Path, model: Multibody, *, dt: float | None = None, integrat
 def set_initial_state(m: mujoco.MjModel, d: mujoco.MjData, model: Multibody, source: Path) -> None:
     """Write the scene's joint-coordinate initial state into ``d.qpos``/``d.qvel``.
 
-    MuJoCo's conventions coincide with ``harness.model.multibody``'s: quaternions ``wxyz``, free-joint
-    linear velocity in world, angular velocities in the body frame.
+    MuJoCo's conventions coincide with the joint table's (``harness.model.joints``): quaternions
+    ``wxyz``, free-joint linear velocity in world, angular velocities in the body frame.
     """
     for body in model.bodies:
         bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body.name)

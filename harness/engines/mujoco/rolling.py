@@ -21,6 +21,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from harness.engines.mujoco.integrators import INTEGRATORS
 from harness.model.errors import InputError
 from harness.model.rolling_contact import contact_offset
 
@@ -49,8 +50,6 @@ def apply_options(spec: mujoco.MjSpec, options: dict) -> None:
         elif key in ("impratio", "noslip_iterations", "iterations", "tolerance", "timestep"):
             setattr(o, key, value)
         elif key == "integrator":
-            from harness.engines.mujoco.model import INTEGRATORS
-
             o.integrator = INTEGRATORS[value]
         elif key in ("condim", "friction", "solref", "solimp"):
             for geom in spec.geoms:

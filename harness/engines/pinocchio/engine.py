@@ -2,10 +2,12 @@
 
 Maximal coordinates are read from Pinocchio's own kinematics (``forwardKinematics``, joint
 placements ``oMi`` and ``getVelocity`` in the LOCAL_WORLD_ALIGNED frame); energies from
-``computeKineticEnergy``/``computePotentialEnergy`` (plus the joint springs' energy, which
-Pinocchio does not model). Prescribed point forces enter ``aba`` as external forces ``fext``
-expressed in the local frame of the joint that moves the body; joint springs enter as their
-generalised force in ``tau`` (``aba`` has no springs).
+``computeKineticEnergy``/``computePotentialEnergy`` (plus the potential of the joint-space force
+elements, joint springs, which Pinocchio does not model). Prescribed point forces enter ``aba``
+as external forces ``fext`` expressed in the local frame of the joint that moves the body; every
+force element acting on a joint coordinate (``ForceType.joint_force`` in
+``harness.model.forces``: joint springs) enters as its generalised force in ``tau`` (``aba``
+has no springs).
 
 Joint reactions (when the scene asks, ``[checks.reaction]``): at each saved sample, ``rnea`` at
 (q, v, a) with a from ``aba`` (and the same ``fext``) leaves in ``data.f[j]`` the spatial force
@@ -23,14 +25,14 @@ from dataclasses import replace
 import numpy as np
 import pinocchio as pin
 
-from harness.model import rotations
+from harness.model.forces import POINT_FORCES, elements
+from harness.model.joints import JOINTS
 from harness.engines.base import RunSettings, check_settings
 from harness.engines.pinocchio.lie_group_integrators import METHODS, STEPPERS
-from harness.engines.pinocchio.model import initial_configuration, load_urdf
+from harness.engines.pinocchio.model import blowup_reason, initial_configuration, load_urdf, read_maximal
+from harness.engines.pinocchio.rolling import simulate_rolling
 from harness.model.scene import Scene
 from harness.measure.trajectory import SampleBuffer, Trajectory
-
-BLOWUP_SPEED = 1e8
 
 
 class PinocchioEngine:
@@ -43,17 +45,15 @@ class PinocchioEngine:
         check_settings(settings, self.integrators, self.name)
         model = scene.multibody()
         if getattr(model, "contacts", ()):  # rolling contacts: constrained forward dynamics (pinocchio_rolling)
-            from harness.engines.pinocchio.rolling import simulate_rolling
-
             return simulate_rolling(self, scene, settings, model)
         pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
         data = pmodel.createData()
         q, v = initial_configuration(pmodel, ids, model)
         applied = _applied_function(pmodel, data, ids, model)
-        springs = _spring_slots(pmodel, ids, model)
+        joint_slots = _joint_slots(pmodel, ids, model)
         accel = _accel_function(pmodel, data, ids, model, applied)
         step = STEPPERS[settings.integrator]
-        jointed = [(b.name, jid) for b, jid in zip(model.bodies, ids) if b.joint != "free"] if "reaction" in scene.checks else []
+        jointed = [(b.name, jid) for b, jid in zip(model.bodies, ids) if JOINTS[b.joint].constrained] if "reaction" in scene.checks else []
         react = {name: (np.full((settings.n_saves + 1, 3), np.nan), np.full((settings.n_saves + 1, 3), np.nan))
                  for name, _ in jointed}
         h = settings.dt
@@ -72,9 +72,9 @@ class PinocchioEngine:
                 if reason:
                     status, message = "blowup", reason
                     break
-                _read_maximal(pmodel, data, ids, model, q, v, k, buf)
+                read_maximal(pmodel, data, ids, model, q, v, k, buf)
                 buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
-                buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q) + spring_energy(springs, q)
+                buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q) + spring_energy(joint_slots, q)
                 if jointed:
                     t_k = steps * h
                     for name, (force, moment) in joint_reactions(pmodel, data, jointed, applied, accel, t_k, q, v).items():
@@ -92,62 +92,57 @@ class PinocchioEngine:
         return traj
 
 
-def _spring_slots(pmodel, ids, model) -> list[tuple[int, int, float, float]]:
-    """``(idx_q, idx_v, stiffness, q_ref)`` of each joint spring (1-dof joints)."""
+def _joint_slots(pmodel, ids, model) -> list[tuple[int, int, object, object]]:
+    """``(idx_q, idx_v, force type, element)`` of each force element acting on a joint's single
+    coordinate (``ForceType.joint_force``: joint springs)."""
     body_index = {b.name: i for i, b in enumerate(model.bodies)}
     slots = []
-    for sp in model.springs:
-        jm = pmodel.joints[ids[body_index[sp.body]]]
-        slots.append((jm.idx_q, jm.idx_v, float(sp.stiffness), float(sp.q_ref)))
+    for ft, element in elements(model):
+        if ft.joint_force is not None:
+            jm = pmodel.joints[ids[body_index[element.body]]]
+            slots.append((jm.idx_q, jm.idx_v, ft, element))
     return slots
 
 
 def spring_energy(slots, q) -> float:
-    """Potential energy (J) of the joint springs at configuration q."""
-    return float(sum(0.5 * k * (q[iq] - q_ref) ** 2 for iq, _, k, q_ref in slots))
+    """Potential energy (J) of the joint-space force elements (``_joint_slots``) at configuration q."""
+    return float(sum(ft.joint_potential(element, q[iq]) for iq, _, ft, element in slots if ft.joint_potential is not None))
 
 
 def _applied_function(pmodel, data, ids, model):
     """``applied(t, q, v) -> (tau, fext)``: the joint-space forces and the scene's prescribed
     point forces as ``fext`` in the local frame of each body's joint (None without forces).
 
-    ``aba`` knows no springs: a joint spring enters ``tau`` as its generalised force
-    ``-k (q - q_ref)`` on the joint's dof (zero without springs: no joint is actuated)."""
-    springs = _spring_slots(pmodel, ids, model)
+    ``aba`` knows no springs: a joint-space force element enters ``tau`` as its generalised
+    force on the joint's dof (``ForceType.joint_force``; a spring ``-k (q - q_ref)``), zero
+    without them (no joint is actuated)."""
+    slots = _joint_slots(pmodel, ids, model)
     tau0 = np.zeros(pmodel.nv)
 
-    def joint_forces(q):
-        if not springs:
+    def joint_forces(q, v):
+        if not slots:
             return tau0
         tau = np.zeros(pmodel.nv)
-        for iq, iv, k, q_ref in springs:
-            tau[iv] = -k * (q[iq] - q_ref)
+        for iq, iv, ft, element in slots:
+            tau[iv] += ft.joint_force(element, q[iq], v[iv])
         return tau
 
-    if not model.forces:
-        return lambda t, q, v: (joint_forces(q), None)
+    point_forces = POINT_FORCES.elements(model)
+    if not point_forces:
+        return lambda t, q, v: (joint_forces(q, v), None)
     body_index = {b.name: i for i, b in enumerate(model.bodies)}
 
     def applied(t, q, v):
-        tau = joint_forces(q)
+        tau = joint_forces(q, v)
         pin.forwardKinematics(pmodel, data, q)
         fext = [pin.Force.Zero() for _ in range(pmodel.njoints)]
-        for force in model.forces:
+        for force in point_forces:
             jid = ids[body_index[force.body]]
             f_L = data.oMi[jid].rotation.T @ force.force_W(t)
             fext[jid] += pin.Force(f_L, np.cross(force.p_BQ_B, f_L))
         return tau, fext
 
     return applied
-
-
-def blowup_reason(q: np.ndarray, v: np.ndarray, t: float) -> str | None:
-    """Why the state ``(q, v)`` at time ``t`` (s) counts as a blow-up, or None if it does not."""
-    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
-        return f"non-finite state at t = {t:.6g} s"
-    if np.max(np.abs(v), initial=0.0) > BLOWUP_SPEED:
-        return f"velocity beyond {BLOWUP_SPEED:g} at t = {t:.6g} s"
-    return None
 
 
 def _accel_function(pmodel, data, ids, model, applied=None):
@@ -185,19 +180,6 @@ def joint_reactions(pmodel, data, jointed, applied, accel, t, q, v) -> dict[str,
         R = data.oMi[jid].rotation
         out[name] = (R @ lin, R @ ang)
     return out
-
-
-def _read_maximal(pmodel, data, ids, model, q, v, k, buf: SampleBuffer) -> None:
-    """Fill sample ``k`` of ``buf`` with each body's world pose and twist (centre of mass)."""
-    pin.forwardKinematics(pmodel, data, q, v)
-    for i, (body, jid) in enumerate(zip(model.bodies, ids)):
-        oMi = data.oMi[jid]
-        r_W = oMi.rotation @ pmodel.inertias[jid].lever
-        vel = pin.getVelocity(pmodel, data, jid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-        buf.p_WCm_W[k, i] = oMi.translation + r_W
-        buf.quat_WB[k, i] = rotations.from_matrix(oMi.rotation)
-        buf.w_WB_W[k, i] = vel.angular
-        buf.v_WCm_W[k, i] = vel.linear + np.cross(vel.angular, r_W)
 
 
 ENGINE = PinocchioEngine()

@@ -5,6 +5,11 @@ which root joint Pinocchio adds (``free`` -> ``JointModelFreeFlyer``, ``spherica
 ``JointModelSpherical``). ``load_urdf`` then rewrites, from the scene's ``Multibody``, the joint
 placements (body positions), the inertias (mass, centre of mass, inertia about it) and gravity.
 Joint types and axes are not rewritten: they are checked (``harness.tools.loaded_models``).
+
+Joint kinds map to Pinocchio's joint models through the joint table (``JointType.pinocchio``,
+``pinocchio_root``; ``joint_type``, ``ROOT_JOINTS``); the per-joint conversions between common
+coordinates and Pinocchio's are ``to_pinocchio``, ``from_pinocchio`` and ``velocity_transform``
+(here and nowhere else).
 """
 
 from __future__ import annotations
@@ -16,13 +21,86 @@ import pinocchio as pin
 
 from harness.model import rotations
 from harness.model.errors import InputError
+from harness.model.joints import JOINTS, JointType, by_pinocchio
 from harness.model.multibody import Multibody
+from harness.measure.trajectory import SampleBuffer
 
-ROOT_JOINTS = {
-    "free": pin.JointModelFreeFlyer,
-    "spherical": pin.JointModelSpherical,
-    "none": None,
-}
+BLOWUP_SPEED = 1e8  # m/s or rad/s: beyond this a run is declared a blow-up
+
+
+def root_joint_model(jt: JointType):
+    """The Pinocchio joint-model class added as a URDF's root joint for kind ``jt``."""
+    return getattr(pin, f"JointModel{jt.pinocchio_root}")
+
+
+# scene.toml's ``urdf_root_joint`` -> the joint model Pinocchio adds (None: the root link is welded)
+ROOT_JOINTS = {jt.urdf_root: root_joint_model(jt) for jt in JOINTS.values() if jt.urdf_root} | {"none": None}
+
+
+def joint_type(jmodel) -> JointType | None:
+    """The joint kind (``harness.model.joints``) of a Pinocchio joint model: revolute (aligned or
+    not, bounded or continuous: a continuous joint has nq = 2, cos and sin) is a hinge, prismatic
+    a slide, the free flyer free, spherical ball; None for any other."""
+    return by_pinocchio(jmodel.shortname())
+
+
+def joint_kind(jmodel) -> str:
+    """The harness name of a Pinocchio joint model's kind, else Pinocchio's ``shortname()``."""
+    jt = joint_type(jmodel)
+    return jt.name if jt is not None else jmodel.shortname()
+
+
+def to_pinocchio(jt: JointType, q: np.ndarray, v: np.ndarray, nq_pin: int | None = None,
+                 placement: pin.SE3 | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """One joint's Pinocchio (q, v) from its common coordinates (``harness.model.joints``):
+    quaternions ``wxyz`` -> ``xyzw``; the free flyer's linear velocity world -> body frame, its
+    pose relative to the joint ``placement`` when given; a continuous revolute joint's angle
+    (``nq_pin`` 2) as (cos, sin)."""
+    q, v = np.asarray(q, dtype=float), np.asarray(v, dtype=float)
+    if jt.world_linear_velocity:  # free flyer: [p, quat], v = [linear (body frame), angular]
+        R = rotations.matrix(q[3:7])
+        if placement is None:
+            qp = np.concatenate([q[:3], rotations.wxyz_to_xyzw(q[3:7])])
+        else:
+            qp = np.array(pin.SE3ToXYZQUAT(placement.actInv(pin.SE3(R, q[:3]))))
+        return qp, np.concatenate([R.T @ v[:3], v[3:6]])
+    if jt.quat_at is not None:  # spherical: a quaternion alone
+        return rotations.wxyz_to_xyzw(q), v
+    if jt.nq == 1:
+        if nq_pin == 2:  # continuous revolute joint: (cos, sin)
+            return np.array([np.cos(q[0]), np.sin(q[0])]), v
+        return q, v
+    raise NotImplementedError(f"no Pinocchio coordinates for a {jt.name} joint")
+
+
+def from_pinocchio(jt: JointType, qp: np.ndarray, vp: np.ndarray,
+                   placement: pin.SE3 | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The inverse of ``to_pinocchio``: one joint's common (q, v) from its Pinocchio (q, v)."""
+    qp, vp = np.asarray(qp, dtype=float), np.asarray(vp, dtype=float)
+    if jt.world_linear_velocity:
+        X = pin.XYZQUATToSE3(qp)
+        if placement is not None:
+            X = placement * X
+        q = np.concatenate([X.translation, rotations.from_matrix(X.rotation)])
+        return q, np.concatenate([X.rotation @ vp[:3], vp[3:6]])
+    if jt.quat_at is not None:
+        return rotations.xyzw_to_wxyz(qp), vp
+    if jt.nq == 1:
+        return np.array([np.arctan2(qp[1], qp[0]) if len(qp) == 2 else qp[0]]), vp
+    raise NotImplementedError(f"no Pinocchio coordinates for a {jt.name} joint")
+
+
+def velocity_transform(jt: JointType, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """For a joint whose common velocity differs from Pinocchio's (common v = T v_pin): ``(T,
+    dT/dt v_pin)`` on its dofs; None where they coincide. The free flyer's linear velocity:
+    T = blockdiag(R_WB, I3), (dT/dt) v_pin = w_WB_W x v_WB_W on the linear rows."""
+    if not jt.world_linear_velocity:
+        return None
+    R = rotations.matrix(q[3:7])
+    T, Tdot_v = np.eye(jt.nv), np.zeros(jt.nv)
+    T[:3, :3] = R
+    Tdot_v[:3] = np.cross(R @ v[3:6], v[:3])
+    return T, Tdot_v
 
 
 def read_urdf(path: Path, root_joint: str = "none") -> pin.Model:
@@ -66,22 +144,36 @@ def load_urdf(path: Path, root_joint: str, model: Multibody) -> tuple[pin.Model,
 def initial_configuration(pmodel: pin.Model, ids: list[int], model: Multibody) -> tuple[np.ndarray, np.ndarray]:
     """Pinocchio (q, v) from the scene's joint-coordinate initial state.
 
-    Conversions (here and nowhere else): quaternions ``wxyz`` -> ``xyzw``; the free-flyer's
-    linear velocity is expressed in the body frame in Pinocchio, in the world in the scene.
+    Conversions: ``to_pinocchio`` (quaternions ``wxyz`` -> ``xyzw``; the free-flyer's linear
+    velocity is expressed in the body frame in Pinocchio, in the world in the scene).
     """
     q = pin.neutral(pmodel)
     v = np.zeros(pmodel.nv)
     for body, jid in zip(model.bodies, ids):
-        jq, jv = pmodel.joints[jid].idx_q, pmodel.joints[jid].idx_v
-        q0, v0 = np.asarray(model.q0[body.name], float), np.asarray(model.v0[body.name], float)
-        if body.joint == "free":
-            R = rotations.matrix(q0[3:7])
-            q[jq : jq + 7] = np.concatenate([q0[:3], rotations.wxyz_to_xyzw(q0[3:7])])
-            v[jv : jv + 6] = np.concatenate([R.T @ v0[:3], v0[3:6]])
-        elif body.joint == "ball":
-            q[jq : jq + 4] = rotations.wxyz_to_xyzw(q0)
-            v[jv : jv + 3] = v0
-        else:
-            q[jq] = q0[0]
-            v[jv] = v0[0]
+        jm = pmodel.joints[jid]
+        qj, vj = to_pinocchio(JOINTS[body.joint], model.q0[body.name], model.v0[body.name], jm.nq)
+        q[jm.idx_q : jm.idx_q + len(qj)] = qj
+        v[jm.idx_v : jm.idx_v + len(vj)] = vj
     return q, v
+
+
+def blowup_reason(q: np.ndarray, v: np.ndarray, t: float) -> str | None:
+    """Why the state ``(q, v)`` at time ``t`` (s) counts as a blow-up, or None if it does not."""
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+        return f"non-finite state at t = {t:.6g} s"
+    if np.max(np.abs(v), initial=0.0) > BLOWUP_SPEED:
+        return f"velocity beyond {BLOWUP_SPEED:g} at t = {t:.6g} s"
+    return None
+
+
+def read_maximal(pmodel, data, ids, model, q, v, k, buf: SampleBuffer) -> None:
+    """Fill sample ``k`` of ``buf`` with each body's world pose and twist (centre of mass)."""
+    pin.forwardKinematics(pmodel, data, q, v)
+    for i, (body, jid) in enumerate(zip(model.bodies, ids)):
+        oMi = data.oMi[jid]
+        r_W = oMi.rotation @ pmodel.inertias[jid].lever
+        vel = pin.getVelocity(pmodel, data, jid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        buf.p_WCm_W[k, i] = oMi.translation + r_W
+        buf.quat_WB[k, i] = rotations.from_matrix(oMi.rotation)
+        buf.w_WB_W[k, i] = vel.angular
+        buf.v_WCm_W[k, i] = vel.linear + np.cross(vel.angular, r_W)

@@ -39,7 +39,8 @@ import pinocchio as pin
 
 from harness.engines.base import RunSettings
 from harness.engines.pinocchio.lie_group_integrators import STEPPERS
-from harness.engines.pinocchio.model import initial_configuration, load_urdf
+from harness.engines.pinocchio.model import blowup_reason, initial_configuration, load_urdf, read_maximal
+from harness.model.joints import FREE, JOINTS
 from harness.model.rolling_contact import FLAT, cross, offset_and_rate
 from harness.measure.trajectory import SampleBuffer, Trajectory
 
@@ -59,6 +60,8 @@ class RollingRows:
         index = {b.name: i for i, b in enumerate(model.bodies)}
         self.items = []
         for c in model.contacts:
+            if JOINTS[model.body(c.body).joint] is not FREE:  # the columns below are the free flyer's
+                raise NotImplementedError(f"rolling contact {c.name!r}: the rolling body must have a free joint")
             jid = ids[index[c.body]]
             self.items.append((c, jid, np.array(pmodel.inertias[jid].lever)))
         self.nc = 3 * len(self.items)
@@ -95,7 +98,6 @@ class RollingRows:
 def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
     """Run a scene with rolling contacts in Pinocchio (module docstring); the trajectory carries
     the contact force of each contact in ``reactions[<contact name>]``."""
-    from harness.engines.pinocchio.engine import _read_maximal, blowup_reason
 
     pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
     data = pmodel.createData()
@@ -149,7 +151,7 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
             if reason:
                 status, message = "blowup", reason
                 break
-            _read_maximal(pmodel, data, ids, model, q, v, k, buf)
+            read_maximal(pmodel, data, ids, model, q, v, k, buf)
             buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
             buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q)
             lam = solve(q, v)[1]

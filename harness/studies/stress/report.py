@@ -106,7 +106,7 @@ def _labels(run: StressRun) -> list[str]:
     from harness.engines import ENGINE_NAMES, get_engine
 
     def key(m: MapRow):
-        known = get_engine(m.engine).integrators
+        known = list(get_engine(m.engine).integrators)
         return (ENGINE_NAMES.index(m.engine), known.index(m.integrator) if m.integrator in known else len(known))
 
     out: list[str] = []
@@ -127,6 +127,17 @@ def _rows_of(run: StressRun, variant: str) -> list[MapRow]:
     return [m for m in run.rows if m.variant == variant]
 
 
+def _exact_measures(run: StressRun) -> str:
+    """What ``exact`` measures for each scene of the run's variants that checks it: the scene's
+    ``exact_error_series`` (``references/<scene>.py``), described by its docstring."""
+    from harness.measure import exact
+
+    scenes = list(dict.fromkeys(v.scene for v in run.variants if "exact" in v.references))
+    text = "the closed form's error per sample, `exact_error_series` of `references/<scene>.py`"
+    described = [f"{s}: {exact.series_description(s) or 'see references/' + s + '.py'}" for s in scenes]
+    return text + (": " + "; ".join(described) if described else "")
+
+
 def markdown(run: StressRun, prov: dict, plots: dict[str, str]) -> str:
     """The report: how to read it, the map, the closing note, one section per variant."""
     lines = ["# Stress: a stability map of every engine", ""]
@@ -143,7 +154,7 @@ def markdown(run: StressRun, prov: dict, plots: dict[str, str]) -> str:
         "",
         "## How to read it",
         "",
-        "Definitions are in the docstring of `harness/stress.py`; in short:",
+        "Definitions are in the docstring of `harness/studies/stress/run.py`; in short:",
         "",
         "* **Stable**: the run reaches its horizon with a finite state, no MuJoCo bad-acceleration/state warning, "
         f"|E(t) - E(0)| <= {cat.bounds.energy_bound:g} x E_scale (E_scale = T(0) + M |g| l), speeds within "
@@ -159,7 +170,7 @@ def markdown(run: StressRun, prov: dict, plots: dict[str, str]) -> str:
         "`<x`: no stable step found down to x (step budget or search limit); `x E`: stable at x, failure mode E "
         "at the next larger step tried. Adaptive SciPy methods run once (rtol in the catalogue): `~h` is their "
         "mean step, `✓` accurate, `✗acc` stable but outside the band.",
-        "* **Error**: `exact` (torque_free: |w_B - w_exact| / |w0|; heavy_top: |cos theta - u_exact|), else the "
+        f"* **Error**: `exact` ({_exact_measures(run)}), else the "
         "largest relative trajectory error against the in-house DOP853 reference (rtol 1e-12), else the energy "
         "error. **First divergence**: the first saved time a quantity leaves its band, at the nominal step.",
         "* **Energy drift** at the nominal step: slope p of log max_{s<=t}|E(s) - E(0)| against log t over the "
@@ -272,7 +283,7 @@ def closing_note(run: StressRun) -> list[str]:
     block("Long horizon", _tagged(run, "long"), drift)
     for v in _tagged(run, "flip"):
         out.append(f"**Dzhanibekov flip: `{v.name}`** — {v.doc} Time (s) at which each run, at its nominal step, "
-                   f"first leaves the band (exact: {v.band['exact']:g} of |w0|; orientation: {v.band['orientation']:g} rad "
+                   f"first leaves the band (exact: {v.band['exact']:g}, see **Error** above; orientation: {v.band['orientation']:g} rad "
                    "from the DOP853 reference):")
         out.append("")
         if v.name in run.skipped:

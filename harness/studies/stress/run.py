@@ -32,8 +32,10 @@ from the world origin and radii of gyration (m); ``E_scale = T(0) + M |g| l`` (J
 
 Accuracy, per quantity (``QUANTITIES``), as error series over the saved samples:
 
-* ``exact``: torque_free: |w_B(t) - w_B_exact(t)| / |w0| (body-frame angular velocity against
-  the Jacobi elliptic solution); heavy_top: |cos theta(t) - u_exact(t)| (nutation);
+* ``exact``: the scene's closed-form error per sample, ``exact_error_series`` of its reference
+  module ``references/<scene>.py`` (through ``harness.measure.exact``; only scenes whose exact
+  check needs no extra run have one, and only for unscaled bodies: the closed forms read the
+  scene's parameters); a variant checks it when its ``references`` list ``"exact"``;
 * ``position`` / ``velocity`` / ``angular_velocity``: distance to the in-house DOP853 reference
   (rtol = atol = 1e-12) over the reference's motion scales (``compare.motion_scales``);
   ``orientation``: geodesic angle to the reference (rad);
@@ -78,6 +80,7 @@ import math
 import os
 import time
 from dataclasses import dataclass, field, replace
+from dataclasses import fields as dataclass_fields
 from fractions import Fraction
 from pathlib import Path
 from typing import Any, Callable, Mapping
@@ -90,6 +93,7 @@ except ModuleNotFoundError:  # pragma: no cover
 import numpy as np
 
 from harness.measure import compare
+from harness.measure import exact
 from harness.measure import invariants
 from harness.model import rotations
 from harness.engines import ENGINE_NAMES, get_engine
@@ -105,7 +109,6 @@ DEFAULT_CATALOGUE = Path(__file__).resolve().with_name("catalogue.toml")
 QUANTITIES = ("exact", "position", "orientation", "velocity", "angular_velocity", "energy")
 TRAJECTORY_QUANTITIES = ("position", "orientation", "velocity", "angular_velocity")
 REFERENCE_KINDS = ("exact", "dop853")
-EXACT_SCENES = ("torque_free", "heavy_top")
 ADAPTIVE = ("RK45", "DOP853", "Radau", "BDF", "LSODA")  # the in-house engine's SciPy methods
 REFERENCE_TOL = 1e-12
 FAILURE_MODES = {  # mode -> one-letter code of the map
@@ -278,9 +281,10 @@ def _variant(name: str, spec: Mapping, defaults: Mapping, path: Path, quick: boo
         if r not in REFERENCE_KINDS:
             raise InputError(f"{where}: unknown reference {r!r} (known: {', '.join(REFERENCE_KINDS)})")
     scale = {b: _positive(f, f"scale.{b}", where) for b, f in spec.get("scale", {}).items()}
-    if "exact" in refs and (spec["scene"] not in EXACT_SCENES or scale):
+    if "exact" in refs and (scale or not exact.has_error_series(str(spec["scene"]))):
         raise InputError(f"{where}: no exact solution for scene {spec['scene']!r}"
-                         + (" with scaled bodies" if scale else f" (exact: {', '.join(EXACT_SCENES)})"))
+                         + (" with scaled bodies" if scale else
+                            f" per sample (references/{spec['scene']}.py defines no exact_error_series)"))
     band = dict(defaults.get("band", {}))
     band.update(spec.get("band", {}))
     for key, value in band.items():
@@ -355,7 +359,7 @@ def variant_scene(variant: Variant, models_dir: Path | None = None) -> Scene:
     """The variant's scene: parameters overridden, bodies scaled."""
     scene = load_scene(variant.scene, variant.params, models_dir=models_dir)
     if variant.scale:
-        fields = {f: getattr(scene, f) for f in Scene.__dataclass_fields__}
+        fields = {f.name: getattr(scene, f.name) for f in dataclass_fields(Scene) if f.init}
         scene = ScaledScene(**fields, body_scale=tuple(sorted(variant.scale.items())))
         scene.multibody()  # check the scaled bodies now
     return scene
@@ -506,25 +510,6 @@ def _head(traj: Trajectory, n: int) -> Trajectory:
                    v_WCm_W=traj.v_WCm_W[:n], w_WB_W=traj.w_WB_W[:n], engine_energy={})
 
 
-def exact_error_series(scene: Scene, traj: Trajectory) -> np.ndarray:
-    """Per-sample error against the scene's closed form (see the module docstring)."""
-    p = scene.params
-    R = rotations.matrix(traj.quat_WB[:, 0])
-    if scene.name == "torque_free":
-        from harness.references.torque_free import omega_body
-
-        w_B = np.einsum("tji,tj->ti", R, traj.w_WB_W[:, 0])
-        exact = omega_body(traj.t, (p["I1"], p["I2"], p["I3"]), p["omega0"])
-        return np.linalg.norm(w_B - exact, axis=-1) / (float(np.linalg.norm(p["omega0"])) or 1.0)
-    if scene.name == "heavy_top":
-        from harness.references.heavy_top import cos_theta
-
-        R0 = rotations.matrix(scene.multibody().q0["top"])
-        params = {k: p[k] for k in ("mass", "l", "I1", "I3", "g")}
-        return np.abs(R[:, 2, 2] - cos_theta(traj.t, params, R0, np.asarray(p["omega0"], float)))
-    raise ValueError(f"no exact solution for scene {scene.name!r}")
-
-
 def _reference_series(traj: Trajectory, ref: Trajectory, model: Multibody) -> dict[str, np.ndarray]:
     """Relative trajectory errors against the reference on the samples both have (the
     reference is saved at least as often; it is subsampled onto the run's times)."""
@@ -562,7 +547,7 @@ def evaluate(traj: Trajectory, scene: Scene, spec: TrialSpec, ref: Reference, bo
         e = np.abs(energy - energy[0]) / sc["energy"]
         series: dict[str, np.ndarray] = {"energy": e}
         if ref.exact:
-            series["exact"] = exact_error_series(scene, traj)
+            series["exact"] = np.asarray(exact.exact_error_series(scene, traj), dtype=float)
         if ref.trajectory is not None and len(ref.trajectory.t):
             series.update(_reference_series(traj, ref.trajectory, model))
         speed = np.max(np.linalg.norm(traj.v_WCm_W, axis=-1), axis=1)
