@@ -25,15 +25,13 @@ has it. Energy, power, sanity and Pinocchio's joint-space forces follow from the
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable
+from typing import Callable
 
 import numpy as np
 
 from harness.model import joints, rotations
 from harness.model.errors import InputError
 
-if TYPE_CHECKING:  # pragma: no cover
-    from harness.model.multibody import Multibody
 
 
 @dataclass(frozen=True)
@@ -104,7 +102,7 @@ class ForceType:
     mjcf: str
     urdf: str | None
 
-    def elements(self, model: "Multibody") -> tuple:
+    def elements(self, model) -> tuple:
         """The model's elements of this type."""
         return tuple(getattr(model, self.field, ()))
 
@@ -112,7 +110,7 @@ class ForceType:
 # --------------------------------------------------------------------------- point forces
 
 
-def _point_force_power(traj, model: "Multibody", force: PointForce) -> np.ndarray:
+def _point_force_power(traj, model, force: PointForce) -> np.ndarray:
     """f_W(t) · v_Q (W): the velocity of the material point Q from the body's twist."""
     i = traj.body_index(force.body)
     R = rotations.matrix(traj.quat_WB[:, i])
@@ -122,7 +120,7 @@ def _point_force_power(traj, model: "Multibody", force: PointForce) -> np.ndarra
     return np.einsum("ti,ti->t", f, v_Q)
 
 
-def _check_point_force(force: PointForce, model: "Multibody", source: str) -> None:
+def _check_point_force(force: PointForce, model, source: str) -> None:
     if force.body not in model.body_names:
         raise InputError(f"{source}: force {force.name!r}: no body named {force.body!r}")
     if not np.all(np.isfinite(force.p_BQ_B)):
@@ -132,7 +130,7 @@ def _check_point_force(force: PointForce, model: "Multibody", source: str) -> No
 # --------------------------------------------------------------------------- joint springs
 
 
-def _spring_potential(traj, model: "Multibody", spring: JointSpring) -> np.ndarray:
+def _spring_potential(traj, model, spring: JointSpring) -> np.ndarray:
     """k (q - q_ref)^2 / 2 with q recovered from maximal coordinates (``joints.coordinate``)."""
     return 0.5 * spring.stiffness * (joints.coordinate(traj, model, spring.body) - spring.q_ref) ** 2
 
@@ -145,7 +143,7 @@ def _spring_joint_potential(spring: JointSpring, q: float) -> float:
     return 0.5 * spring.stiffness * (q - spring.q_ref) ** 2
 
 
-def _check_spring(spring: JointSpring, model: "Multibody", source: str) -> None:
+def _check_spring(spring: JointSpring, model, source: str) -> None:
     if not (np.isfinite(spring.stiffness) and spring.stiffness >= 0.0 and np.isfinite(spring.q_ref)):
         raise InputError(f"{source}: spring on {spring.body!r}: stiffness must be finite and >= 0, rest position finite")
 
@@ -168,20 +166,20 @@ JOINT_SPRINGS = ForceType(
 FORCES: dict[str, ForceType] = {ft.name: ft for ft in (POINT_FORCES, JOINT_SPRINGS)}
 
 
-def elements(model: "Multibody"):
+def elements(model):
     """Every force element of ``model`` as ``(ForceType, element)``, in table order."""
     for ft in FORCES.values():
         for element in ft.elements(model):
             yield ft, element
 
 
-def does_work(model: "Multibody") -> bool:
+def does_work(model) -> bool:
     """Whether the model has elements that deliver power (its energy is balanced against their
     work rather than conserved)."""
     return any(ft.power is not None and ft.elements(model) for ft in FORCES.values())
 
 
-def check_forces(model: "Multibody", source: str) -> None:
+def check_forces(model, source: str) -> None:
     """Raise InputError naming the first non-physical force element of ``model``: on a joint
     kind it cannot act on, or failing its type's own rules (``ForceType.check``)."""
     kinds = {b.name: b.joint for b in model.bodies}

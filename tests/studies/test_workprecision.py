@@ -21,6 +21,8 @@ from harness.studies.workprecision.run import (
     Progress,
     SweepOptions,
     WorkPrecisionPoint,
+    _runner,
+    curves,
     errors,
     measure,
     observed_order,
@@ -31,13 +33,14 @@ from harness.studies.workprecision.run import (
 )
 
 
-def point(param, err, t, integrator="rk4_batched", status="ok", steps=float("nan")):
-    return WorkPrecisionPoint(scene="s", engine="inhouse", integrator=integrator, variant="batched", param=param,
+def point(param, err, t, integrator="rk4_compiled", status="ok", steps=float("nan")):
+    return WorkPrecisionPoint(scene="s", engine="inhouse", integrator=integrator, variant="compiled", param=param,
                               status=status, message="", time_s=t, time_min_s=t, time_total_s=t, repeats=1,
-                              steps=steps, rhs_evals=float("nan"), rhs_calls=float("nan"), state_final=err, state_max=err, energy_final=err,
+                              steps=steps, rhs_evals=float("nan"), state_final=err, state_max=err, energy_final=err,
                               energy_max=err, momentum_final=err, momentum_max=err, nominal_order=4)
 
 
+@pytest.mark.slow  # the whole CLI sweep of one scene with its plots and batch benchmark (2 s warm, every kernel compiled cold)
 def test_quick_sweep_writes_the_reports(tmp_path, capsys):
     code = main(["workprecision", "--quick", "--scenes", "torque_free", "--no-progress", "--out-dir", str(tmp_path)])
     assert code == 0
@@ -50,11 +53,11 @@ def test_quick_sweep_writes_the_reports(tmp_path, capsys):
     table = pd.read_csv(tmp_path / "workprecision.csv", comment="#")
     assert set(ERROR_KEYS) <= set(table.columns)
     labels = set(table["label"])
-    for label in ("mujoco RK4 (rollout)", "mujoco RK4 (loop)", "mujoco implicitfast (rollout)", "pinocchio rkmk4",
-                  "inhouse rk4 (per-state)", "inhouse DOP853 (per-state)", "inhouse dop853_fast (batched)",
-                  "inhouse gbs_parallel (batched)", "inhouse rkmk4 (batched)", "inhouse rk4_compiled (compiled)",
-                  "inhouse dop853_compiled (compiled)"):
-        assert label in labels
+    expected = {"mujoco RK4 (rollout)", "mujoco RK4 (loop)", "mujoco implicitfast (rollout)", "pinocchio rkmk4",
+                "inhouse rk4 (per-state)", "inhouse DOP853 (per-state)", "inhouse rk4_compiled (compiled)",
+                "inhouse dop853_compiled (compiled)"}
+    assert expected <= labels and labels == {c.label for c in curves(["mujoco", "pinocchio", "inhouse"])}
+    assert "rhs_calls" not in table.columns
     ok = table[table["status"] == "ok"]
     assert (ok["time_s"] > 0).all() and (ok["time_min_s"] <= ok["time_s"] + 1e-12).all()
     assert "torque_free:" in capsys.readouterr().out
@@ -95,8 +98,7 @@ def test_errors_of_the_reference_itself_vanish(torque_free_short):
 @pytest.mark.parametrize("curve,lo", [
     (Curve("mujoco", "RK4", "rollout"), 2), (Curve("mujoco", "Euler", "rollout"), 5),
     (Curve("mujoco", "implicitfast", "loop"), 5), (Curve("pinocchio", "rkmk4", ""), 2),
-    (Curve("inhouse", "rk4_batched", "batched"), 2), (Curve("inhouse", "rkmk4", "batched"), 2),
-    (Curve("inhouse", "euler_batched", "batched"), 5), (Curve("inhouse", "rk4_compiled", "compiled"), 2),
+    (Curve("inhouse", "rk4_compiled", "compiled"), 2),
 ])
 def test_observed_orders_are_the_nominal_ones(torque_free_short, curve, lo):
     scene, options, _ = torque_free_short
@@ -108,7 +110,7 @@ def test_observed_orders_are_the_nominal_ones(torque_free_short, curve, lo):
     assert abs(order["order"] - curve.nominal_order) < 0.25 * curve.nominal_order, order
 
 
-@pytest.mark.parametrize("curve", [Curve("inhouse", "dop853_fast", "batched"), Curve("inhouse", "dop853_compiled", "compiled")])
+@pytest.mark.parametrize("curve", [Curve("inhouse", "dop853_compiled", "compiled")])
 def test_adaptive_curves_report_tolerance_slope_and_effective_order(torque_free_short, curve):
     scene, options, _ = torque_free_short
     options = replace(options, tolerances=(1e-5, 1e-7, 1e-9, 1e-11))
@@ -126,9 +128,56 @@ def test_a_failing_run_is_a_recorded_point():
     settings = RunSettings(0.5, 0.01, 0.25, "RK4")
     p = measure(scene, Curve("mujoco", "RK4", "rollout"), settings, ref, scene.multibody(), QUICK)
     assert p.status == "failed" and "NotImplementedError" in p.message and math.isnan(p.state_max)
-    blow = measure(load_scene("heavy_top"), Curve("mujoco", "Euler", "loop"), RunSettings(0.5, 0.25, 0.25, "Euler"),
-                   reference(load_scene("heavy_top"), 0.5, 0.25)[0], load_scene("heavy_top").multibody(), QUICK)
-    assert blow.status in ("ok", "blowup", "failed")  # recorded either way, never raised
+    top = load_scene("heavy_top")
+    ref = reference(top, 0.5, 0.25)[0]
+    coarse = measure(top, Curve("inhouse", "rk4_compiled", "compiled"), RunSettings(0.5, 0.25, 0.25, "rk4_compiled"),
+                     ref, top.multibody(), QUICK)  # two RK4 steps of 0.25 s: the projection cannot recover
+    assert coarse.status == "failed" and "projection did not converge" in coarse.message
+    assert coarse.repeats == 0 and all(math.isnan(getattr(coarse, k)) for k in ERROR_KEYS)
+    disk = load_scene("rolling_disk")
+    outside = measure(disk, Curve("inhouse", "dop853_compiled", "compiled"),
+                      RunSettings(0.5, 0.25, 0.25, "dop853_compiled", rtol=1e-6, atol=1e-6), ref, disk.multibody(), QUICK)
+    assert outside.status == "failed" and "does not model rolling contacts" in outside.message
+    assert math.isnan(outside.state_max)
+
+
+def test_every_curve_but_rollout_runs_through_its_engine(monkeypatch):
+    """One dispatcher: the runner of an in-house compiled curve is the engine's simulate, and
+    its engine time is the integration alone (the trajectory's ``wall_s``)."""
+    import harness.studies.workprecision.run as wp
+    from harness.engines import get_engine
+
+    calls = []
+
+    class Spy:
+        def __init__(self, engine):
+            self.engine = engine
+            self.integrators = engine.integrators
+
+        def simulate(self, scene, settings):
+            calls.append(settings.integrator)
+            return self.engine.simulate(scene, settings)
+
+    monkeypatch.setattr(wp, "get_engine", lambda name: Spy(get_engine(name)))
+    scene = load_scene("torque_free")
+    run = _runner(scene, Curve("inhouse", "rk4_compiled", "compiled"), RunSettings(1.0, 0.01, 0.5, "rk4_compiled"))
+    traj, engine_t, total_t, steps, evals = run()
+    assert calls == ["rk4_compiled"] and traj.ok and traj.integrator == "rk4_compiled"
+    assert engine_t == traj.stats["wall_s"] and 0 < engine_t <= total_t
+    assert (steps, evals) == (100, 400)
+
+
+def test_batch_benchmark_compares_the_compiled_batch_with_rollout():
+    from harness.studies.workprecision.run import batch_benchmark
+
+    b = batch_benchmark(load_scene("heavy_top"), 8, 5, repeats=1)
+    assert b["status"] == "ok" and b["threads"] >= 1
+    for key in ("mujoco", "mujoco_1thread", "compiled", "compiled_1thread"):
+        assert b[f"{key}_steps_per_s"] > 0
+    assert not any(k.startswith("numpy") for k in b)
+    assert b["max_state_difference"] < 1e-6  # the same RK4 on the same states, two engines
+    skipped = batch_benchmark(load_scene("rolling_disk"), 4, 2, repeats=1)
+    assert skipped["status"].startswith("skipped") and "rolling contacts" in skipped["status"]
 
 
 def test_time_to_error_interpolates_on_the_lower_envelope():
@@ -143,7 +192,7 @@ def test_observed_order_of_an_exact_power_law():
     pts = [point(h, 3.0 * h**4, 1.0 / h) for h in (0.1, 0.05, 0.025, 0.0125)]
     o = observed_order(pts, 1e-14)
     assert o["order"] == pytest.approx(4.0) and o["n"] == 4
-    adaptive = [point(tol, 2 * tol, 1.0, integrator="dop853_fast", steps=tol**-0.125) for tol in (1e-4, 1e-6, 1e-8)]
+    adaptive = [point(tol, 2 * tol, 1.0, integrator="dop853_compiled", steps=tol**-0.125) for tol in (1e-4, 1e-6, 1e-8)]
     o = observed_order(adaptive, 1e-14)
     assert o["tol_slope"] == pytest.approx(1.0) and o["steps_order"] == pytest.approx(8.0)
 
@@ -152,10 +201,10 @@ def test_time_table_ratios_are_to_the_fastest_curve():
     from harness.studies.workprecision.run import SceneSweep
 
     sweep = SceneSweep("s", 1.0, 0.1, "ref")
-    sweep.points = [point(0.1, 1e-7, 1.0), point(0.1, 1e-7, 3.0, integrator="rkmk4")]
+    sweep.points = [point(0.1, 1e-7, 1.0), point(0.1, 1e-7, 3.0, integrator="dop853_compiled")]
     rows = {r["label"]: r for r in time_table(sweep, targets=(1e-6,))}
-    assert rows["inhouse rk4_batched (batched)"]["ratio(1e-06)"] == 1.0
-    assert rows["inhouse rkmk4 (batched)"]["ratio(1e-06)"] == 3.0
+    assert rows["inhouse rk4_compiled (compiled)"]["ratio(1e-06)"] == 1.0
+    assert rows["inhouse dop853_compiled (compiled)"]["ratio(1e-06)"] == 3.0
 
 
 def test_default_options_describe_a_full_sweep():

@@ -2,12 +2,18 @@
 joints as constraint forces (KKT system), integrated by our fixed-step Runge-Kutta methods or
 SciPy's ``solve_ivp`` methods.
 
-Modules: ``algebra`` (batched 3-vector and quaternion algebra), ``model`` (constant model data,
-state layout), ``constraints`` (joint constraints, projection), ``newton_euler`` (equations of
-motion, reactions), ``integrators`` (time stepping). The fast paths of ``harness workprecision``
-(``fast``): ``batched`` and ``batched_integrators`` (NumPy, vectorized over bodies and states),
-``compiled``, ``compiled_kernels`` and ``compiled_lanes`` (the same equations compiled with Numba,
-one trajectory or many side by side); all are tested against this engine.
+Two forms of the same physics, one engine (``InhouseEngine.simulate`` dispatches on the
+integrator's name; ``integrators.METHODS`` lists every method):
+
+* per-state, the readable oracle (``harness validate`` runs it): ``algebra`` (3-vector and
+  quaternion algebra), ``model`` (constant model data, state layout), ``constraints`` (joint
+  constraints, projection), ``newton_euler`` (equations of motion, reactions), ``rolling``
+  (rolling contacts), ``integrators`` (time stepping); every model the harness has;
+* compiled (``compiled``: the same equations as Numba kernels, ``rk4_compiled`` and
+  ``dop853_compiled``; ``compiled.solver.run_batch`` for many initial states): free, ball, hinge
+  and slide joints, slide springs and gravity, no prescribed forces or rolling contacts (a run
+  of such a scene is a "failed" trajectory saying so). Tested against the per-state form
+  (``tests/engines/inhouse/compiled``). Numba is imported only when a compiled method runs.
 
 Drift control (documented choice, with the measurements that decided it):
 
@@ -30,6 +36,8 @@ Drift control (documented choice, with the measurements that decided it):
   (heavy_top tip error 9e-14 m instead of 5e-11 m without Baumgarte). Quaternions are
   renormalised on output (the RHS uses q/|q|).
 * With ``project=False`` the fixed-step methods get the Baumgarte terms too.
+* The compiled methods always project after each step (and the initial state), adaptive or not,
+  and never use Baumgarte terms; ``project`` and the Baumgarte settings do not apply to them.
 """
 
 from __future__ import annotations
@@ -42,10 +50,9 @@ import numpy as np
 from harness.engines.base import RunSettings, check_settings
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.constraints import DynamicsError, project, violation
-from harness.engines.inhouse.integrators import FIXED_STEP, METHODS, integrate
+from harness.engines.inhouse.integrators import COMPILED, FIXED_STEP, METHODS, integrate
 from harness.engines.inhouse.model import NEModel, build, from_trajectory, initial_state, split, to_trajectory
-from harness.engines.inhouse.newton_euler import Baumgarte, make_rhs, reaction_series, reactions
-from harness.engines.inhouse.rolling import contact_force_series
+from harness.engines.inhouse.newton_euler import Baumgarte, contact_force_series, make_rhs, reaction_series, reactions
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene
 from harness.measure.trajectory import Trajectory, failed
@@ -62,6 +69,7 @@ __all__ = [
     "initial_state",
     "make_rhs",
     "project",
+    "projection_tolerance",
     "reaction_series",
     "reactions",
     "to_trajectory",
@@ -89,7 +97,7 @@ class InhouseEngine:
     def gains(self, nem: NEModel, y0: np.ndarray, gravity_W: np.ndarray, settings: RunSettings) -> Baumgarte:
         """Baumgarte gains of a run: ``omega_b = baumgarte_ratio * characteristic_rate(...)``
         (rad/s), or none for a fixed-step method with projection."""
-        if (self.project and settings.integrator in FIXED_STEP) or nem.nc == 0:
+        if (self.project and not METHODS[settings.integrator].adaptive) or nem.nc == 0:
             return Baumgarte(omega=0.0, zeta=self.baumgarte_zeta)
         omega = self.baumgarte_ratio * characteristic_rate(nem, y0, gravity_W, settings.t_end)
         return Baumgarte(omega=omega, zeta=self.baumgarte_zeta)
@@ -102,15 +110,19 @@ class InhouseEngine:
     def simulate_model(self, model: Multibody, settings: RunSettings, *, reactions: bool = False) -> Trajectory:
         """Integrate ``model`` from its initial state; samples at ``t = k * save_every``.
 
-        Returns the trajectory in maximal coordinates (positions of the centres of mass, body ->
-        world quaternions ``wxyz``, velocities of the centres of mass, WORLD-frame angular
-        velocities) with ``stats = {"steps", "rhs_evals", "wall_s"}``. A numerical failure gives
-        status "failed" or "blowup" with a message and the samples before it; it never raises,
-        except InputError from ``check_settings`` for bad settings. With ``reactions`` the
-        trajectory carries the joint reactions at every sample (the constraint multipliers,
-        ``reaction_series``).
+        Returns the trajectory in maximal coordinates (positions of the centres of mass in m,
+        body -> world quaternions ``wxyz``, velocities of the centres of mass in m/s, WORLD-frame
+        angular velocities in rad/s) with ``stats = {"steps", "rhs_evals", "wall_s",
+        "settings"}`` (``wall_s``: the whole run here; for the compiled methods the integration
+        alone, compilation done before the clock starts). A numerical failure, or a model the
+        compiled form does not cover, gives status "failed" or "blowup" with a one-line message
+        and the samples before it; it never raises, except InputError from ``check_settings``
+        for bad settings. With ``reactions`` the trajectory carries the joint reactions at every
+        sample (the constraint multipliers, ``reaction_series``).
         """
         check_settings(settings, self.integrators, self.name)
+        if settings.integrator in COMPILED:
+            return self._simulate_compiled(model, settings, reactions=reactions)
         start = time.perf_counter()
         names = tuple(model.body_names)
         try:
@@ -119,9 +131,7 @@ class InhouseEngine:
             gains = self.gains(nem, y0, model.gravity_W, settings)
             rhs = make_rhs(nem, gains)
             t_save = np.arange(settings.n_saves + 1) * settings.save_every
-            # Projection tolerance: 1e-13 of the largest joint-point offset (at least 1 m), far
-            # above round-off and far below every scene's constraint check (1e-9).
-            tol = 1e-13 * max(1.0, float(np.max(np.abs(nem.D_end[:, :, 0]), initial=0.0)))
+            tol = projection_tolerance(nem)
             if self.project:
                 post = lambda y: project(nem, y, tol=tol)  # noqa: E731
             else:
@@ -158,14 +168,53 @@ class InhouseEngine:
         }
         return replace(traj, stats=stats, status=res.status, message=res.message)
 
+    def _simulate_compiled(self, model: Multibody, settings: RunSettings, *, reactions: bool) -> Trajectory:
+        """``simulate_model`` for the compiled methods (``compiled.solver``): the same outputs;
+        ``wall_s`` is the integration alone (the kernel is compiled, or loaded from Numba's cache,
+        before the clock starts)."""
+        names = tuple(model.body_names)
+        method = settings.integrator
+        gains = Baumgarte(omega=0.0, zeta=self.baumgarte_zeta)  # projection, no Baumgarte terms
+        try:
+            from harness.engines.inhouse.compiled import solver as compiled  # Numba only when asked
+
+            nem = build(model)
+            packed = compiled.pack(nem)
+            y0 = initial_state(model, nem)
+            t_save = np.arange(settings.n_saves + 1) * settings.save_every
+            if METHODS[method].adaptive:
+                res = compiled.integrate_dop853(packed, y0, t_save, rtol=settings.rtol, atol=settings.atol,
+                                                first_step=settings.dt, proj_tol=projection_tolerance(nem))
+            else:
+                res = compiled.integrate_fixed(packed, y0, t_save, FIXED_STEP[method],
+                                               steps_per_save=settings.steps_per_save, proj_tol=projection_tolerance(nem))
+        except NotImplementedError as err:  # outside the compiled form's scope: say so, do not raise
+            return failed(self.name, method, names, "failed", f"{method}: {err} (the per-state methods do)")
+        except Exception as err:  # a numerical failure must come back as a trajectory
+            return failed(self.name, method, names, "failed", f"{type(err).__name__}: {err}")
+        traj = to_trajectory(nem, res.t, res.y, self.name, method)
+        if reactions and len(res.t):
+            try:
+                traj = replace(traj, reactions=reaction_series(nem, res.t, res.y, gains))
+            except Exception as err:  # a numerical failure must come back as a trajectory
+                return failed(self.name, method, names, "failed", f"reactions: {type(err).__name__}: {err}")
+        stats = {"steps": res.steps, "rhs_evals": res.rhs_evals, "wall_s": res.wall_s,
+                 "settings": self.describe(settings, gains)}
+        return replace(traj, stats=stats, status=res.status, message=res.message)
 
     def describe(self, settings: RunSettings, gains: Baumgarte) -> str:
         """One line on how a run integrates and holds its constraints."""
-        if settings.integrator in FIXED_STEP:
-            text = f"{settings.integrator}, dt={settings.dt:g} s"
+        method = settings.integrator
+        compiled = method in COMPILED
+        if not METHODS[method].adaptive:
+            text = f"{method}, dt={settings.dt:g} s"
+        elif compiled:
+            text = f"{method}, rtol={settings.rtol:g}, atol={settings.atol:g}"
         else:
-            text = f"scipy {settings.integrator}, rtol={settings.rtol:g}, atol={settings.atol:g}, max_step={settings.save_every:g} s"
-        if settings.integrator in FIXED_STEP and self.project:
+            text = f"scipy {method}, rtol={settings.rtol:g}, atol={settings.atol:g}, max_step={settings.save_every:g} s"
+        if compiled:
+            text += ", compiled (Numba)"
+        if compiled or (self.project and not METHODS[method].adaptive):
             text += ", constraint projection after each step"
         if gains.omega > 0.0:
             text += f", Baumgarte omega={gains.omega:.4g} rad/s zeta={gains.zeta:g}"
@@ -190,6 +239,13 @@ def characteristic_rate(nem: NEModel, y0: np.ndarray, gravity_W: np.ndarray, t_e
     for sp in nem.springs:  # a spring on a slide joint: sqrt(k / m_child), an upper bound
         rates.append(np.sqrt(sp.k / float(nem.mass[nem.slides[sp.slide].child])))
     return float(max(rates))
+
+
+def projection_tolerance(nem: NEModel) -> float:
+    """Tolerance (m) of the projection onto the joint constraints, both forms: 1e-13 of the
+    largest joint-point offset (at least 1 m), far above round-off and far below every scene's
+    constraint check (1e-9)."""
+    return 1e-13 * max(1.0, float(np.max(np.abs(nem.D_end[:, :, 0]), initial=0.0)))
 
 
 def normalize_quaternions(nem: NEModel, y: np.ndarray) -> np.ndarray:

@@ -1,16 +1,20 @@
 """Time integrators of the in-house engine, independent of the physics.
 
-A right-hand side is ``f(t, y) -> dy/dt`` on a flat float array. Two families:
+A right-hand side is ``f(t, y) -> dy/dt`` on a flat float array. The methods (``METHODS``: one
+``Integrator`` record each, the one list of names, kinds and orders) come in two forms:
 
-* our own fixed-step explicit Runge-Kutta methods, given as Butcher tables: ``"rk4"`` (classic
-  fourth order) and ``"euler"`` (explicit Euler, first order). After every step an optional
-  ``post_step(y) -> y`` is applied (the engine renormalises quaternions and projects onto the
-  joint constraints there);
-* SciPy's adaptive/implicit methods ``"RK45"``, ``"DOP853"``, ``"Radau"``, ``"BDF"``,
-  ``"LSODA"`` (the ``solve_ivp`` methods, spelt as SciPy spells them), driven step by step with
-  the same loop as ``scipy.integrate.solve_ivp`` and its dense output at the save times, so that
-  steps are counted and the samples computed before a failure are kept. Their steps are capped
-  at the save interval (see ``integrate_adaptive``).
+* per-state (this module, the readable oracle): our own fixed-step explicit Runge-Kutta methods,
+  given as Butcher tables (``"rk4"``: classic fourth order; ``"euler"``: explicit Euler), with an
+  optional ``post_step(y) -> y`` after every step (the engine renormalises quaternions and
+  projects onto the joint constraints there); and SciPy's adaptive/implicit methods ``"RK45"``,
+  ``"DOP853"``, ``"Radau"``, ``"BDF"``, ``"LSODA"`` (the ``solve_ivp`` methods, spelt as SciPy
+  spells them), driven step by step with the same loop as ``scipy.integrate.solve_ivp`` and its
+  dense output at the save times, so that steps are counted and the samples computed before a
+  failure are kept. Their steps are capped at the save interval (see ``integrate_adaptive``);
+* compiled (``harness.engines.inhouse.compiled``, Numba; ``COMPILED``): ``"rk4_compiled"``, the
+  same ``RK4`` table run by the compiled explicit Runge-Kutta stepper (any table in
+  ``FIXED_STEP`` would run there unchanged), and ``"dop853_compiled"``, DOP853 with SciPy's
+  coefficient tables. The engine (``InhouseEngine.simulate``) dispatches between the forms.
 
 Results are sampled at given save times ``t_save`` (s, starting at the initial time). A run
 never raises on a numerical failure: the result carries ``status`` "failed" (solver failure,
@@ -53,16 +57,29 @@ RK4 = ButcherTableau(
 )
 EULER = ButcherTableau(name="euler", A=((0.0,),), b=(1.0,), c=(0.0,), order=1)
 
-FIXED_STEP: dict[str, ButcherTableau] = {"rk4": RK4, "euler": EULER}
+# How each method is computed (its name, kind and order are its ``METHODS`` record):
+# the Butcher table of every fixed-step method, either form ...
+FIXED_STEP: dict[str, ButcherTableau] = {"rk4": RK4, "euler": EULER, "rk4_compiled": RK4}
+# ... the SciPy solver of every per-state adaptive method ...
 ADAPTIVE = {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+# ... and the methods the compiled form runs (``harness.engines.inhouse.compiled``).
+COMPILED = frozenset({"rk4_compiled", "dop853_compiled"})
+
 METHODS = integrator_table(
-    Integrator("rk4", "fixed", 4, 4, "classic RK4; quaternions renormalised and joint constraints projected after each step"),
-    Integrator("euler", "fixed", 1, 1, "explicit Euler; projected after each step"),
-    Integrator("RK45", "adaptive", 4, 6, "SciPy Dormand-Prince 5(4); Baumgarte stabilisation, no projection"),
+    Integrator("rk4", "fixed", RK4.order, len(RK4.b),
+               "classic RK4; quaternions renormalised and joint constraints projected after each step"),
+    Integrator("euler", "fixed", EULER.order, len(EULER.b), "explicit Euler; projected after each step"),
+    Integrator("RK45", "adaptive", 5, 6,
+               "SciPy Dormand-Prince 5(4), advancing the fifth-order solution; Baumgarte stabilisation, no projection"),
     Integrator("DOP853", "adaptive", 8, 12, "SciPy DOP853; Baumgarte stabilisation, no projection"),
     Integrator("Radau", "adaptive", 5, None, "SciPy Radau IIA (implicit); Baumgarte stabilisation"),
     Integrator("BDF", "adaptive", 1, None, "SciPy BDF, orders 1-5 (implicit multistep); Baumgarte stabilisation"),
     Integrator("LSODA", "adaptive", 1, None, "SciPy LSODA (Adams/BDF switching); Baumgarte stabilisation"),
+    Integrator("rk4_compiled", "fixed", RK4.order, len(RK4.b),
+               "the RK4 table compiled (Numba); projected after each step; no prescribed forces or rolling contacts"),
+    Integrator("dop853_compiled", "adaptive", 8, 12,
+               "DOP853 compiled (Numba; SciPy's coefficients and step control, 7th-order dense output); projected "
+               "after each step, no Baumgarte; no prescribed forces or rolling contacts"),
 )
 
 _NUMERICAL_ERRORS = (ArithmeticError, np.linalg.LinAlgError)
@@ -235,9 +252,13 @@ def integrate(
     first_step: float | None = None,
     post_step: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> Result:
-    """Integrate with ``method`` (one of ``METHODS``); see ``integrate_fixed`` and
-    ``integrate_adaptive`` for what the keywords mean to each family (``post_step`` only applies
-    to fixed-step methods, ``rtol``/``atol``/``first_step`` only to adaptive ones)."""
+    """Integrate with the per-state ``method`` (one of ``METHODS`` outside ``COMPILED``); see
+    ``integrate_fixed`` and ``integrate_adaptive`` for what the keywords mean to each family
+    (``post_step`` only applies to fixed-step methods, ``rtol``/``atol``/``first_step`` only to
+    adaptive ones). The compiled methods run on a packed model, not a Python right-hand side:
+    ``InhouseEngine.simulate`` runs them."""
+    if method in COMPILED:
+        raise ValueError(f"{method!r} runs in the compiled form (InhouseEngine.simulate), not on a Python right-hand side")
     if method in FIXED_STEP:
         return integrate_fixed(f, y0, t_save, steps_per_save, FIXED_STEP[method], post_step)
     if method in ADAPTIVE:

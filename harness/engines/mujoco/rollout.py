@@ -119,8 +119,12 @@ def prepare(scene: Scene, dt: float, integrator: str) -> RolloutModel:
 
 
 def default_threads() -> int:
-    """Threads for batched rollouts: the machine's cores."""
-    return max(1, os.cpu_count() or 1)
+    """Threads for batched rollouts: the cores this process may use (as the compiled in-house
+    batch, ``harness.engines.inhouse.compiled.solver.default_threads``)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
 
 
 def saved_states(initial: np.ndarray, states: np.ndarray, steps_per_save: int) -> np.ndarray:

@@ -27,8 +27,7 @@ def _style(label: str, index: int) -> dict:
         color = {"RK4": "tab:blue", "Euler": "tab:cyan", "implicit": "tab:purple", "implicitfast": "tab:olive"}[integ]
     elif engine == "inhouse":
         color = {"rk4": "salmon", "euler": "rosybrown", "RK45": "tab:pink", "DOP853": "tab:orange",
-                 "rk4_batched": "tab:red", "rkmk4": "darkred", "euler_batched": "peru", "dop853_fast": "gold",
-                 "gbs_parallel": "black", "rk4_compiled": "magenta", "dop853_compiled": "tab:brown"}[label.split()[1]]
+                 "rk4_compiled": "magenta", "dop853_compiled": "tab:brown"}.get(label.split()[1], "black")
     elif engine == "pinocchio":
         color = {"rkmk4": "tab:green", "euler": "yellowgreen"}[label.split()[1]]
     dashed = "(loop)" in label or "(per-state)" in label or engine == "pinocchio"
@@ -93,13 +92,12 @@ def markdown(results: list[SceneSweep], provenance: dict, options: SweepOptions,
     lines += ["",
               "Each point is one run: one warm-up (which gives the errors), then the median (and minimum) of "
               f"up to {options.repeats} timed runs (once only when a run takes more than {options.slow_run_s:g} s). "
-              "Errors are against the reference at the saved times (`harness/workprecision.py` defines them): "
+              "Errors are against the reference at the saved times (`harness/studies/workprecision/run.py` defines them): "
               "state error = max over bodies and saved steps of max(|Δp|/L, geodesic angle, |Δv|/V, |Δω|/Ω); "
               "energy and momentum errors relative to their scales. Times: MuJoCo `rollout` = time inside "
               "`mujoco.rollout`; MuJoCo `loop` = the harness's Python stepping loop (with reading each saved "
-              "sample); Pinocchio and in-house `per-state` = the engine's loop; in-house `batched` = the "
-              "batched integrator alone; in-house `compiled` = the compiled integrator alone (compiled before "
-              "the clock starts). Raw points: `workprecision.csv`.", ""]
+              "sample); Pinocchio and in-house `per-state` = the engine's run; in-house `compiled` = the "
+              "compiled integrator alone (compiled before the clock starts). Raw points: `workprecision.csv`.", ""]
     summary = ["## Summary: in-house against MuJoCo RK4 at equal state error", "",
                "| scene | target | best in-house (time) | MuJoCo RK4 rollout | ratio | MuJoCo RK4 loop | ratio |",
                "|---|---|---|---|---|---|---|"]
@@ -207,27 +205,24 @@ def batch_section(results: list[SceneSweep]) -> list[str]:
     out = ["## Batched throughput: RK4 over many initial conditions", "",
            "Same batch of initial conditions (joint coordinates perturbed, `workprecision.batch_initial_states`), "
            "same dt (the scene's), same number of steps, all timed in alternation (medians): `mujoco.rollout` "
-           "against the compiled in-house `rk4_compiled` (`compiled.run_batch`), each with threads = cores and "
-           "with one thread, and the NumPy `rk4_batched` (one thread). Trajectory-steps per second = "
-           "nbatch × nstep / median wall time. Ratios compare equal thread counts. Last columns: largest state "
-           "difference between the MuJoCo and the compiled batch at the end (relative, as the state error), "
-           "and between the compiled and NumPy in-house batches (relative to the largest state entry).", "",
+           "against the compiled in-house RK4 (`rk4_compiled`'s kernel, `compiled.solver.run_batch`: one "
+           "trajectory after another on each thread), each with threads = cores and with one thread. "
+           "Trajectory-steps per second = nbatch × nstep / median wall time. Ratios compare equal thread counts. "
+           "Last column: largest state difference between the MuJoCo and the in-house batch at the end "
+           "(relative, as the state error).", "",
            "| scene | nbatch × nstep | dt (s) | threads | rollout (steps/s) | in-house compiled (steps/s) | "
-           "compiled / rollout | rollout 1 thread | compiled 1 thread | ratio 1 thread | in-house NumPy rk4_batched | "
-           "NumPy / rollout | MuJoCo vs in-house | compiled vs NumPy |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+           "compiled / rollout | rollout 1 thread | compiled 1 thread | ratio 1 thread | MuJoCo vs in-house |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
     for b in rows:
         if "compiled_steps_per_s" not in b:
-            out.append(f"| {b.get('scene')} | — | — | — | — | — | — | — | — | — | — | — | {b.get('status')} | |")
+            out.append(f"| {b.get('scene')} | — | — | — | — | — | — | — | — | — | {b.get('status')} |")
             continue
         out.append(f"| {b['scene']} | {b['nbatch']} × {b['nstep']} | {b['dt']:g} | {b['threads']} | "
                    f"{b['mujoco_steps_per_s']:.3g} | {b['compiled_steps_per_s']:.3g} | "
                    f"{b['compiled_steps_per_s'] / b['mujoco_steps_per_s']:.2f} | {b['mujoco_1thread_steps_per_s']:.3g} | "
                    f"{b['compiled_1thread_steps_per_s']:.3g} | "
                    f"{b['compiled_1thread_steps_per_s'] / b['mujoco_1thread_steps_per_s']:.2f} | "
-                   f"{_fmt(b.get('numpy_steps_per_s', float('nan')))} | "
-                   f"{_fmt(b.get('numpy_steps_per_s', float('nan')) / b['mujoco_steps_per_s'], '.2f')} | "
-                   f"{b['max_state_difference']:.1e} | {_fmt(b.get('numpy_vs_compiled', float('nan')), '.1e')} |")
+                   f"{b['max_state_difference']:.1e} |")
     return out
 
 

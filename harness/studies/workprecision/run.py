@@ -13,14 +13,15 @@ What is swept, per scene (``curves``):
   ``MujocoEngine.simulate`` (variant ``loop``: the loop's own time, which includes reading every
   saved sample back; ``time_total_s`` includes compiling the model).
 * Pinocchio: each harness integrator (rkmk4, euler) over timesteps (loop time).
-* In-house: the per-state engine's fixed-step methods (rk4, euler) over timesteps and SciPy's
-  adaptive ones (RK45, DOP853) over tolerances (variant ``per-state``), and the batched fast
-  solver (``harness.engines.inhouse.fast``; variant ``batched``): rk4_batched, rkmk4 and
-  euler_batched over timesteps, dop853_fast and gbs_parallel over tolerances (the integration
-  alone; ``time_total_s`` adds building the model and converting the result); and the compiled
-  solver (``harness.engines.inhouse.compiled.solver``; variant ``compiled``): rk4_compiled over
-  timesteps, dop853_compiled over tolerances (timed as the batched variant; compilation happens
-  before the clock starts).
+* In-house, all through ``InhouseEngine.simulate``: the per-state methods (variant
+  ``per-state``; the engine's whole run): rk4, euler over timesteps and SciPy's RK45, DOP853
+  over tolerances; and the compiled ones (variant ``compiled``; the integration alone, the
+  kernel compiled before the clock starts; ``time_total_s`` adds building the model and
+  converting the result): rk4_compiled over timesteps, dop853_compiled over tolerances.
+
+Every curve except MuJoCo's ``rollout`` variant runs through its engine's ``simulate`` (the
+registry's ``get_engine``); whether a method is adaptive and its nominal order come from the
+engine's ``Integrator`` records (``harness.engines.integrator``).
 
 Timesteps are ``dt = save / 2^k``; tolerances ``rtol = atol`` per decade. A curve is refined
 until a run takes longer than ``max_run_s``, or its state error is below ``error_floor``
@@ -41,9 +42,9 @@ E; ``compare.momentum_scales`` p and Lm):
 each reported at the final time (``*_final``) and as the max over the saved samples (``*_max``).
 
 Reference: the per-state in-house DOP853 at rtol = atol = 1e-13 with steps capped at a tenth of
-the save interval (``reference``); where a closed form exists its own error is reported
-(torque_free: body angular velocity against ``harness.references.torque_free.omega_body``; heavy_top:
-the nutation against ``harness.references.heavy_top``).
+the save interval (``reference``); where the scene's reference module has an exact check that
+needs no runs of its own, the reference's own error against it is reported
+(``harness.measure.exact``).
 
 Observed order of convergence (``observed_order``): least-squares slope of log(state error max)
 against log(dt) over the asymptotic range (the four smallest timesteps whose errors lie between
@@ -65,20 +66,12 @@ import numpy as np
 
 from harness.measure import compare
 from harness.measure import invariants
+from harness.engines import get_engine, integrator
 from harness.engines.base import RunSettings
 from harness.model.scene import Scene
 from harness.measure.trajectory import Trajectory
 
 TARGETS = (1e-6, 1e-10)
-NOMINAL = {
-    ("mujoco", "Euler"): 1, ("mujoco", "implicit"): 1, ("mujoco", "implicitfast"): 1, ("mujoco", "RK4"): 4,
-    ("pinocchio", "rkmk4"): 4, ("pinocchio", "euler"): 1,
-    ("inhouse", "rk4"): 4, ("inhouse", "euler"): 1, ("inhouse", "RK45"): 5, ("inhouse", "DOP853"): 8,
-    ("inhouse", "rk4_batched"): 4, ("inhouse", "euler_batched"): 1, ("inhouse", "rkmk4"): 4,
-    ("inhouse", "dop853_fast"): 8, ("inhouse", "gbs_parallel"): 16,
-    ("inhouse", "rk4_compiled"): 4, ("inhouse", "dop853_compiled"): 8,
-}
-ADAPTIVE_METHODS = ("RK45", "DOP853", "dop853_fast", "gbs_parallel", "dop853_compiled")
 ERROR_KEYS = ("state_final", "state_max", "energy_final", "energy_max", "momentum_final", "momentum_max")
 
 
@@ -127,11 +120,11 @@ class Curve:
 
     @property
     def adaptive(self) -> bool:
-        return self.integrator in ADAPTIVE_METHODS
+        return integrator(self.engine, self.integrator).adaptive
 
     @property
     def nominal_order(self) -> int:
-        return NOMINAL[(self.engine, self.integrator)]
+        return integrator(self.engine, self.integrator).order
 
     @property
     def label(self) -> str:
@@ -153,8 +146,6 @@ class WorkPrecisionPoint:
         steps, rhs_evals: accepted steps and right-hand-side (dynamics) evaluations per
             trajectory (MuJoCo: 4 per RK4 step, 1 otherwise; Pinocchio rkmk4: 4 ``aba`` per step),
             NaN where the engine does not say.
-        rhs_calls: sequential calls of the batched right-hand side (in-house batched methods:
-            an extrapolation step evaluates its sequences together), else equal to rhs_evals.
         state_final ... momentum_max: errors (see the module docstring), NaN for a failed run.
         nominal_order: the method's order.
     """
@@ -172,7 +163,6 @@ class WorkPrecisionPoint:
     repeats: int
     steps: float
     rhs_evals: float
-    rhs_calls: float
     state_final: float
     state_max: float
     energy_final: float
@@ -295,13 +285,14 @@ def reference(scene: Scene, t_end: float, save: float) -> tuple[Trajectory, str]
 
 
 def reference_checks(scene: Scene, ref: Trajectory, t_end: float, save: float) -> dict[str, float]:
-    """The reference's own error against the scene's closed form, where one exists."""
+    """The reference's own error against the scene's closed form, where its reference module has
+    an exact check that needs no runs of its own (``harness.measure.exact.needs_runs``)."""
     from harness.measure import exact
 
-    if scene.name not in ("torque_free", "heavy_top"):
+    if not exact.has_exact_error(scene) or exact.needs_runs(scene):
         return {}
     try:
-        value, unit, detail = exact.exact_error(scene, "inhouse", ref, RunSettings(t_end, save, save, "DOP853"))
+        value, unit, detail = exact.exact_error(scene, ref, RunSettings(t_end, save, save, "DOP853"))
     except Exception as err:  # pragma: no cover - reported, not raised
         return {f"exact ({type(err).__name__})": float("nan")}
     return {f"exact: {detail}": float(value)}
@@ -309,9 +300,9 @@ def reference_checks(scene: Scene, ref: Trajectory, t_end: float, save: float) -
 
 # ---------------------------------------------------------------------------------------------
 # Runners: each returns a function run() -> (trajectory, engine time s, total time s, steps,
-# rhs_evals, rhs_calls); errors come from the warm-up run's trajectory.
+# rhs_evals); errors come from the warm-up run's trajectory.
 
-Run = Callable[[], tuple[Trajectory, float, float, float, float, float]]
+Run = Callable[[], tuple[Trajectory, float, float, float, float]]
 
 
 def _settings(curve: Curve, t_end: float, save: float, param: float) -> RunSettings:
@@ -321,7 +312,9 @@ def _settings(curve: Curve, t_end: float, save: float, param: float) -> RunSetti
 
 
 def _runner(scene: Scene, curve: Curve, settings: RunSettings) -> Run:
-    """The timed unit of work of one point (see the module docstring)."""
+    """The timed unit of work of one point (see the module docstring): ``mujoco.rollout`` for
+    MuJoCo's ``rollout`` variant, else the engine's ``simulate`` (engine time: its
+    ``stats["wall_s"]``)."""
     if curve.engine == "mujoco" and curve.variant == "rollout":
         from harness.engines.mujoco import rollout as mujoco_rollout
 
@@ -339,26 +332,9 @@ def _runner(scene: Scene, curve: Curve, settings: RunSettings) -> Run:
             saved = mujoco_rollout.saved_states(rm.state0, states, settings.steps_per_save)
             traj = rm.trajectory(saved, t_save, settings.integrator)
             evals = float(4 * nstep if settings.integrator == "RK4" else nstep)
-            return traj, engine, setup + time.perf_counter() - start, float(nstep), evals, evals
+            return traj, engine, setup + time.perf_counter() - start, float(nstep), evals
 
         return run
-    if curve.engine == "inhouse" and curve.variant in ("batched", "compiled"):
-        from harness.engines.inhouse.fast import FAST_ENGINE
-
-        t0 = time.perf_counter()
-        nem, bm, y0 = FAST_ENGINE.prepare(scene.multibody(), curve.integrator)
-        setup = time.perf_counter() - t0
-
-        def run():
-            start = time.perf_counter()
-            res = FAST_ENGINE.integrate(nem, bm, y0, settings)
-            traj = FAST_ENGINE.trajectory(nem, res, settings)
-            return (traj, res.wall_s, setup + time.perf_counter() - start, float(res.steps), float(res.rhs_evals),
-                    float(res.rhs_calls))
-
-        return run
-    from harness.engines import get_engine
-
     engine = get_engine(curve.engine)
 
     def run():
@@ -369,8 +345,9 @@ def _runner(scene: Scene, curve: Curve, settings: RunSettings) -> Run:
         steps = float(stats.get("steps", float("nan")))
         evals = stats.get("rhs_evals")
         if evals is None:
-            evals = {"RK4": 4, "rkmk4": 4}.get(settings.integrator, 1) * steps
-        return traj, float(stats.get("wall_s", total)), total, steps, float(evals), float(evals)
+            stages = integrator(curve.engine, settings.integrator).stages
+            evals = (stages or 1) * steps
+        return traj, float(stats.get("wall_s", total)), total, steps, float(evals)
 
     return run
 
@@ -385,7 +362,7 @@ def measure(scene: Scene, curve: Curve, settings: RunSettings, ref: Trajectory, 
     try:
         run = _runner(scene, curve, settings)
         with np.errstate(all="ignore"):
-            traj, engine_t, total_t, steps, evals, calls = run()
+            traj, engine_t, total_t, steps, evals = run()
         if traj.ok and len(traj.t) < len(ref.t):
             traj = replace(traj, status="failed", message=traj.message or "fewer samples than the horizon")
         errs = errors(traj, ref, model)
@@ -396,32 +373,33 @@ def measure(scene: Scene, curve: Curve, settings: RunSettings, ref: Trajectory, 
             times, totals = [], []
             for _ in range(max(1, n)):
                 with np.errstate(all="ignore"):
-                    _, engine_t, total_t, _, _, _ = run()
+                    _, engine_t, total_t, _, _ = run()
                 times.append(engine_t)
                 totals.append(total_t)
             repeats = len(times)
         return WorkPrecisionPoint(**base, status=traj.status, message=traj.message,
                                   time_s=float(np.median(times)), time_min_s=float(np.min(times)),
                                   time_total_s=float(np.median(totals)), repeats=repeats, steps=steps,
-                                  rhs_evals=evals, rhs_calls=calls, **errs)
+                                  rhs_evals=evals, **errs)
     except Exception as err:  # a failed run is a point with its reason
         return WorkPrecisionPoint(**base, status="failed", message=f"{type(err).__name__}: {err}", time_s=nan,
                                   time_min_s=nan, time_total_s=nan, repeats=0, steps=nan, rhs_evals=nan,
-                                  rhs_calls=nan, **{k: nan for k in ERROR_KEYS})
+                                  **{k: nan for k in ERROR_KEYS})
 
 
 def curves(engines) -> list[Curve]:
     """The curves of a sweep over ``engines`` (see the module docstring)."""
     out: list[Curve] = []
     if "mujoco" in engines:
-        for integrator in ("Euler", "implicit", "implicitfast", "RK4"):
-            out += [Curve("mujoco", integrator, "rollout"), Curve("mujoco", integrator, "loop")]
+        for method in ("Euler", "implicit", "implicitfast", "RK4"):
+            out += [Curve("mujoco", method, "rollout"), Curve("mujoco", method, "loop")]
     if "pinocchio" in engines:
         out += [Curve("pinocchio", "rkmk4", ""), Curve("pinocchio", "euler", "")]
     if "inhouse" in engines:
-        out += [Curve("inhouse", m, "per-state") for m in ("rk4", "euler", "RK45", "DOP853")]
-        out += [Curve("inhouse", m, "batched") for m in ("rk4_batched", "rkmk4", "euler_batched", "dop853_fast", "gbs_parallel")]
-        out += [Curve("inhouse", m, "compiled") for m in ("rk4_compiled", "dop853_compiled")]
+        from harness.engines.inhouse.integrators import COMPILED
+
+        out += [Curve("inhouse", m, "compiled" if m in COMPILED else "per-state")
+                for m in ("rk4", "euler", "RK45", "DOP853", "rk4_compiled", "dop853_compiled")]
     return out
 
 
@@ -522,7 +500,7 @@ def observed_order(points: list[WorkPrecisionPoint], error_floor: float = 1e-12,
     out = {"n": len(good), "order": float("nan"), "range": ""}
     if not points:
         return out
-    adaptive = points[0].integrator in ADAPTIVE_METHODS
+    adaptive = integrator(points[0].engine, points[0].integrator).adaptive
     if not adaptive:  # the asymptotic range is the fine end: the (up to) four smallest steps
         good = sorted(good, key=lambda p: p.param)[:4]
         out["n"] = len(good)
@@ -608,51 +586,44 @@ def batch_initial_states(scene: Scene, nbatch: int, seed: int = 0):
 
 def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3) -> dict:
     """Throughput (trajectory-steps per second) of RK4 over ``nbatch`` initial conditions for
-    ``nstep`` steps of the scene's dt: ``mujoco.rollout`` against the compiled in-house
-    ``rk4_compiled`` (``compiled.run_batch``), each with the machine's cores as threads and with
-    one thread, and the NumPy ``rk4_batched`` (one process). All timed in alternation (one
-    warm-up each, then ``repeats`` rounds; medians). Also the largest state difference between
-    the MuJoCo and the compiled in-house batch at the end (relative, as ``errors``)."""
+    ``nstep`` steps of the scene's dt: ``mujoco.rollout`` against the compiled in-house RK4
+    (``rk4_compiled``'s kernel, ``compiled.solver.run_batch``: one trajectory after another on
+    each thread), each with the machine's cores as threads and with one thread. All timed in
+    alternation (one warm-up each, which also compiles the kernel, then ``repeats`` rounds;
+    medians). Also the largest state difference between the MuJoCo and the in-house batch at the
+    end (relative, as ``errors``), over a sample of the trajectories."""
     from harness.engines.mujoco import rollout as mujoco_rollout
+    from harness.engines.inhouse import projection_tolerance
     from harness.engines.inhouse.compiled import solver as compiled
-    from harness.engines.inhouse.batched import batched_model
-    from harness.engines.inhouse.fast import FAST_ENGINE, projection_tolerance
-    from harness.engines.inhouse.model import to_trajectory
+    from harness.engines.inhouse.integrators import FIXED_STEP
+    from harness.engines.inhouse.model import build, to_trajectory
 
     out: dict = {"scene": scene.name, "nbatch": nbatch, "nstep": nstep, "dt": scene.dt, "method": "RK4"}
     model = scene.multibody()
     try:
         rm, S0, Y0 = batch_initial_states(scene, nbatch)
-        nem, packed, _ = FAST_ENGINE.prepare(model, "rk4_compiled")
+        nem = build(model)
+        packed = compiled.pack(nem)
     except NotImplementedError as err:
         out["status"] = f"skipped: {err}"
         return out
-    try:
-        bm = batched_model(nem)
-    except NotImplementedError as err:  # the NumPy solver models less than the compiled one
-        bm, out["numpy_status"] = None, f"skipped: {err}"
     threads = mujoco_rollout.default_threads()
     out["threads"] = threads
     proj_tol = projection_tolerance(nem)
-    settings = RunSettings(nstep * scene.dt, scene.dt, nstep * scene.dt, "rk4_batched")
+    tableau = FIXED_STEP["rk4_compiled"]
     box: dict = {}
 
     def mj(nthread):
         box["mj"] = rm.run(S0, nstep, nthread)
 
     def jit(nthread):
-        box["jit"] = compiled.run_batch(packed, Y0, nstep, scene.dt, threads=nthread, proj_tol=proj_tol)
-
-    def numpy_rk4():
-        box["numpy"] = FAST_ENGINE.integrate(nem, bm, Y0, settings)
+        box["jit"] = compiled.run_batch(packed, Y0, nstep, scene.dt, tableau, threads=nthread, proj_tol=proj_tol)
 
     runs = {"mujoco": lambda: mj(threads), "mujoco_1thread": lambda: mj(1),
             "compiled": lambda: jit(threads), "compiled_1thread": lambda: jit(1)}
-    if bm is not None:
-        runs["numpy"] = numpy_rk4
     times: dict[str, list[float]] = {k: [] for k in runs}
     for fn in runs.values():
-        fn()  # warm-up (and compilation of the kernels)
+        fn()  # warm-up (and compilation of the kernel)
     for _ in range(max(1, repeats)):
         for key, fn in runs.items():
             start = time.perf_counter()
@@ -663,12 +634,9 @@ def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3) -> 
         out[f"{key}_s"] = float(np.median(ts))
         out[f"{key}_min_s"] = float(np.min(ts))
         out[f"{key}_steps_per_s"] = work / out[f"{key}_s"]
-    Yend, words = box["jit"]  # the last compiled run (lanes never mix: any thread count gives these states)
+    Yend, words = box["jit"]  # the last run, on one thread (trajectories never mix: any thread count gives these)
     failed = int(np.sum(words != "ok"))
-    numpy_status = box["numpy"].status if bm is not None else "ok"
-    out["status"] = "ok" if not failed and numpy_status == "ok" else (
-        f"{failed} compiled trajectories failed; NumPy batch {numpy_status}")
-    # agreement of the two batches at the final time (a sample of trajectories)
+    out["status"] = "ok" if not failed else f"{failed} compiled trajectories failed"
     diffs = []
     t = np.array([0.0, nstep * scene.dt])
     for i in range(0, nbatch, max(1, nbatch // 20)):
@@ -677,9 +645,6 @@ def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3) -> 
         scales = compare.motion_scales(mj_traj, model)
         diffs.append(_state_error(compare.trajectory_error(_take(ih_traj, [1]), _take(mj_traj, [1])), scales))
     out["max_state_difference"] = float(np.max(diffs))
-    if bm is not None:
-        numpy_end = box["numpy"].Y[-1] if len(box["numpy"].Y) else np.full_like(Yend, np.nan)
-        out["numpy_vs_compiled"] = float(np.max(np.abs(numpy_end - Yend)) / max(1.0, float(np.max(np.abs(Yend)))))
     return out
 
 

@@ -10,6 +10,7 @@ from harness.engines.inhouse import ENGINE, InhouseEngine, algebra
 from harness.engines.inhouse.constraints import DynamicsError
 from harness.engines.inhouse.integrators import (
     ADAPTIVE,
+    COMPILED,
     EULER,
     FIXED_STEP,
     RK4,
@@ -110,7 +111,17 @@ def test_trajectory_layout_and_stats():
 
 def test_engine_declares_its_integrators():
     assert ENGINE.name == "inhouse"
-    assert set(ENGINE.integrators) == set(FIXED_STEP) | set(ADAPTIVE)
+    # every method has exactly one way to be computed, agreeing with its record
+    assert set(ENGINE.integrators) == set(FIXED_STEP) | set(ADAPTIVE) | COMPILED
+    for name, record in ENGINE.integrators.items():
+        assert record.name == name and record.kind in ("fixed", "adaptive")
+        if record.kind == "fixed":
+            assert name in FIXED_STEP and name not in ADAPTIVE
+            assert (record.order, record.stages) == (FIXED_STEP[name].order, len(FIXED_STEP[name].b))
+        else:
+            assert name not in FIXED_STEP and (name in ADAPTIVE) != (name in COMPILED)
+    with pytest.raises(ValueError, match="compiled form"):
+        integrate(lambda t, y: -y, np.ones(2), np.linspace(0.0, 1.0, 3), "rk4_compiled")
     scene = load_scene("torque_free")
     with pytest.raises(InputError):
         ENGINE.simulate(scene, RunSettings(t_end=1.0, dt=1e-3, save_every=0.01, integrator="rk45"))

@@ -4,9 +4,14 @@ The same physics as ``newton_euler.make_dynamics`` and ``constraints.project`` (
 coordinates, joints as KKT constraint forces, projection onto the constraints after each
 step), written as plain loops that Numba compiles to machine code once (``cache=True`` keeps
 the compiled code on disk between processes). Nothing here allocates per right-hand-side
-call: every buffer lives in a workspace made once per trajectory (``workspace``). These are the
-kernels of single trajectories; ``compiled_lanes`` runs the same equations on many trajectories
-side by side.
+call: every buffer lives in a workspace made once per trajectory (``workspace``). Each kernel
+advances one trajectory; a batch of initial states is these kernels run one trajectory after
+another on each of several threads (``erk_rows``; the kernels release the GIL).
+
+Integrators (drivers): ``erk``, any explicit Runge-Kutta method given as its Butcher table
+(A, b, c) with a fixed step (``solver.integrate_fixed`` passes ``integrators.RK4`` for
+``rk4_compiled``); ``erk_rows``, the same stepper over rows of a batch of initial states;
+``dop853``, DOP853 with SciPy's coefficient tables, step-size control and dense output.
 
 Why compiled loops and not NumPy: a rigid-body right-hand side is a few hundred flops on
 3-vectors and 3x3 matrices; as NumPy calls each costs 1-2 us of interpreter overhead, as
@@ -14,7 +19,9 @@ compiled code the whole right-hand side of a double pendulum costs about a micro
 a hand-written Cholesky: LAPACK's call overhead exceeds the work at these sizes (<= 20 rows).
 
 Units and frames: as ``harness.engines.inhouse.model`` (state ``y = [p_WCm_W | quat_WB (wxyz)
-| v_WCm_W | w_WB_B]``, SI units). The model is a tuple of arrays (``compiled.pack`` makes it)::
+| v_WCm_W | w_WB_B]``: centre-of-mass positions (m) and velocities (m/s) in the world frame,
+body -> world quaternions, angular velocities (rad/s) in the BODY frame; times in s). The model
+is a tuple of arrays (``solver.pack`` makes it)::
 
     mass (nb,) kg, I_B (nb,3,3) and Iinv_B (nb,3,3) kg m^2 about the COM in the body frame,
     grav (nb,3) m/s^2 (world), jc (nj,) child body, jp (nj,) parent body (nb = world),
@@ -45,7 +52,7 @@ omega = R w the world angular velocity):
 * spring on a slide: force ``-k (d . a - qref) a`` (a = R_c saxis) on the child at x_c, its
   opposite on the parent at the same point.
 
-Status codes returned by the integrators (``compiled.STATUS`` words them): 0 ok, 1 non-finite
+Status codes returned by the integrators (``solver.STATUS`` words them): 0 ok, 1 non-finite
 state, 2 singular constraint matrix, 3 projection did not converge, 4 step size underflow,
 5 too many steps, 6 non-finite error estimate.
 """
@@ -53,13 +60,56 @@ state, 2 singular constraint matrix, 3 projection did not converge, 4 step size 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
 
 OK, NONFINITE, SINGULAR, NO_PROJECTION, UNDERFLOW, TOO_MANY_STEPS, BAD_ERROR = 0, 1, 2, 3, 4, 5, 6
 _QUADRATIC = 1e-9  # as constraints.project: below this a Gauss-Newton step is not re-evaluated
 _PROJECTION_ITERATIONS = 8
+
+
+# ---------------------------------------------------------------------------------------------
+# Borrowed arrays: the drivers hand the physics arrays without reference counts
+#
+# Every call of a compiled function that is not inlined increments and decrements the
+# reference count of each array it receives (an atomic operation, about 6 ns each), and ``rhs``
+# and ``project`` receive the model and workspace tuples (38 arrays): measured, that was most of
+# a right-hand side's time (torque_free: 0.6 us per call for 0.05 us of arithmetic). So each
+# driver (``erk``, ``erk_rows``, ``dop853``) allocates its buffers, keeps them alive itself
+# (``_hold`` after the work) and passes ``_borrow``-ed copies (the same data, no reference
+# count) down to the work. Views of a borrowed array are borrowed too. A borrowed array must
+# never outlive the driver call that made it: nothing here returns or stores one.
+
+
+@intrinsic
+def _borrow(typingctx, arrays):
+    """The same array (or tuple of arrays), without reference counting (meminfo NULL)."""
+
+    def strip(context, builder, aty, value):
+        ary = context.make_array(aty)(context, builder, value)
+        ary.meminfo = context.get_constant_null(types.MemInfoPointer(types.voidptr))
+        return ary._getvalue()
+
+    def codegen(context, builder, sig, args):
+        ty, value = sig.args[0], args[0]
+        if isinstance(ty, types.Array):
+            return strip(context, builder, ty, value)
+        for i, aty in enumerate(ty):
+            if isinstance(aty, types.Array):
+                value = builder.insert_value(value, strip(context, builder, aty, builder.extract_value(value, i)), i)
+        return value
+
+    if not (isinstance(arrays, types.Array) or isinstance(arrays, types.BaseTuple)):
+        return None
+    return arrays(arrays), codegen
+
+
+@njit(**_JIT)
+def _hold(buffers):
+    """Nothing: a use of ``buffers`` that keeps them alive until this point of the caller."""
+    return None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -539,36 +589,42 @@ def _finite(y):
 
 
 # ---------------------------------------------------------------------------------------------
-# RK4, fixed step
+# Explicit Runge-Kutta methods, fixed step, driven by a Butcher table
 
 
 @njit(**_JIT)
-def _rk4_step(t, y, h, model, ws, k1, k2, k3, k4, tmp):
-    """One classic RK4 step, y in place. Returns a status code."""
+def _erk_steps(model, ws, y, t0, h, nsteps, proj_tol, A, b, c, K, tmp):
+    """``nsteps`` steps of ``h`` s from time ``t0`` s of the explicit Runge-Kutta method with
+    Butcher table ``A`` (s x s, strictly lower triangular), ``b`` (s,), ``c`` (s,), y in place,
+    projection after each step; K (s x ny) and tmp (ny,) are scratch. Returns (status, steps
+    taken, counting a failed one)."""
     n = y.shape[0]
-    st = rhs(t, y, k1, model, ws)
-    for i in range(n):
-        tmp[i] = y[i] + 0.5 * h * k1[i]
-    st = max(st, rhs(t + 0.5 * h, tmp, k2, model, ws))
-    for i in range(n):
-        tmp[i] = y[i] + 0.5 * h * k2[i]
-    st = max(st, rhs(t + 0.5 * h, tmp, k3, model, ws))
-    for i in range(n):
-        tmp[i] = y[i] + h * k3[i]
-    st = max(st, rhs(t + h, tmp, k4, model, ws))
-    for i in range(n):
-        y[i] += h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
-    return st
+    s = b.shape[0]
+    for j in range(nsteps):
+        t = t0 + j * h
+        for i in range(s):  # stage i at y + h sum_{m < i} A[i, m] K[m]
+            for k in range(n):
+                acc = 0.0
+                for m in range(i):
+                    acc += A[i, m] * K[m, k]
+                tmp[k] = y[k] + h * acc
+            st = rhs(t + c[i] * h, tmp, K[i], model, ws)
+            if st != OK:
+                return st, j + 1
+        for k in range(n):
+            acc = 0.0
+            for i in range(s):
+                acc += b[i] * K[i, k]
+            y[k] += h * acc
+        st = project(y, model, ws, proj_tol)
+        if st != OK:
+            return st, j + 1
+    return OK, nsteps
 
 
 @njit(**_JIT)
-def rk4(model, y0, t_save, steps_per_save, proj_tol, out):
-    """RK4 with ``steps_per_save`` equal steps between the save times ``t_save`` (s), projection
-    after each step; samples into ``out`` (len(t_save) x ny). Returns (status, samples, steps)."""
-    ws = workspace(model)
-    n = y0.shape[0]
-    y = y0.copy()
-    k1, k2, k3, k4, tmp = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+def _erk(model, ws, y, K, tmp, t_save, steps_per_save, proj_tol, out, A, b, c):
+    """``erk`` on its (borrowed) buffers; y holds the initial state."""
     st = project(y, model, ws, proj_tol)
     if st != OK or not _finite(y):
         return (st if st != OK else NONFINITE), 0, 0
@@ -577,17 +633,58 @@ def rk4(model, y0, t_save, steps_per_save, proj_tol, out):
     for s in range(1, t_save.shape[0]):
         t0 = t_save[s - 1]
         h = (t_save[s] - t0) / steps_per_save
-        for j in range(steps_per_save):
-            st = _rk4_step(t0 + j * h, y, h, model, ws, k1, k2, k3, k4, tmp)
-            if st == OK:
-                st = project(y, model, ws, proj_tol)
-            steps += 1
-            if st != OK:
-                return st, s, steps
+        st, taken = _erk_steps(model, ws, y, t0, h, steps_per_save, proj_tol, A, b, c, K, tmp)
+        steps += taken
+        if st != OK:
+            return st, s, steps
         if not _finite(y):
             return NONFINITE, s, steps
         out[s, :] = y
     return OK, t_save.shape[0], steps
+
+
+@njit(**_JIT)
+def erk(model, y0, t_save, steps_per_save, proj_tol, out, A, b, c):
+    """The explicit Runge-Kutta method (A, b, c) with ``steps_per_save`` equal steps between
+    the save times ``t_save`` (s), projection after each step (and of ``y0``); samples into
+    ``out`` (len(t_save) x ny). Returns (status, samples, steps)."""
+    n = y0.shape[0]
+    ws, y, K, tmp = workspace(model), y0.copy(), np.empty((b.shape[0], n)), np.empty(n)
+    result = _erk(_borrow(model), _borrow(ws), _borrow(y), _borrow(K), _borrow(tmp), t_save, steps_per_save,
+                  proj_tol, out, A, b, c)
+    _hold((ws, y, K, tmp))
+    return result
+
+
+@njit(**_JIT)
+def _erk_rows(model, ws, y, K, tmp, Y0, nstep, h, proj_tol, A, b, c, Yend, status, first, last):
+    """``erk_rows`` on its (borrowed) buffers."""
+    for r in range(first, last):
+        y[:] = Y0[r]
+        st = project(y, model, ws, proj_tol)
+        if st == OK:
+            st, _ = _erk_steps(model, ws, y, 0.0, h, nstep, proj_tol, A, b, c, K, tmp)
+        if st == OK and not _finite(y):
+            st = NONFINITE
+        status[r] = st
+        if st == OK:
+            Yend[r] = y
+        else:
+            Yend[r] = np.nan
+
+
+@njit(**_JIT)
+def erk_rows(model, Y0, nstep, h, proj_tol, A, b, c, Yend, status, first, last):
+    """Rows ``first .. last-1`` of a batch, one trajectory after the other: from each initial
+    state ``Y0[r]`` (nbatch x ny; projected first), ``nstep`` steps of ``h`` s of the method
+    (A, b, c) from t = 0 (as ``erk``). The final state goes to ``Yend[r]`` (NaN for a
+    trajectory that did not finish), its status code to ``status[r]``. A failing trajectory
+    stops alone: the others never see it."""
+    n = Y0.shape[1]
+    ws, y, K, tmp = workspace(model), np.empty(n), np.empty((b.shape[0], n)), np.empty(n)
+    _erk_rows(_borrow(model), _borrow(ws), _borrow(y), _borrow(K), _borrow(tmp), Y0, nstep, h, proj_tol, A, b, c,
+              Yend, status, first, last)
+    _hold((ws, y, K, tmp))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -607,20 +704,27 @@ def _stage_state(y, K, A, s, h, out):
 @njit(**_JIT)
 def dop853(model, y0, t_save, rtol, atol, first_step, proj_tol, max_steps, out, coef):
     """DOP853 (Hairer's coefficients ``coef = (A, B, C, E3, E5, D)``, SciPy's tables), step-size
-    control as SciPy's ``DOP853``, projection after each accepted step, 7th-order dense output
-    at the save times inside a step. ``first_step`` <= 0 selects the first step as SciPy does.
-    Returns (status, samples, steps, rejected, rhs_evals)."""
+    control as SciPy's ``DOP853``, projection after each accepted step (and of ``y0``), 7th-order
+    dense output at the save times ``t_save`` (s) inside a step, samples into ``out``
+    (len(t_save) x ny). ``first_step`` (s) <= 0 selects the first step as SciPy does; more than
+    ``max_steps`` accepted + rejected steps fail. Returns (status, samples, steps, rejected,
+    rhs_evals)."""
+    n = y0.shape[0]
+    ws, y, K = workspace(model), y0.copy(), np.zeros((coef[0].shape[0], n))
+    ynew, tmp, F, samp = np.empty(n), np.empty(n), np.empty((7, n)), np.empty(n)
+    result = _dop853(_borrow(model), _borrow(ws), _borrow(y), _borrow(K), _borrow(ynew), _borrow(tmp), _borrow(F),
+                     _borrow(samp), t_save, rtol, atol, first_step, proj_tol, max_steps, out, coef)
+    _hold((ws, y, K, ynew, tmp, F, samp))
+    return result
+
+
+@njit(**_JIT)
+def _dop853(model, ws, y, K, ynew, tmp, F, samp, t_save, rtol, atol, first_step, proj_tol, max_steps, out, coef):
+    """``dop853`` on its (borrowed) buffers; y holds the initial state."""
     A, Bw, Cn, E3, E5, D = coef
     n_stages = 12
     n_ext = A.shape[0]
-    ws = workspace(model)
-    n = y0.shape[0]
-    y = y0.copy()
-    K = np.zeros((n_ext, n))
-    ynew = np.empty(n)
-    tmp = np.empty(n)
-    F = np.empty((7, n))
-    samp = np.empty(n)
+    n = y.shape[0]
     evals = 0
     st = project(y, model, ws, proj_tol)
     if st != OK or not _finite(y):

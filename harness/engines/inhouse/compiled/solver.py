@@ -1,30 +1,31 @@
-"""The compiled in-house solver: ``compiled_kernels`` behind the batched solver's interface.
+"""The compiled in-house solver: the Numba kernels of ``kernels`` behind plain Python calls.
 
-Methods (``METHODS``; fixed step: ``steps_per_save`` equal steps between save times;
-adaptive: ``rtol``/``atol``; projection onto the joint constraints after each accepted step,
-no Baumgarte terms, as the per-state engine's fixed-step methods):
+The methods themselves are named and described once, as ``Integrator`` records of the in-house
+engine (``harness.engines.inhouse.integrators.METHODS``: ``rk4_compiled``, ``dop853_compiled``),
+and run through its ``simulate``; this module only drives the kernels:
 
-================ ======= ==================================================================
-name             order   what
-================ ======= ==================================================================
-rk4_compiled     4       classic RK4, fixed step
-dop853_compiled  8       DOP853 (SciPy's coefficient tables and step-size control), 7th-order
-                         dense output at the save times
-================ ======= ==================================================================
+* ``integrate_fixed``: any explicit Runge-Kutta method given as a Butcher table
+  (``integrators.ButcherTableau``; ``rk4_compiled`` is ``integrators.RK4``), ``steps_per_save``
+  equal steps between save times. A new explicit method is a new table, not new code.
+* ``integrate_dop853``: DOP853 with SciPy's coefficient tables and step-size control, 7th-order
+  dense output at the save times, ``rtol``/``atol``.
+* ``run_batch``: many initial states at once (``mujoco.rollout``'s use case): the scalar
+  fixed-step kernel runs one trajectory after another on each of ``threads`` threads (the
+  kernels release the GIL), each thread on a contiguous block of rows. A trajectory that fails
+  stops alone: its row is NaN with its own status, the others are unaffected.
 
-``run_batch`` advances many initial states with RK4 (``compiled_lanes``: up to ``LANES``
-trajectories side by side in SIMD registers), split over threads (the kernels release the GIL),
-as ``mujoco.rollout`` does with its thread pool. Single trajectories use the scalar kernels
-(``compiled_kernels``): with one lane the lane loops cost more than they save, with 64 lanes
-they pay several times over. Both are tested against the per-state engine and each other.
+Every method projects onto the joint constraints after each accepted step (and the initial
+state), with no Baumgarte terms, as the per-state engine's fixed-step methods do. State vectors
+are the per-state engine's (``harness.engines.inhouse.model``: ``[p_WCm_W | quat_WB (wxyz) |
+v_WCm_W | w_WB_B]``, SI units, body-frame angular velocity); times in s.
 
 Scope: free, ball, hinge and slide joints, springs on slide joints and gravity; ``pack`` raises
-NotImplementedError for rolling contacts and prescribed forces, which a work-precision sweep
-records as a failed point.
+NotImplementedError for rolling contacts and prescribed forces (the engine turns that into a
+failed trajectory).
 
-The first call in a fresh environment compiles the kernels (tens of seconds; ``warm_up``),
-later processes load them from Numba's on-disk cache. Timings in ``BatchResult.wall_s`` never
-include compilation: ``integrate`` compiles before it starts the clock.
+The first call in a fresh environment compiles the kernel it needs (``warm_up``); later
+processes load it from Numba's on-disk cache. ``Result.wall_s`` never includes compilation:
+every driver warms its kernel up before it starts the clock.
 """
 
 from __future__ import annotations
@@ -37,16 +38,13 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from harness.engines.inhouse.compiled import kernels
-from harness.engines.inhouse.compiled import lanes
-from harness.engines.inhouse.batched_integrators import MAX_ADAPTIVE_STEPS, BatchResult
+from harness.engines.inhouse.integrators import RK4, ButcherTableau, Result
 from harness.engines.inhouse.model import NEModel
 
-__all__ = ["METHODS", "FIXED", "ADAPTIVE", "NOMINAL_ORDER", "STATUS", "pack", "integrate", "run_batch", "warm_up"]
+__all__ = ["MAX_ADAPTIVE_STEPS", "STATUS", "default_threads", "integrate_dop853", "integrate_fixed", "pack",
+           "run_batch", "tableau_arrays", "warm_up"]
 
-FIXED = ("rk4_compiled",)
-ADAPTIVE = ("dop853_compiled",)
-METHODS = FIXED + ADAPTIVE
-NOMINAL_ORDER = {"rk4_compiled": 4, "dop853_compiled": 8}
+MAX_ADAPTIVE_STEPS = 200_000  # accepted + rejected steps before an adaptive run is declared failed
 
 STATUS = {
     kernels.OK: ("ok", ""),
@@ -58,13 +56,11 @@ STATUS = {
     kernels.BAD_ERROR: ("failed", "non-finite DOP853 error estimate"),
 }
 
-LANES = 64  # most trajectories advanced side by side per thread (measured best of 1..64)
-
 _DOP853 = tuple(np.ascontiguousarray(a, dtype=float) for a in (_dop.A, _dop.B, _dop.C, _dop.E3, _dop.E5, _dop.D))
 
 
 def pack(nem: NEModel) -> tuple:
-    """The model tuple of ``compiled_kernels`` (its module docstring lists the entries).
+    """The model tuple of ``kernels`` (its module docstring lists the entries).
     Raises NotImplementedError for a model outside the compiled solver's scope."""
     if nem.contacts:
         raise NotImplementedError("the compiled in-house solver does not model rolling contacts")
@@ -110,42 +106,66 @@ def pack(nem: NEModel) -> tuple:
     )
 
 
-def _result(status: int, t_save: np.ndarray, out: np.ndarray, n: int, steps: int, rejected: int, evals: int,
-            wall: float) -> BatchResult:
-    word, why = STATUS.get(int(status), ("failed", f"status {status}"))
-    n = int(n)
-    message = "" if word == "ok" else f"{why} (t = {t_save[min(n, len(t_save) - 1)]:.6g} s, after {steps} steps)"
-    return BatchResult(t_save[:n].copy(), out[:n, None, :].copy(), int(steps), int(rejected), int(evals), int(evals),
-                       wall, word, message)
+def tableau_arrays(tableau: ButcherTableau) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, b, c)`` of an explicit Runge-Kutta method as the kernels take them (float arrays,
+    A s x s strictly lower triangular). ValueError for an implicit or inconsistent table."""
+    A = np.ascontiguousarray(tableau.A, dtype=float)
+    b = np.ascontiguousarray(tableau.b, dtype=float)
+    c = np.ascontiguousarray(tableau.c, dtype=float)
+    s = len(b)
+    if A.shape != (s, s) or c.shape != (s,) or np.any(np.triu(A) != 0.0):
+        raise ValueError(f"{tableau.name}: not an explicit Butcher table (A {A.shape}, b {b.shape}, c {c.shape})")
+    return A, b, c
 
 
-def integrate(model: tuple, y0: np.ndarray, t_save: np.ndarray, method: str, *, steps_per_save: int = 1,
-              rtol: float = 1e-10, atol: float = 1e-12, first_step: float | None = None,
-              proj_tol: float = 1e-13) -> BatchResult:
-    """Integrate one state ``y0`` (ny,) of the packed ``model`` from ``t_save[0]``, sampling at
-    ``t_save`` (s). ``wall_s`` covers the integration alone (compiled beforehand)."""
-    if method not in METHODS:
-        raise ValueError(f"unknown compiled integrator {method!r} (known: {', '.join(METHODS)})")
+def _state(y0: np.ndarray) -> np.ndarray:
     y0 = np.asarray(y0, dtype=float)
     if y0.ndim == 2 and y0.shape[0] == 1:
         y0 = y0[0]
     if y0.ndim != 1:
         raise ValueError(f"the compiled integrators take one state (ny,), got shape {y0.shape}")
-    y0 = np.ascontiguousarray(y0)
-    warm_up(model, len(y0))
+    return np.ascontiguousarray(y0)
+
+
+def _result(status: int, t_save: np.ndarray, out: np.ndarray, n: int, steps: int, evals: int, wall: float) -> Result:
+    word, why = STATUS.get(int(status), ("failed", f"status {status}"))
+    n = int(n)
+    message = "" if word == "ok" else f"{why} (t = {t_save[min(n, len(t_save) - 1)]:.6g} s, after {steps} steps)"
+    return Result(t_save[:n].copy(), out[:n].copy(), int(steps), int(evals), wall, word, message)
+
+
+def integrate_fixed(model: tuple, y0: np.ndarray, t_save: np.ndarray, tableau: ButcherTableau = RK4, *,
+                    steps_per_save: int = 1, proj_tol: float = 1e-13) -> Result:
+    """Integrate one state ``y0`` (ny,) of the packed ``model`` with the explicit Runge-Kutta
+    method ``tableau``: ``steps_per_save`` equal steps between consecutive save times
+    ``t_save`` (s), projection (to ``proj_tol``, m) after each step. ``wall_s`` covers the
+    integration alone; ``rhs_evals`` = stages x steps."""
+    y0 = _state(y0)
+    A, b, c = tableau_arrays(tableau)
     t_save = np.ascontiguousarray(t_save, dtype=float)
     out = np.full((len(t_save), len(y0)), np.nan)
-    if method == "rk4_compiled":
-        start = time.perf_counter()
-        status, n, steps = kernels.rk4(model, y0, t_save, int(steps_per_save), float(proj_tol), out)
-        wall = time.perf_counter() - start
-        return _result(status, t_save, out, n, steps, 0, 4 * steps, wall)
-    h0 = float(first_step) if first_step else 0.0
+    warm_up(model, y0, "erk")
     start = time.perf_counter()
-    status, n, steps, rejected, evals = kernels.dop853(model, y0, t_save, float(rtol), float(atol), h0, float(proj_tol),
-                                                       MAX_ADAPTIVE_STEPS, out, _DOP853)
+    status, n, steps = kernels.erk(model, y0, t_save, int(steps_per_save), float(proj_tol), out, A, b, c)
     wall = time.perf_counter() - start
-    return _result(status, t_save, out, n, steps, rejected, evals, wall)
+    return _result(status, t_save, out, n, steps, len(b) * steps, wall)
+
+
+def integrate_dop853(model: tuple, y0: np.ndarray, t_save: np.ndarray, *, rtol: float = 1e-10, atol: float = 1e-12,
+                     first_step: float | None = None, proj_tol: float = 1e-13) -> Result:
+    """Integrate one state ``y0`` (ny,) of the packed ``model`` with DOP853 at ``rtol``/``atol``
+    from ``t_save[0]``, sampling at ``t_save`` (s); ``first_step`` (s) is the first step tried
+    (None: SciPy's choice). ``wall_s`` covers the integration alone."""
+    y0 = _state(y0)
+    t_save = np.ascontiguousarray(t_save, dtype=float)
+    out = np.full((len(t_save), len(y0)), np.nan)
+    h0 = float(first_step) if first_step else 0.0
+    warm_up(model, y0, "dop853")
+    start = time.perf_counter()
+    status, n, steps, _rejected, evals = kernels.dop853(model, y0, t_save, float(rtol), float(atol), h0, float(proj_tol),
+                                                        MAX_ADAPTIVE_STEPS, out, _DOP853)
+    wall = time.perf_counter() - start
+    return _result(status, t_save, out, n, steps, evals, wall)
 
 
 def default_threads() -> int:
@@ -156,44 +176,50 @@ def default_threads() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def run_batch(model: tuple, Y0: np.ndarray, nstep: int, dt: float, *, threads: int | None = None,
-              proj_tol: float = 1e-13, lanes_per_group: int = LANES) -> tuple[np.ndarray, np.ndarray]:
-    """RK4 over the initial states ``Y0`` (nbatch x ny) for ``nstep`` steps of ``dt`` s from
-    t = 0, projection after each step; the rows split into ``threads`` contiguous chunks run
-    side by side, each advanced ``lanes_per_group`` at a time. Returns the final states
-    (nbatch x ny) and a status word per row (``STATUS``)."""
+def run_batch(model: tuple, Y0: np.ndarray, nstep: int, dt: float, tableau: ButcherTableau = RK4, *,
+              threads: int | None = None, proj_tol: float = 1e-13) -> tuple[np.ndarray, np.ndarray]:
+    """The explicit Runge-Kutta method ``tableau`` (default RK4) from each initial state of
+    ``Y0`` (nbatch x ny) for ``nstep`` steps of ``dt`` s from t = 0, projection after each step;
+    the rows split into ``threads`` (default: the cores) contiguous blocks run side by side.
+    Returns the final states (nbatch x ny; NaN rows for trajectories that did not finish) and a
+    status word per row (``STATUS``: "ok", "blowup" for a non-finite state, "failed")."""
     Y0 = np.ascontiguousarray(Y0, dtype=float)
-    warm_up(model, Y0.shape[1])
+    A, b, c = tableau_arrays(tableau)
     nbatch = Y0.shape[0]
     Yend = np.full_like(Y0, np.nan)
     status = np.zeros(nbatch, dtype=np.int64)
+    if nbatch:
+        warm_up(model, Y0[0], "erk_rows")
     threads = max(1, min(threads or default_threads(), nbatch))
     bounds = np.linspace(0, nbatch, threads + 1).astype(int)
-    L = int(max(1, min(lanes_per_group, int(np.max(np.diff(bounds))))))
-    args = (model, Y0, int(nstep), float(dt), float(proj_tol), Yend, status)
+    args = (model, Y0, int(nstep), float(dt), float(proj_tol), A, b, c, Yend, status)
     if threads == 1:
-        lanes.rk4_batch(*args, 0, nbatch, L)
+        kernels.erk_rows(*args, 0, nbatch)
     else:
         with ThreadPoolExecutor(threads) as pool:
-            list(pool.map(lambda k: lanes.rk4_batch(*args, int(bounds[k]), int(bounds[k + 1]), L), range(threads)))
+            list(pool.map(lambda k: kernels.erk_rows(*args, int(bounds[k]), int(bounds[k + 1])), range(threads)))
     return Yend, np.array([STATUS.get(int(s), ("failed", ""))[0] for s in status])
 
 
-_compiled = False
+_warm: set[str] = set()
 
 
-def warm_up(model: tuple, ny: int) -> None:
-    """Compile (or load from the cache) every kernel for ``model``'s types, so that timed runs
-    never include compilation (once per process: every packed model has the same types)."""
-    global _compiled
-    if _compiled:
+def warm_up(model: tuple, y0: np.ndarray, kernel: str) -> None:
+    """Compile (or load from the cache) ``kernel`` ("erk", "dop853" or "erk_rows") by running it
+    for one step of ``model`` from ``y0``, so that timed runs never include compilation (once
+    per kernel and process: every packed model and table has the same types)."""
+    if kernel in _warm:
         return
-    _compiled = True
-    y0 = np.zeros(ny)
-    nb = ny // 13
-    y0[3 * nb::4][:nb] = 1.0
+    y0 = np.ascontiguousarray(y0, dtype=float)
     t = np.array([0.0, 1e-3])
-    out = np.empty((2, ny))
-    kernels.rk4(model, y0, t, 1, 1e-13, out)
-    kernels.dop853(model, y0, t, 1e-6, 1e-6, 1e-3, 1e-13, 10, out, _DOP853)
-    lanes.rk4_batch(model, y0[None], 1, 1e-3, 1e-13, np.empty((1, ny)), np.zeros(1, dtype=np.int64), 0, 1, 1)
+    out = np.empty((2, len(y0)))
+    A, b, c = tableau_arrays(RK4)
+    if kernel == "erk":
+        kernels.erk(model, y0, t, 1, 1e-13, out, A, b, c)
+    elif kernel == "dop853":
+        kernels.dop853(model, y0, t, 1e-6, 1e-6, 1e-3, 1e-13, 1, out, _DOP853)
+    elif kernel == "erk_rows":
+        kernels.erk_rows(model, y0[None], 1, 1e-3, 1e-13, A, b, c, out[:1], np.zeros(1, dtype=np.int64), 0, 1)
+    else:
+        raise ValueError(f"unknown kernel {kernel!r}")
+    _warm.add(kernel)
