@@ -1,16 +1,28 @@
 """Argument types shared by the command-line modules: a bad value becomes argparse's one-line
-error (``argument --dt: not a number: 'abc'``), which ``harness.cli.main`` turns into exit code 2."""
+error (``argument --dt: not a number: 'abc'``), which ``harness.cli.main`` turns into exit code 2.
+Also the checks several commands make before they run (``check_selection``, ``check_samples``)."""
 
 from __future__ import annotations
 
 import argparse
+import math
+from pathlib import Path
+
+from harness.model.errors import InputError
+
+#: Help text of every ``--models-dir`` option.
+MODELS_DIR_HELP = "folder of scene folders <scene>/scene.toml (default: the project's models/)"
 
 
 def float_arg(text: str) -> float:
+    """A finite number (``nan``, ``inf`` are refused: no option takes them)."""
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
+    return value
 
 
 def int_arg(text: str) -> int:
@@ -23,3 +35,55 @@ def int_arg(text: str) -> int:
 def csv_list(text: str) -> list[str]:
     """``"a, b,,c"`` -> ``["a", "b", "c"]``."""
     return [s for s in (p.strip() for p in text.split(",")) if s]
+
+
+def models_dir_arg(text: str) -> Path:
+    """An existing folder (a typo'd ``--models-dir`` is an error, not an empty selection)."""
+    path = Path(text)
+    if not path.is_dir():
+        raise argparse.ArgumentTypeError(f"no such folder: {text!r}")
+    return path
+
+
+def check_selection(option: str, chosen: list[str] | None, default: list[str], where: str = "") -> list[str]:
+    """The names an option selects (``default`` when it is not given); InputError when it selects
+    nothing (``--engines ,``) or there is nothing to select (no scene under ``--models-dir``): a
+    run over nothing would be a vacuous verdict."""
+    names = default if chosen is None else chosen
+    if not names:
+        if chosen is not None:
+            raise InputError(f"{option} selects nothing: give comma-separated names")
+        raise InputError(f"nothing to run: no {option.removeprefix('--')}{' ' + where if where else ''}")
+    return list(dict.fromkeys(names))
+
+
+def check_samples(t_end: float, save_every: float, bodies: int = 1, options: str = "--t-end and --save-every") -> None:
+    """InputError when a run would save more than ``harness.model.scene.MAX_SAMPLES`` samples
+    times bodies (``t_end``, ``save_every`` in s): its samples would not fit in memory."""
+    from harness.model.scene import MAX_SAMPLES
+
+    if not (t_end > 0 and save_every > 0):
+        return  # the engines' own checks name a non-positive horizon or interval
+    samples = (t_end / save_every + 1) * max(bodies, 1)
+    if samples > MAX_SAMPLES:
+        raise InputError(f"{options}: a horizon of {t_end:g} s saved every {save_every:g} s for {bodies} "
+                         f"bod{'y' if bodies == 1 else 'ies'} is {samples:.3g} samples, more than the "
+                         f"{MAX_SAMPLES:.0e} a run may hold; shorten the horizon or save less often")
+
+
+def require_utf8(path: Path, what: str) -> None:
+    """InputError naming ``path`` when it exists but is not UTF-8 text (an XML model file the
+    loaders would fail on with a decoding error); a missing file is the loaders' to report."""
+    try:
+        Path(path).read_bytes().decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise InputError(f"{path}: {what} file is not UTF-8 text (byte 0x{err.object[err.start]:02x} at offset "
+                         f"{err.start})") from None
+    except OSError:
+        return
+
+
+def require_scene_files_utf8(scene) -> None:
+    """``require_utf8`` for a scene's MJCF and URDF."""
+    require_utf8(scene.mjcf, "MJCF")
+    require_utf8(scene.urdf, "URDF")

@@ -1,7 +1,11 @@
-"""Command-line interface: ``harness scenes | simulate | validate``.
+"""Command-line interface: ``harness scenes | simulate | validate`` (and the commands of
+``harness.cli.tools``, ``workprecision``, ``stress``, ``rolling``).
 
-Exit codes: 0 success (for ``validate``: every check holds), 1 a check fails, 2 bad input or a
-model that will not load (one line on stderr, no traceback, no report touched).
+Exit codes: 0 success (for ``validate``: every check holds), 1 a check fails or a run blows up,
+2 bad input or a model that will not load (one line on stderr, no traceback, no report touched).
+A run over nothing (no scene under ``--models-dir``, ``--engines`` naming none, a validation in
+which no check ran) is bad input, never a pass. Numbers that overflow, memory that runs out and
+files that are not UTF-8 also end as one line and exit 2 (``main``).
 """
 
 from __future__ import annotations
@@ -14,8 +18,13 @@ from harness.cli import rolling as cli_rolling
 from harness.cli import stress as cli_stress
 from harness.cli import tools as cli_tools
 from harness.cli import workprecision as cli_workprecision
+from harness.io.provenance import set_argv
 from harness.model.errors import InputError
-from harness.cli.arg_types import float_arg as _float, csv_list as _csv_list
+from harness.cli.arg_types import (MODELS_DIR_HELP, check_samples, check_selection, csv_list as _csv_list,
+                                   float_arg as _float, int_arg as _int, models_dir_arg as _models_dir,
+                                   require_scene_files_utf8)
+
+ENGINES_HELP = "inhouse, mujoco, pinocchio"
 
 EXIT_OK, EXIT_FAIL, EXIT_INPUT = 0, 1, 2
 
@@ -34,33 +43,57 @@ def _overrides(items: list[str] | None) -> dict[str, str]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="harness", description="Cross-check rigid-body dynamics: in-house, MuJoCo, Pinocchio.")
+    p = _Parser(prog="harness", description="Cross-check rigid-body dynamics: in-house, MuJoCo, Pinocchio. "
+                "Exit codes: 0 success, 1 a check fails, 2 bad input (one line on stderr).")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    sub.add_parser("scenes", help="list the scenes with their parameters")
+    sub.add_parser("scenes", help="list the scenes with their parameters (name = value unit -- meaning)",
+                   description="List the scenes of the project's models/ with their parameters.")
 
-    s = sub.add_parser("simulate", help="run one scene on one engine, write the common trajectory as CSV")
-    s.add_argument("scene")
-    s.add_argument("--engine", required=True)
-    s.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene parameter (repeatable)")
-    s.add_argument("--t-end", type=_float)
-    s.add_argument("--dt", type=_float)
-    s.add_argument("--integrator")
-    s.add_argument("--save-every", type=_float)
-    s.add_argument("--rtol", type=_float, default=1e-10)
-    s.add_argument("--atol", type=_float, default=1e-12)
-    s.add_argument("--out", required=True, type=Path)
-    s.add_argument("--models-dir", type=Path, help="folder of scene folders (default: the project's models/)")
+    s = sub.add_parser("simulate", help="run one scene on one engine, write the common trajectory as CSV",
+                       description="Run one scene on one engine and write its trajectory in maximal coordinates "
+                                   "as CSV (columns: README). Exit 0 when the run ends ok, 1 when it fails or "
+                                   "blows up (non-finite values), 2 on bad input.")
+    s.add_argument("scene", help="scene name: a folder of --models-dir (list them with `harness scenes`)")
+    s.add_argument("--engine", required=True, metavar="ENGINE", help=f"engine to run: one of {ENGINES_HELP}")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a scene parameter, in its unit (`harness scenes`); a vector as a,b,c (repeatable)")
+    s.add_argument("--t-end", type=_float, metavar="S", help="horizon (s, > 0; default: the scene's [simulation] t_end)")
+    s.add_argument("--dt", type=_float, metavar="S",
+                   help="step (s, > 0; the first-step hint of adaptive integrators; default: the scene's)")
+    s.add_argument("--integrator", metavar="NAME",
+                   help="one of the engine's integrators, as the engine spells it (default: the scene's "
+                        "[integrators] entry; an unknown name lists them)")
+    s.add_argument("--save-every", type=_float, metavar="S",
+                   help="interval between saved samples (s; a whole multiple of dt dividing the horizon; "
+                        "default: the scene's)")
+    s.add_argument("--rtol", type=_float, default=1e-10, metavar="X",
+                   help="relative tolerance of adaptive integrators (> 0, default 1e-10; fixed-step ones ignore it)")
+    s.add_argument("--atol", type=_float, default=1e-12, metavar="X",
+                   help="absolute tolerance of adaptive integrators (>= 0, SI units of the state, default 1e-12)")
+    s.add_argument("--out", required=True, type=Path, metavar="FILE.csv", help="CSV file to write (replaced atomically)")
+    s.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
 
-    v = sub.add_parser("validate", help="run every scene on every engine, check, write reports/")
-    v.add_argument("--scenes", type=_csv_list, help="comma-separated scene names (default: all)")
-    v.add_argument("--engines", type=_csv_list, help="comma-separated engines (default: all)")
-    v.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter in every selected scene that has it")
-    v.add_argument("--out-dir", type=Path, default=Path("reports"))
-    v.add_argument("--models-dir", type=Path, help="folder of scene folders (default: the project's models/)")
-    v.add_argument("--tolerances", type=Path, help="TOML file tightening or loosening checks per scene and quantity")
-    v.add_argument("--jobs", type=int, default=0, help="worker processes (default: all cores)")
-    v.add_argument("--timeout", type=_float, default=300.0, help="seconds allowed per scene x engine case")
+    v = sub.add_parser("validate", help="run every scene on every engine, check, write reports/",
+                       description="Run every selected scene on every selected engine (and the in-house reference), "
+                                   "check each run against the scene's [checks.*] tolerances, write "
+                                   "validation.{md,csv,json,junit.xml}. Exit 0 when every check holds, 1 when one "
+                                   "fails, 2 on bad input (nothing written).")
+    v.add_argument("--scenes", type=_csv_list, metavar="A,B",
+                   help="comma-separated scene names (default: every scene of --models-dir)")
+    v.add_argument("--engines", type=_csv_list, metavar="A,B",
+                   help=f"comma-separated engines among {ENGINES_HELP} (default: all)")
+    v.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a parameter, in its unit, in every selected scene that has it (repeatable)")
+    v.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
+                   help="folder for the validation reports (default: reports for a full run; reports/partial/validate for a subset, --scenes/--engines/--set/--tolerances or --models-dir run, so that only a full run refreshes the committed snapshot)")
+    v.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
+    v.add_argument("--tolerances", type=Path, metavar="FILE.toml",
+                   help="TOML file of [<scene>.<check>] tables tightening or loosening tolerances "
+                        "(harness.validate.tolerances)")
+    v.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
+    v.add_argument("--timeout", type=_float, default=300.0, metavar="S",
+                   help="seconds allowed per scene x engine case (> 0, default 300)")
     cli_tools.add_parsers(sub)  # inspect, debug, check
     cli_workprecision.add_parser(sub)
     cli_stress.add_parser(sub)
@@ -81,6 +114,8 @@ def cmd_scenes(args) -> int:
 
 
 def cmd_simulate(args) -> int:
+    import numpy as np
+
     from harness.io import atomic
     from harness.engines import get_engine
     from harness.engines.base import RunSettings
@@ -89,6 +124,12 @@ def cmd_simulate(args) -> int:
 
     scene = load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir)
     engine = get_engine(args.engine)
+    if args.engine not in scene.integrators:
+        raise InputError(f"scene {scene.name!r} has no default integrator for {args.engine}")
+    if not args.rtol > 0:
+        raise InputError(f"--rtol must be positive, got {args.rtol!r}")
+    if not args.atol >= 0:
+        raise InputError(f"--atol must be >= 0, got {args.atol!r}")
     settings = RunSettings(
         t_end=args.t_end if args.t_end is not None else scene.t_end,
         dt=args.dt if args.dt is not None else scene.dt,
@@ -97,14 +138,37 @@ def cmd_simulate(args) -> int:
         rtol=args.rtol,
         atol=args.atol,
     )
-    if args.engine not in scene.integrators:
-        raise InputError(f"scene {scene.name!r} has no default integrator for {args.engine}")
+    require_scene_files_utf8(scene)
+    model = scene.multibody()
+    check_samples(settings.t_end, settings.save_every, len(model.bodies))
     traj = engine.simulate(scene, settings)
-    frame = to_frame(traj, scene.multibody())
+    with np.errstate(over="ignore", invalid="ignore"):  # a blow-up is reported below, not warned about
+        frame = to_frame(traj, model)
+    status, message = traj.status, traj.message
+    frame, blowup = finite_rows(frame)  # an engine may miss a blow-up of the state or of the invariants
+    if blowup:
+        status, message = ("blowup", blowup) if traj.ok else (status, f"{message}; {blowup}" if message else blowup)
     atomic.write_text(args.out, frame.to_csv(index=False))
-    print(f"{args.out}: {len(frame)} samples, {traj.engine}/{traj.integrator}, status {traj.status}"
-          + (f" ({traj.message})" if traj.message else ""))
-    return EXIT_OK if traj.ok else EXIT_FAIL
+    print(f"{args.out}: {len(frame)} samples, {traj.engine}/{traj.integrator}, status {status}"
+          + (f" ({message})" if message else ""))
+    return EXIT_OK if status == "ok" else EXIT_FAIL
+
+
+def finite_rows(frame):
+    """``(frame, "")`` when every value is finite; else the rows before the first non-finite
+    value and a message naming its columns and time (s). A state or an invariant (energy,
+    momentum) that overflowed is a blow-up of the run, never an ok sample."""
+    import numpy as np
+
+    values = frame.to_numpy(dtype=float)
+    bad = ~np.isfinite(values)
+    if not bad.any():
+        return frame, ""
+    first = int(np.argmax(bad.any(axis=1)))
+    cols = [c for c, b in zip(frame.columns, bad[first]) if b]
+    more = f" and {len(cols) - 3} more" if len(cols) > 3 else ""
+    t = frame["t"].iloc[first] if "t" in frame.columns else float("nan")
+    return frame.iloc[:first], f"non-finite {', '.join(cols[:3])}{more} at t = {t:g} s"
 
 
 def preflight(scene) -> None:
@@ -112,6 +176,7 @@ def preflight(scene) -> None:
     from harness.engines.mujoco.model import load_mjcf
     from harness.engines.pinocchio.model import load_urdf
 
+    require_scene_files_utf8(scene)
     model = scene.multibody()
     load_mjcf(scene.mjcf, model)
     load_urdf(scene.urdf, scene.urdf_root_joint, model)
@@ -119,20 +184,29 @@ def preflight(scene) -> None:
 
 def cmd_validate(args) -> int:
     from harness.engines import ENGINE_NAMES, get_engine
+    from harness.io.atomic import check_writable, default_out_dir
     from harness.io.provenance import provenance
     from harness.validate.report import write_reports
-    from harness.model.scene import available_scenes, load_scene
+    from harness.model.scene import MODELS_DIR, available_scenes, load_scene
     from harness.validate.tolerances import apply_tolerances, check_scenes_known, read_tolerances
     from harness.validate.run import validate
 
-    names = args.scenes or available_scenes(args.models_dir)
-    engines = args.engines or list(ENGINE_NAMES)
+    names = check_selection("--scenes", args.scenes, available_scenes(args.models_dir),
+                            f"under {args.models_dir or MODELS_DIR} (a scene is a folder with a scene.toml)")
+    engines = check_selection("--engines", args.engines, list(ENGINE_NAMES))
     for e in engines:
         get_engine(e)
+    if args.jobs < 0:
+        raise InputError(f"--jobs must be >= 0, got {args.jobs!r}")
+    if not (args.timeout > 0):
+        raise InputError(f"--timeout must be positive, got {args.timeout!r}")
     overrides = _overrides(args.set)
     scenes = []
     for name in names:
         scene = load_scene(name, models_dir=args.models_dir)
+        if not scene.checks:
+            raise InputError(f"{scene.directory / 'scene.toml'}: declares no [checks.<name>] table: "
+                             "its validation would judge nothing")
         own = {k: v for k, v in overrides.items() if k in scene.parameters}
         scenes.append(scene.with_params(**own))
     unused = set(overrides) - {k for s in scenes for k in s.parameters}
@@ -144,18 +218,24 @@ def cmd_validate(args) -> int:
         check_scenes_known(table, available_scenes(args.models_dir), args.tolerances)
         for i, scene in enumerate(scenes):
             scenes[i], changes[scene.name] = apply_tolerances(scene, table, args.tolerances)
-    if not (args.timeout > 0):
-        raise InputError(f"--timeout must be positive, got {args.timeout!r}")
+    full = not (args.scenes or args.engines or args.set or args.tolerances or args.models_dir)
+    out_dir = args.out_dir or default_out_dir("validate", full_run=full)
+    check_writable(out_dir)
     for scene in scenes:
         preflight(scene)
     results = validate(scenes, engines, jobs=args.jobs or None, timeout=args.timeout, tolerance_changes=changes)
+    # the model-file checks run before any engine: a scene whose runs gave no check judged nothing
+    empty = [r.scene for r in results if not any(not c.check.startswith("model.") for c in r.checks)]
+    if not results or empty:
+        raise InputError(f"no check ran for {', '.join(empty) or 'any scene'}: a validation that judges nothing "
+                         "is not a pass (nothing written)")
     for result in results:
         bad = sum(not c.passed for c in result.checks)
         print(f"{result.scene}: {'PASS' if result.passed else 'FAIL'} ({len(result.checks) - bad}/{len(result.checks)} checks hold)")
         for c in result.checks:
             if not c.passed:
                 print(f"  FAIL {c.engine} {c.check}: {c.value:.3e} > {c.tolerance:.1e} {c.unit} {c.detail}")
-    paths = write_reports(results, provenance(), args.out_dir)
+    paths = write_reports(results, provenance(), out_dir)
     print("wrote " + ", ".join(str(p) for p in paths))
     return EXIT_OK if all(r.passed for r in results) else EXIT_FAIL
 
@@ -168,15 +248,41 @@ COMMANDS["rolling-study"] = cli_rolling.run
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one command; returns its exit code. Bad input (``InputError``) and the failures that
+    only bad input causes here (a number that overflows, memory that runs out, a file that is
+    not UTF-8) print one line ``harness: error: ...`` on stderr and return 2; every report is
+    written atomically at the end of a command, so none is half written."""
+    args = None
     try:
+        set_argv(sys.argv[1:] if argv is None else argv)
         args = build_parser().parse_args(argv)
         return COMMANDS[args.command](args)
     except InputError as err:
-        print(f"harness: error: {err}", file=sys.stderr)
-        return EXIT_INPUT
+        return _error(str(err))
+    except (OverflowError, FloatingPointError) as err:
+        given = getattr(args, "set", None)
+        return _error(f"a value overflows ({type(err).__name__}: {_one_line(err)}): "
+                      "a parameter or option is too large for the computation"
+                      + (f" (--set {', '.join(given)})" if given else ""))
+    except MemoryError as err:
+        return _error(f"out of memory{' (' + _one_line(err) + ')' if str(err) else ''}: "
+                      "the run is too large (horizon, save interval, parameters)")
+    except UnicodeDecodeError as err:
+        return _error(f"a file is not UTF-8 text: {_one_line(err)}")
     except KeyboardInterrupt:
         print("harness: interrupted", file=sys.stderr)
         return 130
+    finally:
+        set_argv(None)
+
+
+def _error(message: str) -> int:
+    print(f"harness: error: {_one_line(message)}", file=sys.stderr)
+    return EXIT_INPUT
+
+
+def _one_line(text) -> str:
+    return " ".join(str(text).split())
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -17,20 +17,30 @@ EXIT_OK, EXIT_FAIL = 0, 1
 
 
 def add_parser(sub) -> None:
+    from harness.cli.arg_types import MODELS_DIR_HELP, models_dir_arg
+
     r = sub.add_parser("rolling-study", help="rolling disk: MuJoCo settings study, stability threshold vs the textbook; "
-                                             "writes reports/rolling_disk.md")
-    r.add_argument("--out-dir", type=Path, default=Path("reports"))
+                                             "writes reports/rolling_disk.md",
+                       description="The rolling disk on every engine: MuJoCo's contact settings, the stability "
+                                   "threshold v_c (m/s) of straight rolling against the textbook's. Writes "
+                                   "rolling_disk.md, rolling_disk.json and rolling_disk_*.png. Exit 0 when every "
+                                   "engine agrees with the correct threshold, 1 otherwise, 2 on bad input.")
+    r.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
+                   help="folder for rolling_disk.md, rolling_disk.json, rolling_disk_*.png (default: reports for a full run; reports/partial/rolling-study for a subset, --quick or --models-dir run, so that only a full run refreshes the committed snapshot)")
     r.add_argument("--quick", action="store_true", help="short horizons, few settings and speeds (a smoke run)")
-    r.add_argument("--models-dir", type=Path, help="folder of scene folders (default: the project's models/)")
+    r.add_argument("--models-dir", type=models_dir_arg, metavar="DIR",
+                   help=MODELS_DIR_HELP + "; it must hold rolling_disk")
 
 
 def run(args) -> int:
+    from harness.io.atomic import check_writable, default_out_dir
     from harness.io.provenance import provenance
     from harness.studies.rolling.report import write_reports
     from harness.studies.rolling.run import rolling_study
 
+    out = args.out_dir or default_out_dir("rolling-study", full_run=not (args.quick or args.models_dir))
+    check_writable(out)
     result = rolling_study(quick=args.quick, models_dir=args.models_dir)
-    out = Path(args.out_dir)
     pngs = write_reports(result, out, provenance(), args.quick)
     agree = all(r["fell"] != r["predicted_stable"] for r in result.threshold)
     print(f"wrote {out / 'rolling_disk.md'}, {out / 'rolling_disk.json'}" + "".join(f", {p}" for p in pngs))

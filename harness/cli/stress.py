@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from harness.cli.arg_types import float_arg as _float, int_arg as _int, csv_list as _csv_list
+from harness.cli.arg_types import (MODELS_DIR_HELP, check_selection, csv_list as _csv_list, float_arg as _float,
+                                   int_arg as _int, models_dir_arg as _models_dir)
 
 EXIT_OK = 0
 
@@ -18,19 +19,29 @@ EXIT_OK = 0
 def add_parser(sub) -> None:
     """Add the ``stress`` subparser."""
     s = sub.add_parser("stress", help="stiff and extreme variants: largest stable step, failure mode and drift per "
-                                      "engine/integrator; write reports/stress.{md,csv} and plots")
-    s.add_argument("--variants", type=_csv_list, help="comma-separated variant names (default: the whole catalogue)")
-    s.add_argument("--engines", type=_csv_list, help="comma-separated engines (default: all)")
+                                      "engine/integrator; write reports/stress.{md,csv} and plots",
+                       description="Run the stress catalogue (stiff and extreme variants of the scenes) on every "
+                                   "engine and integrator: largest stable step (s), failure mode, drift. Write "
+                                   "stress.md, stress.csv and stress/*.png. Exit 0 when the sweep ran (unstable "
+                                   "runs are findings), 2 on bad input.")
+    s.add_argument("--variants", type=_csv_list, metavar="A,B",
+                   help="comma-separated variant names of the catalogue (default: the whole catalogue)")
+    s.add_argument("--engines", type=_csv_list, metavar="A,B",
+                   help="comma-separated engines among inhouse, mujoco, pinocchio (default: all)")
     s.add_argument("--quick", action="store_true", help="a smoke run: short horizons, a tenth of the step budget, one bisection step")
-    s.add_argument("--jobs", type=_int, default=0, help="worker processes (default: all cores)")
-    s.add_argument("--timeout", type=_float, default=120.0, help="seconds allowed per run (default 120; references 4x)")
-    s.add_argument("--out-dir", type=Path, default=Path("reports"), help="folder for stress.md, stress.csv, stress/ (default: reports)")
-    s.add_argument("--catalogue", type=Path, help="stress catalogue TOML (default: harness/studies/stress/catalogue.toml)")
-    s.add_argument("--models-dir", type=Path, help="folder of scene folders (default: the project's models/)")
+    s.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
+    s.add_argument("--timeout", type=_float, default=120.0, metavar="S",
+                   help="seconds allowed per run (> 0, default 120; references 4x)")
+    s.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
+                   help="folder for stress.md, stress.csv, stress/ (default: reports for a full run; reports/partial/stress for a subset, --quick or --models-dir run, so that only a full run refreshes the committed snapshot)")
+    s.add_argument("--catalogue", type=Path, metavar="FILE.toml",
+                   help="stress catalogue TOML (default: harness/studies/stress/catalogue.toml)")
+    s.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
 
 
 def run(args) -> int:
     from harness.model.errors import InputError
+    from harness.io.atomic import check_writable, default_out_dir
     from harness.io.provenance import provenance
     from harness.studies.stress.run import load_catalogue, run_stress, select
     from harness.studies.stress.report import write_stress_reports
@@ -39,12 +50,18 @@ def run(args) -> int:
         raise InputError(f"--timeout must be positive, got {args.timeout!r}")
     if args.jobs < 0:
         raise InputError(f"--jobs must be >= 0, got {args.jobs!r}")
+    for option, chosen in (("--variants", args.variants), ("--engines", args.engines)):
+        if chosen is not None:
+            check_selection(option, chosen, [])
     catalogue = load_catalogue(args.catalogue, quick=args.quick)
     variants, engines = select(catalogue, args.variants, args.engines)
+    full = not (args.quick or args.variants or args.engines or args.catalogue or args.models_dir)
+    out_dir = args.out_dir or default_out_dir("stress", full_run=full)
+    check_writable(out_dir)
     result = run_stress(catalogue, variants, engines, quick=args.quick, jobs=args.jobs or None,
                         timeout=args.timeout, models_dir=args.models_dir,
                         log=lambda line: print(line, file=sys.stderr, flush=True))
-    paths = write_stress_reports(result, provenance(), args.out_dir)
+    paths = write_stress_reports(result, provenance(), out_dir)
     stable = sum(1 for m in result.rows if m.stable_dt is not None or (m.nominal is not None and m.nominal.stable))
     print(f"stress: {len(variants)} variants ({len(result.skipped)} skipped), {len(result.rows)} engine/integrator "
           f"cells ({stable} with a stable step), {len(result.trials)} runs, {result.wall_s:.0f} s")

@@ -10,8 +10,13 @@ Heavy modules are imported inside the handlers, as in ``harness.cli.main``.
 from __future__ import annotations
 
 import shlex
+import sys
+import warnings
 from pathlib import Path
-from harness.cli.arg_types import float_arg as _float, int_arg as _int, csv_list as _csv_list
+from harness.cli.arg_types import (MODELS_DIR_HELP, check_samples, csv_list as _csv_list, float_arg as _float,
+                                   int_arg as _int, models_dir_arg as _models_dir, require_scene_files_utf8,
+                                   require_utf8)
+from harness.model.errors import InputError
 
 EXIT_OK, EXIT_FAIL = 0, 1
 
@@ -24,30 +29,45 @@ def _overrides(items: list[str] | None) -> dict[str, str]:
 
 def add_parsers(sub) -> None:
     """Add the ``inspect``, ``debug`` and ``check`` subparsers."""
-    i = sub.add_parser("inspect", help="what each engine holds after loading a scene; dynamics at random states")
-    i.add_argument("scene")
-    i.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene parameter (repeatable)")
-    i.add_argument("--models-dir", type=Path, help="folder of scene folders (default: the project's models/)")
-    i.add_argument("--states", type=_int, default=4, help="random states for the dynamics check (default 4)")
-    i.add_argument("--seed", type=_int, default=0, help="seed of the random states (default 0)")
+    i = sub.add_parser("inspect", help="what each engine holds after loading a scene; dynamics at random states",
+                       description="Load a scene into every engine and show what each holds against the scene "
+                                   "description; compare the dynamics terms at random states. Exit 0 when all "
+                                   "agree, 1 on a disagreement, 2 on bad input.")
+    i.add_argument("scene", help="scene name: a folder of --models-dir (list them with `harness scenes`)")
+    i.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a scene parameter, in its unit (`harness scenes`); a vector as a,b,c (repeatable)")
+    i.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
+    i.add_argument("--states", type=_int, default=4, metavar="N", help="random states for the dynamics check (>= 1, default 4)")
+    i.add_argument("--seed", type=_int, default=0, metavar="N", help="seed of the random states (any integer, default 0)")
 
-    d = sub.add_parser("debug", help="where two engines' runs of a scene part, per quantity; plot of the errors")
-    d.add_argument("scene")
-    d.add_argument("--engines", type=_csv_list, required=True, help="two of inhouse, mujoco, pinocchio, reference")
-    d.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene parameter (repeatable)")
-    d.add_argument("--t-end", type=_float, help="horizon (s; default: the scene's)")
-    d.add_argument("--out-dir", type=Path, default=Path("."), help="folder for debug_<scene>_<A>_<B>.png (default: .)")
-    d.add_argument("--models-dir", type=Path, help="folder of scene folders (default: the project's models/)")
+    d = sub.add_parser("debug", help="where two engines' runs of a scene part, per quantity; plot of the errors",
+                       description="Run a scene on two engines and show where each quantity (position m, "
+                                   "orientation rad, velocity m/s, angular velocity rad/s, energy J) first leaves "
+                                   "the scene's tolerance; write debug_<scene>_<A>_<B>.png. Exit 0 when both agree "
+                                   "within tolerance, 1 otherwise, 2 on bad input.")
+    d.add_argument("scene", help="scene name: a folder of --models-dir (list them with `harness scenes`)")
+    d.add_argument("--engines", type=_csv_list, required=True, metavar="A,B",
+                   help="two of inhouse, mujoco, pinocchio, reference (the in-house DOP853 run at rtol 1e-12)")
+    d.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a scene parameter, in its unit (`harness scenes`); a vector as a,b,c (repeatable)")
+    d.add_argument("--t-end", type=_float, metavar="S", help="horizon (s, > 0; default: the scene's)")
+    d.add_argument("--out-dir", type=Path, default=Path("."), metavar="DIR",
+                   help="folder for debug_<scene>_<A>_<B>.png (default: .)")
+    d.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
 
-    c = sub.add_parser("check", help="compare a model (MJCF and/or URDF) between MuJoCo and Pinocchio, write a report")
-    c.add_argument("--mjcf", type=Path, help="MJCF file (loaded into MuJoCo; into both when alone)")
-    c.add_argument("--urdf", type=Path, help="URDF file (loaded into Pinocchio; into both when alone)")
-    c.add_argument("--out-dir", type=Path, default=Path("reports"), help="folder for check_<model>.md (default: reports)")
-    c.add_argument("--seed", type=_int, default=0, help="seed of the random states (default 0)")
-    c.add_argument("--states", type=_int, default=4, help="random states for the dynamics terms (default 4)")
-    c.add_argument("--free-runs", type=_int, default=3, help="free-motion runs from random states (default 3)")
-    c.add_argument("--t-end", type=_float, default=0.5, help="free-motion horizon (s, default 0.5)")
-    c.add_argument("--dt", type=_float, default=1e-3, help="free-motion step (s, default 0.001)")
+    c = sub.add_parser("check", help="compare a model (MJCF and/or URDF) between MuJoCo and Pinocchio, write a report",
+                       description="Load a model into MuJoCo and Pinocchio, compare bodies, dynamics terms at random "
+                                   "states and free motion, write check_<model>.md. Exit 0 when they agree, 1 on a "
+                                   "disagreement, 2 on bad input (including a free motion that diverges).")
+    c.add_argument("--mjcf", type=Path, metavar="FILE.xml", help="MJCF file (loaded into MuJoCo; into both when alone)")
+    c.add_argument("--urdf", type=Path, metavar="FILE.urdf", help="URDF file (loaded into Pinocchio; into both when alone)")
+    c.add_argument("--out-dir", type=Path, default=Path("reports"), metavar="DIR",
+                   help="folder for check_<model>.md (default: reports)")
+    c.add_argument("--seed", type=_int, default=0, metavar="N", help="seed of the random states (any integer, default 0)")
+    c.add_argument("--states", type=_int, default=4, metavar="N", help="random states for the dynamics terms (>= 1, default 4)")
+    c.add_argument("--free-runs", type=_int, default=3, metavar="N", help="free-motion runs from random states (>= 0, default 3)")
+    c.add_argument("--t-end", type=_float, default=0.5, metavar="S", help="free-motion horizon (s, > 0, default 0.5)")
+    c.add_argument("--dt", type=_float, default=1e-3, metavar="S", help="free-motion step (s, > 0, default 0.001)")
     c.add_argument("--floating-base", action="store_true", help="add a free root joint in both engines (default: fixed base)")
     c.add_argument("--strip-geometry", action="store_true",
                    help="delete geoms and meshes from MuJoCo's copy (meshes need not be found; dynamics unchanged)")
@@ -60,6 +80,7 @@ def cmd_inspect(args) -> int:
     from harness.model.scene import load_scene
 
     scene = load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir)
+    require_scene_files_utf8(scene)
     result = inspect_scene(scene, n_states=args.states, seed=args.seed)
     print(render(result), end="")
     return EXIT_OK if result.passed else EXIT_FAIL
@@ -69,12 +90,15 @@ def cmd_debug(args) -> int:
     from harness.tools.debug import debug, parse_engines, summary, write_plot
     from harness.model.scene import load_scene
 
+    from harness.validate.run import save_interval
+
     engines = parse_engines(args.engines)
     scene = load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir)
+    require_scene_files_utf8(scene)
     if args.t_end is not None and not (args.t_end > 0):
-        from harness.model.errors import InputError
-
         raise InputError(f"horizon t_end must be positive and finite, got {args.t_end!r}")
+    t_end = args.t_end if args.t_end is not None else scene.t_end
+    check_samples(t_end, save_interval(scene), len(scene.multibody().bodies), options="--t-end")
     result = debug(scene, engines, args.t_end)
     print("\n".join(summary(result)))
     path = write_plot(result, args.out_dir)
@@ -83,11 +107,32 @@ def cmd_debug(args) -> int:
 
 
 def cmd_check(args) -> int:
-    from harness.tools.check import run_check, summary_lines, write_report
+    import numpy as np
 
-    result = run_check(args.mjcf, args.urdf, seed=args.seed, n_states=args.states, n_free=args.free_runs,
-                       t_end=args.t_end, dt=args.dt, floating_base=args.floating_base, strip=args.strip_geometry,
-                       keep_static=args.keep_static_links)
+    from harness.tools.check import captured_native_stderr, run_check, summary_lines, write_report
+
+    for option, path in (("--mjcf", args.mjcf), ("--urdf", args.urdf)):
+        if path is not None:
+            require_utf8(path, option.removeprefix("--").upper())
+    # what a diverging run prints (numpy's warnings, MuJoCo's on file descriptor 2) is held back:
+    # on divergence the one error line says it all; after a run that ends it is shown as before
+    failure = None
+    with captured_native_stderr() as native, warnings.catch_warnings(record=True) as held:
+        warnings.simplefilter("always", RuntimeWarning)
+        try:
+            result = run_check(args.mjcf, args.urdf, seed=args.seed, n_states=args.states, n_free=args.free_runs,
+                               t_end=args.t_end, dt=args.dt, floating_base=args.floating_base,
+                               strip=args.strip_geometry, keep_static=args.keep_static_links)
+        except (np.linalg.LinAlgError, OverflowError, FloatingPointError) as err:
+            failure = err
+    if failure is not None:
+        model = args.urdf if args.urdf is not None else args.mjcf
+        raise InputError(f"{model}: the comparison diverged ({type(failure).__name__}: "
+                         f"{' '.join(str(failure).split())}): check the model's masses and inertias, or shorten "
+                         f"--t-end ({args.t_end:g} s) or --dt ({args.dt:g} s)")
+    sys.stderr.write(native["text"])
+    for w in held:
+        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     print("\n".join(summary_lines(result)))
     path = write_report(result, args.out_dir, _command_line(args))
     print(f"wrote {path}")

@@ -12,35 +12,49 @@ from dataclasses import replace
 from pathlib import Path
 
 from harness.model.errors import InputError
-from harness.cli.arg_types import csv_list as _csv_list
+from harness.cli.arg_types import (MODELS_DIR_HELP, check_selection, csv_list as _csv_list, float_arg as _float,
+                                   int_arg as _int, models_dir_arg as _models_dir)
 
 
 def add_parser(sub) -> None:
     """Add the ``workprecision`` subcommand to the CLI's subparsers."""
-    w = sub.add_parser("workprecision", help="work-precision diagrams: error against run time per scene and engine")
-    w.add_argument("--scenes", type=_csv_list, help="comma-separated scene names (default: all)")
-    w.add_argument("--engines", type=_csv_list, help="comma-separated engines (default: all)")
-    w.add_argument("--repeats", type=int, help="timed runs after the warm-up (default 3)")
-    w.add_argument("--max-run-s", type=float, help="stop refining a curve after a run this slow (default 2 s)")
-    w.add_argument("--saves", type=int, help="saved intervals over the horizon, where errors are measured (default 20)")
-    w.add_argument("--t-end", type=float, help="horizon (s) instead of each scene's")
-    w.add_argument("--batch", type=int, help="initial conditions of the batched-throughput benchmark (default 1000; 0 skips it)")
-    w.add_argument("--batch-steps", type=int, help="steps per trajectory in that benchmark (default 100)")
+    w = sub.add_parser("workprecision", help="work-precision diagrams: error against run time per scene and engine",
+                       description="Error against run time for every scene, engine and integrator (fixed steps "
+                                   "halved, adaptive tolerances tightened); write workprecision.md, "
+                                   "workprecision.csv and workprecision/<scene>.png. Exit 0, or 2 on bad input.")
+    w.add_argument("--scenes", type=_csv_list, metavar="A,B",
+                   help="comma-separated scene names (default: every scene of --models-dir)")
+    w.add_argument("--engines", type=_csv_list, metavar="A,B",
+                   help="comma-separated engines among inhouse, mujoco, pinocchio (default: all)")
+    w.add_argument("--repeats", type=_int, metavar="N", help="timed runs after the warm-up (>= 1, default 3)")
+    w.add_argument("--max-run-s", type=_float, metavar="S",
+                   help="stop refining a curve after a run this slow (s, > 0, default 2)")
+    w.add_argument("--saves", type=_int, metavar="N",
+                   help="saved intervals over the horizon, where errors are measured (>= 1, default 20)")
+    w.add_argument("--t-end", type=_float, metavar="S", help="horizon (s, > 0) instead of each scene's")
+    w.add_argument("--batch", type=_int, metavar="N",
+                   help="initial conditions of the batched-throughput benchmark (>= 0, default 1000; 0 skips it)")
+    w.add_argument("--batch-steps", type=_int, metavar="N",
+                   help="steps per trajectory in that benchmark (>= 1, default 100)")
     w.add_argument("--quick", action="store_true", help="a small, fast sweep (for tests and smoke checks)")
     w.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
-    w.add_argument("--out-dir", type=Path, default=Path("reports"))
-    w.add_argument("--models-dir", type=Path, help="folder of scene folders (default: the project's models/)")
+    w.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
+                   help="folder for workprecision.md, workprecision.csv, workprecision/ (default: reports for a full run; reports/partial/workprecision for a subset, --quick or --models-dir run, so that only a full run refreshes the committed snapshot)")
+    w.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
 
 
 def options_from_args(args):
     """``SweepOptions`` from the parsed arguments; InputError for a bad value."""
     from harness.studies.workprecision.run import QUICK, SweepOptions
 
+    from harness.model.scene import MAX_SAMPLES
+
     opts = QUICK if args.quick else SweepOptions()
     changes = {}
     for name, attr, ok in (("repeats", "repeats", lambda v: v >= 1), ("max_run_s", "max_run_s", lambda v: v > 0),
-                           ("saves", "saves", lambda v: v >= 1), ("t_end", "horizon", lambda v: v > 0),
-                           ("batch", "batch", lambda v: v >= 0), ("batch_steps", "batch_steps", lambda v: v >= 1)):
+                           ("saves", "saves", lambda v: 1 <= v <= MAX_SAMPLES), ("t_end", "horizon", lambda v: v > 0),
+                           ("batch", "batch", lambda v: 0 <= v <= MAX_SAMPLES),
+                           ("batch_steps", "batch_steps", lambda v: 1 <= v <= MAX_SAMPLES)):
         value = getattr(args, name)
         if value is None:
             continue
@@ -54,20 +68,27 @@ def options_from_args(args):
 def run(args) -> int:
     """Run the sweep and write the reports."""
     from harness.engines import ENGINE_NAMES, get_engine
+    from harness.io.atomic import check_writable, default_out_dir
     from harness.io.provenance import provenance
     from harness.model.scene import available_scenes, load_scene
     from harness.studies.workprecision.run import TARGETS, run_sweep, time_table
     from harness.studies.workprecision.report import write_reports
 
+    from harness.model.scene import MODELS_DIR
+
     options = options_from_args(args)
-    engines = args.engines or list(ENGINE_NAMES)
+    engines = check_selection("--engines", args.engines, list(ENGINE_NAMES))
     for e in engines:
         get_engine(e)
-    names = args.scenes or available_scenes(args.models_dir)
+    names = check_selection("--scenes", args.scenes, available_scenes(args.models_dir),
+                            f"under {args.models_dir or MODELS_DIR} (a scene is a folder with a scene.toml)")
     scenes = [load_scene(n, models_dir=args.models_dir) for n in names]
+    full = not (args.quick or args.scenes or args.engines or args.models_dir)
+    out_dir = args.out_dir or default_out_dir("workprecision", full_run=full)
+    check_writable(out_dir)
     load_before = os.getloadavg()[0]
     results = run_sweep(scenes, engines, options)
-    paths = write_reports(results, provenance(), options, args.out_dir, (load_before, os.getloadavg()[0]))
+    paths = write_reports(results, provenance(), options, out_dir, (load_before, os.getloadavg()[0]))
     for sweep in results:
         rows = time_table(sweep)
         parts = []

@@ -1,13 +1,68 @@
-"""What a result was made with: date, engine and library versions, machine."""
+"""What a result was made with: date, engine and library versions, machine, and the command."""
 
 from __future__ import annotations
 
 import datetime as _dt
+import os
 import platform
+import shlex
+import sys
+from pathlib import Path
+
+
+def cpu_model(cpuinfo: str | None = None) -> str:
+    """The CPU's model name: from the text of ``/proc/cpuinfo`` (or ``cpuinfo`` if given) the
+    first ``model name`` (x86, most ARM), ``cpu model`` (MIPS), ``Hardware`` or ``Model`` (ARM
+    boards) or ``cpu`` (POWER) line; else ``platform.processor()``; else ``"unknown cpu"``."""
+    text = cpuinfo
+    if text is None:
+        try:
+            text = Path("/proc/cpuinfo").read_text(errors="replace")
+        except OSError:
+            text = ""
+    found: dict[str, str] = {}
+    for line in text.splitlines():
+        key, sep, value = line.partition(":")
+        key, value = key.strip().lower(), " ".join(value.split())
+        if sep and value and key in ("model name", "cpu model", "hardware", "model", "cpu") and key not in found:
+            found[key] = value
+    for key in ("model name", "cpu model", "hardware", "model", "cpu"):
+        # "model" on x86 is a number; take it only where it is a name (ARM boards)
+        if key in found and not found[key].isdigit():
+            return found[key]
+    return platform.processor() or "unknown cpu"
+
+
+def cores() -> str:
+    """The CPUs this process may use and the machine's logical CPUs, e.g. ``"2 usable of 8"``
+    (usable: the affinity mask and cgroup CPU quota, ``harness.validate.workers.usable_cpus``)."""
+    from harness.validate.workers import usable_cpus
+
+    return f"{usable_cpus()} usable of {os.cpu_count() or '?'}"
+
+
+_ARGV: list[str] | None = None  # the arguments given to harness.cli.main.main, if it recorded them
+
+
+def set_argv(argv: list[str] | None) -> None:
+    """Record the command's arguments (without the program name) for ``command_line``; the CLI
+    calls this when ``main(argv)`` is given its arguments explicitly (tests, other programs), so
+    that reports name those rather than the calling program's ``sys.argv``. ``None`` forgets."""
+    global _ARGV
+    _ARGV = None if argv is None else [str(a) for a in argv]
+
+
+def command_line(argv: list[str] | None = None) -> str:
+    """The command as typed, for a report's "Reproduce with" line: ``"harness "`` followed by
+    the shell-quoted arguments, so that it can be pasted back into a shell. The arguments are
+    ``argv`` if given, else those recorded with ``set_argv``, else ``sys.argv[1:]``."""
+    args = list(argv) if argv is not None else (_ARGV if _ARGV is not None else sys.argv[1:])
+    return " ".join(["harness", *(shlex.quote(str(a)) for a in args)])
 
 
 def provenance() -> dict[str, str]:
-    """Versions of the engines and numerical libraries, the machine, and the UTC time now."""
+    """Versions of the engines and numerical libraries, the machine (OS, architecture, CPU
+    model), the CPUs this process may use, and the UTC time now."""
     import mujoco
     import numba
     import numpy
@@ -23,5 +78,6 @@ def provenance() -> dict[str, str]:
         "scipy": scipy.__version__,
         "numba": numba.__version__,
         "python": platform.python_version(),
-        "machine": f"{platform.system()} {platform.machine()} ({platform.processor() or 'unknown cpu'})",
+        "machine": f"{platform.system()} {platform.machine()} ({cpu_model()})",
+        "cpus": cores(),
     }

@@ -8,6 +8,7 @@ every engine runs.
 
 from __future__ import annotations
 
+import difflib
 import importlib
 import importlib.resources
 import math
@@ -32,6 +33,61 @@ from harness.model.sanity import check_multibody
 MODELS_DIR = Path(str(importlib.resources.files("harness.models")))
 
 ParamValue = float | tuple[float, ...]
+
+#: The engines a scene gives a default integrator and tolerances for: ``harness.engines.ENGINE_NAMES``
+#: (spelt out here: the model layer imports no engine; tests/model/test_scene.py keeps them equal).
+ENGINE_NAMES = ("inhouse", "mujoco", "pinocchio")
+
+#: Conserved momentum components a ``[checks.momentum_drift]`` may list:
+#: ``harness.measure.compare.MOMENTUM_COMPONENTS`` (kept equal by tests/model/test_scene.py).
+MOMENTUM_COMPONENTS = ("px", "py", "pz", "Lx", "Ly", "Lz", "L3")
+
+#: The check tables a scene may declare (``[checks.<name>]``) and the keys each must hold, no
+#: more and no fewer: the checks ``harness.validate.run.check_run`` and
+#: ``harness.measure.contact_metrics.add_checks`` read. An engine name (``inhouse``, ``mujoco``,
+#: ``pinocchio``) holds that engine's tolerance, a positive finite number; ``components`` the
+#: conserved momentum components (``harness.measure.compare.MOMENTUM_COMPONENTS``); any other key
+#: (the trajectory's quantities) a tolerance for every engine, as one number or a table with a
+#: number per engine. Units are each check's (see ``harness.validate.run``). Every check table may
+#: also hold ``regression_only = ["<engine>", ...]`` (``OPTIONAL_CHECK_KEYS``): the engines whose
+#: tolerance there is a regression bound (what the engine reaches, with a margin) rather than an
+#: accuracy the physics asks for; the report marks those checks.
+CHECKS: dict[str, tuple[str, ...]] = {
+    "energy_drift": ENGINE_NAMES,
+    "momentum_drift": ("components",) + ENGINE_NAMES,
+    "trajectory": ("position", "orientation", "velocity"),
+    "constraint": ENGINE_NAMES,
+    "exact": ENGINE_NAMES,
+    "reaction": ENGINE_NAMES,
+    "slip": ENGINE_NAMES,
+    "contact_height": ENGINE_NAMES,
+    "contact_force": ENGINE_NAMES,
+}
+
+OPTIONAL_CHECK_KEYS = ("regression_only",)
+
+#: Parameter kinds (``kind = ...`` of a ``[parameters]`` entry) and the values each takes.
+KINDS = {"positive": "a number > 0", "nonnegative": "a number >= 0", "real": "any finite number",
+         "vector3": "three finite numbers"}
+
+#: The largest magnitude of a parameter value (SI units): far beyond any physical value, and small
+#: enough that products of a few parameters (inertias ~ m L^2, energies) stay finite in float64.
+MAX_PARAMETER = 1e100
+
+#: The most saved samples times bodies one run may hold in memory (its state alone is about
+#: 15 float64 per body and sample: 1e7 is ~1.2 GB, before the CSV or the report is made).
+MAX_SAMPLES = 10_000_000
+
+# Top-level keys of scene.toml: key -> (what it must be, required)
+_TOP_KEYS = {
+    "name": ("string", True), "title": ("string", False), "textbook": ("list of strings", False),
+    "mjcf": ("string", True), "urdf": ("string", True), "urdf_root_joint": ("string", False),
+    "builder": ("string", False), "needs": ("table", True), "parameters": ("table", True),
+    "simulation": ("table", True), "integrators": ("table", True), "checks": ("table", False),
+}
+_NEEDS = ("gravity", "contact", "forcing")
+_SIMULATION = {"t_end": "the horizon in s", "dt": "the step in s", "save_every": "the save interval in s"}
+_PARAMETER_KEYS = {"value": True, "kind": True, "unit": False, "doc": False}
 
 
 @dataclass(frozen=True)
@@ -127,33 +183,176 @@ def load_scene(name: str, overrides: Mapping[str, Any] | None = None, *, models_
     """Load a scene by name and apply parameter overrides.
 
     Raises:
-        InputError: unknown scene, malformed TOML, unknown parameter or a bad value.
+        InputError: unknown scene; a scene.toml that is not UTF-8, not TOML or not a valid
+            description (``check_description``); unknown parameter or a bad value.
     """
     root = models_dir or MODELS_DIR
     path = root / name / "scene.toml"
     if not path.is_file():
         known = ", ".join(available_scenes(root)) or "none"
         raise InputError(f"unknown scene {name!r} (known: {known})")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as err:
-        raise InputError(f"{path}: malformed TOML: {err}") from None
+    data = read_toml(path)
     try:
         return apply_overrides(_scene_from_toml(data, path), overrides or {})
-    except (KeyError, TypeError) as err:
+    except (KeyError, TypeError) as err:  # pragma: no cover - check_description catches these first
         raise InputError(f"{path}: scene description lacks or misstates {err}") from None
 
 
+def read_toml(path: Path) -> dict:
+    """Parse a TOML file; InputError naming the file if it is not UTF-8 text or not valid TOML."""
+    try:
+        text = Path(path).read_bytes().decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise InputError(f"{path}: not UTF-8 text (byte 0x{err.object[err.start]:02x} at offset {err.start})") from None
+    except OSError as err:
+        raise InputError(f"{path}: cannot read: {err.strerror or err}") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise InputError(f"{path}: malformed TOML: {err}") from None
+
+
+def check_description(data: dict, path: Path) -> None:
+    """Validate a parsed ``scene.toml`` as the loader reads it; InputError naming the file, the
+    table and the key for: an unknown or missing top-level key, table or check table, a value of
+    the wrong type, a parameter of unknown kind, a run setting that is not a positive finite
+    number (or saves more than ``MAX_SAMPLES`` samples), an engine without a default integrator,
+    and a check table without a tolerance for every engine (``CHECKS``) or with a tolerance that
+    is not a positive finite number."""
+    _known_keys(data, _TOP_KEYS, path, "top level")
+    for key, (what, required) in _TOP_KEYS.items():
+        if key not in data:
+            if required:
+                raise InputError(f"{path}: lacks {_where(key)} ({what})")
+            continue
+        value = data[key]
+        ok = {"string": lambda v: isinstance(v, str) and v.strip() != "",
+              "list of strings": lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
+              "table": lambda v: isinstance(v, dict)}[what](value)
+        if not ok:
+            raise InputError(f"{path}: {_where(key)} must be a {'non-empty ' if what == 'string' else ''}{what}, "
+                             f"got {_show(value)}")
+    if data["name"] != path.parent.name:
+        raise InputError(f"{path}: name = {data['name']!r} differs from the scene's folder {path.parent.name!r}")
+    if "urdf_root_joint" in data:
+        from harness.model.joints import JOINTS
+
+        roots = ["none"] + [jt.urdf_root for jt in JOINTS.values() if jt.urdf_root]
+        if data["urdf_root_joint"] not in roots:
+            raise InputError(f"{path}: urdf_root_joint = {data['urdf_root_joint']!r} is not one of {', '.join(roots)}")
+
+    needs = data["needs"]
+    _known_keys(needs, _NEEDS, path, "[needs]")
+    for key in _NEEDS:
+        if key not in needs:
+            raise InputError(f"{path}: [needs] lacks {key} (true or false)")
+        if not isinstance(needs[key], bool):
+            raise InputError(f"{path}: [needs] {key} must be true or false, got {_show(needs[key])}")
+
+    for pname, spec in data["parameters"].items():
+        where = f"[parameters] {pname}"
+        if not isinstance(spec, dict):
+            raise InputError(f"{path}: {where} must be a table {{ value = ..., unit = ..., kind = ..., doc = ... }}, "
+                             f"got {_show(spec)}")
+        _known_keys(spec, _PARAMETER_KEYS, path, where)
+        for key, required in _PARAMETER_KEYS.items():
+            if required and key not in spec:
+                raise InputError(f"{path}: {where} lacks {key}")
+            if key in ("kind", "unit", "doc") and key in spec and not isinstance(spec[key], str):
+                raise InputError(f"{path}: {where} {key} must be a string, got {_show(spec[key])}")
+        if spec["kind"] not in KINDS:
+            raise InputError(f"{path}: {where} kind = {spec['kind']!r} is not one of {', '.join(KINDS)}")
+        raw = spec["value"]
+        if not (_is_number(raw) or (isinstance(raw, list) and raw and all(_is_number(x) for x in raw))):
+            raise InputError(f"{path}: {where} value must be a number or a list of numbers, got {_show(raw)}")
+
+    sim = data["simulation"]
+    _known_keys(sim, _SIMULATION, path, "[simulation]")
+    for key, what in _SIMULATION.items():
+        if key not in sim:
+            raise InputError(f"{path}: [simulation] lacks {key} ({what})")
+        _positive(sim[key], path, f"[simulation] {key}", what)
+    if sim["t_end"] / sim["save_every"] > MAX_SAMPLES:
+        raise InputError(f"{path}: [simulation] t_end = {sim['t_end']!r} s over save_every = {sim['save_every']!r} s "
+                         f"saves more than {MAX_SAMPLES:.0e} samples")
+
+    integrators = data["integrators"]
+    _known_keys(integrators, ENGINE_NAMES, path, "[integrators]")
+    for engine in ENGINE_NAMES:
+        if engine not in integrators:
+            raise InputError(f"{path}: [integrators] lacks a default for {engine}")
+        if not (isinstance(integrators[engine], str) and integrators[engine].strip()):
+            raise InputError(f"{path}: [integrators] {engine} must be an integrator's name (a string), "
+                             f"got {_show(integrators[engine])}")
+
+    for check, table in data.get("checks", {}).items():
+        where = f"[checks.{check}]"
+        if check not in CHECKS:
+            close = difflib.get_close_matches(check, CHECKS, n=1)
+            hint = f"did you mean {close[0]}? " if close else ""
+            raise InputError(f"{path}: unknown check table {where} ({hint}known: {', '.join(CHECKS)})")
+        if not isinstance(table, dict):
+            raise InputError(f"{path}: {where} must be a table of tolerances, got {_show(table)}")
+        _known_keys(table, CHECKS[check] + OPTIONAL_CHECK_KEYS, path, where)
+        listed = table.get("regression_only", [])
+        if not (isinstance(listed, list) and all(e in ENGINE_NAMES for e in listed)):
+            raise InputError(f"{path}: {where} regression_only must be a list of engine names "
+                             f"({', '.join(ENGINE_NAMES)}), got {_show(listed)}")
+        for key in CHECKS[check]:
+            if key not in table:
+                what = "the conserved components" if key == "components" else \
+                    ("a tolerance for " + key if key in ENGINE_NAMES else "a tolerance")
+                raise InputError(f"{path}: {where} lacks {key} ({what})")
+            value = table[key]
+            if key == "components":
+                if not (isinstance(value, list) and value and all(c in MOMENTUM_COMPONENTS for c in value)):
+                    raise InputError(f"{path}: {where} components must be a non-empty list of "
+                                     f"{', '.join(MOMENTUM_COMPONENTS)}, got {_show(value)}")
+            elif key in ENGINE_NAMES or not isinstance(value, dict):
+                _positive(value, path, f"{where} {key}", "a tolerance")
+            else:  # a tolerance per engine
+                _known_keys(value, ENGINE_NAMES, path, f"{where} {key}")
+                for engine in ENGINE_NAMES:
+                    if engine not in value:
+                        raise InputError(f"{path}: {where} {key} lacks a tolerance for {engine}")
+                    _positive(value[engine], path, f"{where} {key}.{engine}", "a tolerance")
+
+
+def _where(key: str) -> str:
+    return f"[{key}]" if _TOP_KEYS.get(key, ("",))[0] == "table" else key
+
+
+def _show(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _positive(value: Any, path: Path, where: str, what: str) -> None:
+    if not _is_number(value):
+        raise InputError(f"{path}: {where} must be a number ({what}), got {_show(value)}")
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"{path}: {where} must be positive and finite ({what}), got {value!r}")
+
+
+def _known_keys(table: dict, known, path: Path, where: str) -> None:
+    for key in table:
+        if key not in known:
+            close = difflib.get_close_matches(key, list(known), n=1)
+            hint = f"did you mean {close[0]}? " if close else ""
+            raise InputError(f"{path}: unknown key {key!r} at {where} ({hint}known: {', '.join(known)})")
+
+
 def _scene_from_toml(data: dict, path: Path) -> Scene:
+    check_description(data, path)
     params = {}
     for pname, spec in data["parameters"].items():
         value = _coerce(pname, spec["value"], spec["kind"], str(path))
         params[pname] = Parameter(pname, value, spec.get("unit", ""), spec["kind"], spec.get("doc", ""))
     sim = data["simulation"]
-    for key in ("t_end", "dt", "save_every"):
-        value = float(sim[key])
-        if not (math.isfinite(value) and value > 0.0):
-            raise InputError(f"{path}: [simulation] {key} must be positive and finite, got {sim[key]!r}")
     scene = Scene(
         name=data["name"],
         title=data.get("title", data["name"]),
@@ -171,9 +370,6 @@ def _scene_from_toml(data: dict, path: Path) -> Scene:
         checks=dict(data.get("checks", {})),
         builder=str(data.get("builder", "")),
     )
-    for engine in ("inhouse", "mujoco", "pinocchio"):
-        if engine not in scene.integrators:
-            raise InputError(f"{path}: [integrators] lacks a default for {engine}")
     return scene
 
 
@@ -202,6 +398,10 @@ def parse_set(item: str) -> tuple[str, str]:
 
 def _coerce(name: str, raw: Any, kind: str, source: str) -> ParamValue:
     """Convert and validate one parameter value according to its kind."""
+    if isinstance(raw, bool) or (isinstance(raw, (list, tuple)) and any(isinstance(v, bool) for v in raw)):
+        raise InputError(f"{source}: parameter {name!r}: not a number: {raw!r}")
+    if kind not in KINDS:
+        raise InputError(f"{source}: parameter {name!r} has unknown kind {kind!r} (known: {', '.join(KINDS)})")
     if isinstance(raw, str):
         parts = [s for s in raw.replace(" ", "").split(",") if s != ""]
         try:
@@ -220,6 +420,9 @@ def _coerce(name: str, raw: Any, kind: str, source: str) -> ParamValue:
             raise InputError(f"{source}: parameter {name!r}: not a number: {raw!r}") from None
     if not all(math.isfinite(v) for v in values):
         raise InputError(f"{source}: parameter {name!r} must be finite, got {raw!r}")
+    if any(abs(v) > MAX_PARAMETER for v in values):
+        raise InputError(f"{source}: parameter {name!r} = {raw!r} is beyond +-{MAX_PARAMETER:g} (SI units): "
+                         "no physical value is that large, and the computation would overflow")
     if kind == "vector3":
         if len(values) != 3:
             raise InputError(f"{source}: parameter {name!r} needs 3 components, got {len(values)}")

@@ -2,18 +2,26 @@
 
 Both engines run at the scene's default settings (``harness.validate.run.default_settings``; the
 engine name ``reference`` is the in-house DOP853 reference run of ``validate``). At every saved
-time both have reached, the difference of each quantity, maximised over bodies:
+time both have reached, the difference of each quantity, maximised over bodies, judged exactly as
+``harness validate`` judges its ``trajectory.*`` checks (one definition of quantity, scale, unit
+and tolerance: ``harness.validate.quantities``):
 
-* ``position``: centre-of-mass position (m); ``orientation``: geodesic angle on SO(3) (rad);
-* ``velocity``: centre-of-mass velocity (m/s); ``angular_velocity``: world frame (rad/s);
-* ``energy``: |E_A - E_B| / ``compare.energy_scale`` of run A (dimensionless), energies
-  recomputed from the common trajectory (``invariants.energies``).
+* ``position``: centre-of-mass position difference (m) over the ``length`` scale (rel);
+* ``orientation``: geodesic angle on SO(3) (rad, absolute);
+* ``velocity``: centre-of-mass velocity difference (m/s) over the ``velocity`` scale (rel);
+* ``angular_velocity``: world-frame angular velocity difference (rad/s) over the
+  ``angular_velocity`` scale (rel), with the velocity tolerance;
+* ``energy``: |E_A - E_B| / ``compare.energy_scale`` of run A (rel), energies recomputed from the
+  common trajectory (``invariants.energies``).
 
-Tolerances: ``scene.checks["trajectory"]`` (position, orientation, velocity; angular velocity
-uses the velocity tolerance, as ``validate`` does) and, for energy, the sum of the two engines'
-``energy_drift`` tolerances (what the difference may reach when each run holds its own drift
-check; ``reference`` uses the in-house tolerance). A quantity without a tolerance is plotted, not
-judged.
+Scales: ``compare.motion_scales`` of the judging run, the reference when one of the two is
+``reference`` (as in ``validate``), else run A. Tolerances: with ``reference`` in the pair, the
+other engine's ``[checks.trajectory]`` tolerance, so the largest value and the verdict are
+``validate``'s ``trajectory.*`` check of that engine (at the same horizon); for two engines, the
+larger of their two tolerances (each engine within its own of the reference allows their sum;
+this is stricter). Energy: the sum of the two engines' ``energy_drift`` tolerances (what the
+difference may reach when each run holds its own drift check; ``reference`` uses the in-house
+tolerance). A quantity without a tolerance is plotted, not judged.
 """
 
 from __future__ import annotations
@@ -32,16 +40,21 @@ from harness.model.errors import InputError
 from harness.io.figures import new_figure, png_bytes
 from harness.model.scene import Scene
 from harness.measure.trajectory import Trajectory
+from harness.validate import quantities as vq
 from harness.validate.run import default_settings, reference_settings
 
-QUANTITIES = ("position", "orientation", "velocity", "angular_velocity", "energy")
-UNITS = {"position": "m", "orientation": "rad", "velocity": "m/s", "angular_velocity": "rad/s", "energy": "rel"}
-DEBUG_ENGINES = ENGINE_NAMES + ("reference",)
+QUANTITIES = tuple(q.name for q in vq.TRAJECTORY) + ("energy",)
+UNITS = {q.name: q.judged_unit for q in vq.TRAJECTORY} | {"energy": "rel"}  # units of the judged values
+RAW_UNITS = {q.name: q.unit for q in vq.TRAJECTORY}  # units of the differences before scaling
+DEBUG_ENGINES = ENGINE_NAMES + (vq.REFERENCE_LABEL,)
 
 
 @dataclass
 class DebugResult:
-    """Error series of one pair of runs and where each leaves its tolerance."""
+    """Error series of one pair of runs and where each leaves its tolerance.
+
+    ``errors``: the judged series per quantity (``UNITS``); ``scales``: the motion scales they are
+    over (``compare.motion_scales`` of the judging run: m, m/s, rad/s)."""
 
     scene: Scene
     engines: tuple[str, str]
@@ -50,6 +63,11 @@ class DebugResult:
     errors: dict[str, np.ndarray]
     tolerances: dict[str, float | None]
     first_exceed: dict[str, float | None] = field(default_factory=dict)
+    scales: dict[str, float] = field(default_factory=dict)
+
+    def worst(self, q: str) -> float:
+        """The largest judged value of quantity ``q`` over the shared samples (``UNITS[q]``)."""
+        return float(np.max(self.errors[q], initial=0.0))
 
     @property
     def passed(self) -> bool:
@@ -80,16 +98,34 @@ def run_engine(scene: Scene, engine: str, t_end: float | None) -> Trajectory:
     return get_engine("inhouse" if engine == "reference" else engine).simulate(scene, settings)
 
 
-def error_series(a: Trajectory, b: Trajectory, model) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """Saved times both runs reached and the per-time difference of each quantity."""
+def judge_index(engines: tuple[str, str]) -> int:
+    """Which run's motion scales judge the pair: the reference's if it is one of them, else A's."""
+    return 1 if engines[1] == vq.REFERENCE_LABEL and engines[0] != vq.REFERENCE_LABEL else 0
+
+
+def raw_series(a: Trajectory, b: Trajectory) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Saved times both runs reached and the per-time difference of each trajectory quantity,
+    maximised over bodies, before scaling (``RAW_UNITS``: m, rad, m/s, rad/s; world frame)."""
     n = min(len(a.t), len(b.t))
-    t = a.t[:n]
-    errors = {
+    raw = {
         "position": np.linalg.norm(a.p_WCm_W[:n] - b.p_WCm_W[:n], axis=-1).max(axis=1, initial=0.0),
         "orientation": rotations.geodesic_angle(a.quat_WB[:n], b.quat_WB[:n]).max(axis=1, initial=0.0),
         "velocity": np.linalg.norm(a.v_WCm_W[:n] - b.v_WCm_W[:n], axis=-1).max(axis=1, initial=0.0),
         "angular_velocity": np.linalg.norm(a.w_WB_W[:n] - b.w_WB_W[:n], axis=-1).max(axis=1, initial=0.0),
     }
+    return a.t[:n], raw
+
+
+def error_series(a: Trajectory, b: Trajectory, model, scales: dict[str, float] | None = None
+                 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Saved times both runs reached and the per-time judged value of each quantity (``UNITS``):
+    the trajectory quantities over ``scales`` (default: ``compare.motion_scales`` of ``a``) as
+    ``harness.validate.quantities`` defines them, and the energy difference."""
+    if scales is None:
+        scales = compare.motion_scales(a, model)
+    t, raw = raw_series(a, b)
+    n = len(t)
+    errors = {q.name: q.judged(raw[q.name], scales) for q in vq.TRAJECTORY}
     if n:
         ea = invariants.energies(_head(a, n), model)["energy"]
         eb = invariants.energies(_head(b, n), model)["energy"]
@@ -105,32 +141,27 @@ def _head(traj: Trajectory, n: int) -> Trajectory:
 
 
 def tolerances(scene: Scene, engines: tuple[str, str]) -> dict[str, float | None]:
-    """Tolerance per quantity (see module docstring); None where the scene sets none."""
-    traj = scene.checks.get("trajectory", {})
+    """Tolerance per quantity (see module docstring; ``UNITS``); None where the scene sets none."""
     drift = scene.checks.get("energy_drift", {})
-    own = [drift.get("inhouse" if e == "reference" else e) for e in engines]
-
-    def pair(tol):  # a tolerance per engine (rolling_disk): the pair's larger one
-        if not isinstance(tol, dict):
-            return tol
-        return max(tol.get("inhouse" if e == "reference" else e, 0.0) for e in engines)
-
-    return {
-        "position": pair(traj.get("position")),
-        "orientation": pair(traj.get("orientation")),
-        "velocity": pair(traj.get("velocity")),
-        "angular_velocity": pair(traj.get("velocity")),
-        "energy": float(sum(own)) if all(x is not None for x in own) else None,
-    }
+    own = [drift.get(vq.tolerance_engine(e)) for e in engines]
+    judged = [e for e in engines if e != vq.REFERENCE_LABEL]
+    out: dict[str, float | None] = {}
+    for q in vq.TRAJECTORY:
+        tols = [vq.tolerance(scene.checks, q, e) for e in judged]
+        out[q.name] = None if any(t is None for t in tols) else max(tols)
+    out["energy"] = float(sum(own)) if all(x is not None for x in own) else None
+    return out
 
 
 def debug(scene: Scene, engines: tuple[str, str], t_end: float | None = None) -> DebugResult:
     """Run both engines and find where each quantity first leaves its tolerance."""
     model = scene.multibody()
     a, b = (run_engine(scene, e, t_end) for e in engines)
-    t, errors = error_series(a, b, model)
+    judge = (a, b)[judge_index(engines)]
+    scales = compare.motion_scales(judge, model) if len(judge.t) else {"length": 1.0, "velocity": 1.0, "angular_velocity": 1.0}
+    t, errors = error_series(a, b, model, scales)
     tol = tolerances(scene, engines)
-    res = DebugResult(scene, engines, (a, b), t, errors, tol)
+    res = DebugResult(scene, engines, (a, b), t, errors, tol, scales=scales)
     for q in QUANTITIES:
         res.first_exceed[q] = None
         if tol[q] is not None:
@@ -138,6 +169,9 @@ def debug(scene: Scene, engines: tuple[str, str], t_end: float | None = None) ->
             if bad.size:
                 res.first_exceed[q] = float(t[bad[0]])
     return res
+
+
+_SCALE_UNITS = {"length": "m", "velocity": "m/s", "angular_velocity": "rad/s"}
 
 
 def state_dump(res: DebugResult, k: int) -> list[str]:
@@ -167,15 +201,21 @@ def summary(res: DebugResult) -> list[str]:
     for e, tr in zip(res.engines, res.runs):
         lines.append(f"  {e}: {tr.engine}/{tr.integrator}, {len(tr.t)} samples, status {tr.status}"
                      + (f" ({tr.message})" if tr.message else ""))
+    judge = res.engines[judge_index(res.engines)]
+    lines.append(f"  judged as validate's trajectory.* checks (harness.validate.quantities): rel = over the motion "
+                 f"scales of the {judge} run: " + ", ".join(f"{k} {v:.3g} {_SCALE_UNITS[k]}" for k, v in res.scales.items()))
     for q in QUANTITIES:
         tol = res.tolerances[q]
-        worst = float(np.max(res.errors[q], initial=0.0))
+        worst = res.worst(q)
+        spec = vq.BY_NAME.get(q)
+        raw = f" ({worst * res.scales[spec.scale]:.3e} {spec.unit})" if spec is not None and spec.scale and res.scales else ""
         if tol is None:
-            lines.append(f"  {q:<17} max {worst:.3e} {UNITS[q]} (no tolerance in the scene)")
+            lines.append(f"  {q:<17} max {worst:.3e} {UNITS[q]}{raw} (no tolerance in the scene)")
         elif res.first_exceed[q] is None:
-            lines.append(f"  {q:<17} max {worst:.3e} {UNITS[q]} <= {tol:.1e}: within tolerance")
+            lines.append(f"  {q:<17} max {worst:.3e} {UNITS[q]}{raw} <= {tol:.1e}: within tolerance")
         else:
-            lines.append(f"  {q:<17} first leaves {tol:.1e} {UNITS[q]} at t = {res.first_exceed[q]:.6g} s (max {worst:.3e})")
+            lines.append(f"  {q:<17} first leaves {tol:.1e} {UNITS[q]} at t = {res.first_exceed[q]:.6g} s "
+                         f"(max {worst:.3e}{raw})")
     k = res.first_index
     if k is not None:
         lines += state_dump(res, k)

@@ -8,7 +8,8 @@ Loads, each compared with the scene description (``harness.tools.loaded_models``
 * primary, files AS WRITTEN (``read_spec().compile()``, ``read_urdf``): against the scene at the
   defaults of its ``scene.toml``, which the files must hold. ``load_urdf``/``load_mjcf`` overwrite
   mass properties, so an error in a file shows here only. A URDF cannot state gravity: the
-  URDF-as-written model gets the scene's gravity for the dynamics check;
+  URDF-as-written model gets the scene's gravity for the dynamics check. The same comparison
+  (``as_written``) is what ``harness validate`` checks at the start of every run (``model.*``);
 * cross-loads, as written, against the defaults: the MJCF into Pinocchio
   (``buildModelFromMJCF``) and the URDF into MuJoCo (MuJoCo compiles URDF: first as MuJoCo
   imports it by default, then with the scene's root joint added as Pinocchio adds it). What a
@@ -24,6 +25,8 @@ written, bodies, gravity or dynamics) fail; cross-load findings do not.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -36,9 +39,12 @@ from harness.engines.pinocchio.model import load_urdf, read_urdf
 from harness.model.errors import InputError
 from harness.model.joints import JOINTS, by_urdf_root
 from harness.tools.loaded_models import (
+    Discrepancy,
     LoadedBody,
+    body_discrepancies,
     check_joint_bodies_physical,
     compare_bodies,
+    gravity_discrepancy,
     gravity_problem,
     mujoco_bodies,
     pinocchio_bodies,
@@ -49,6 +55,52 @@ from harness.model.scene import Scene, load_scene
 
 AS_WRITTEN_RTOL = 1e-6   # the files carry rounded decimals (e.g. 0.083358333333333)
 APPLIED_RTOL = 1e-9
+MODEL_FILE_ENGINES = ("mujoco", "pinocchio")  # the engines that read a scene's model file (MJCF, URDF)
+
+
+@dataclass
+class AsWritten:
+    """One engine's load of its model file as written, against the scene at its defaults.
+
+    ``engine``: ``mujoco`` (the MJCF, ``read_spec().compile()``) or ``pinocchio`` (the URDF,
+    ``read_urdf`` with the scene's root joint); ``path``: the file; ``model``: the compiled
+    ``MjModel`` or ``pin.Model``; ``discrepancies``: every quantity of every body
+    (``harness.tools.loaded_models.body_discrepancies`` at ``AS_WRITTEN_RTOL``) and, for the
+    MJCF, its gravity (at ``APPLIED_RTOL``; a URDF cannot state gravity).
+    """
+
+    engine: str
+    path: Path
+    model: Any
+    discrepancies: list[Discrepancy]
+
+    @property
+    def problems(self) -> list[str]:
+        return [d.message for d in self.discrepancies if not d.passed]
+
+
+def scene_defaults(scene: Scene) -> Scene:
+    """The scene at the defaults of its ``scene.toml``: the values its model files must hold
+    (re-read from the scene's folder, so ``--set`` overrides are not in it)."""
+    return load_scene(scene.directory.name, models_dir=scene.directory.parent)
+
+
+def as_written(scene: Scene, engine: str, model0: Multibody | None = None) -> AsWritten:
+    """``engine``'s model file of ``scene`` loaded as written and measured against ``model0``
+    (default: the scene at its ``scene.toml`` defaults). InputError if the file does not load
+    or holds a non-physical body."""
+    if model0 is None:
+        model0 = scene_defaults(scene).multibody()
+    if engine == "mujoco":
+        m = _compile_as_written(scene)
+        found = body_discrepancies(mujoco_bodies(m, model0), model0, rtol=AS_WRITTEN_RTOL)
+        found.append(gravity_discrepancy(np.asarray(m.opt.gravity, dtype=float), model0.gravity_W, APPLIED_RTOL))
+        return AsWritten(engine, scene.mjcf, m, found)
+    if engine == "pinocchio":
+        p = read_urdf(scene.urdf, scene.urdf_root_joint)
+        check_joint_bodies_physical(pinocchio_joint_bodies(p), str(scene.urdf))
+        return AsWritten(engine, scene.urdf, p, body_discrepancies(pinocchio_bodies(p, model0), model0, rtol=AS_WRITTEN_RTOL))
+    raise ValueError(f"engine {engine!r} reads no model file (those that do: {', '.join(MODEL_FILE_ENGINES)})")
 
 
 @dataclass
@@ -137,7 +189,7 @@ def inspect_scene(scene: Scene, *, n_states: int = dc.DEFAULT_STATES, seed: int 
     if n_states < 1:
         raise InputError(f"--states must be >= 1, got {n_states}")
     model = scene.multibody()
-    model0 = load_scene(scene.name, models_dir=scene.directory.parent).multibody()
+    model0 = scene_defaults(scene).multibody()
     loads: list[Load] = []
     blocks: list[DynamicsBlock] = []
 
@@ -158,15 +210,16 @@ def inspect_scene(scene: Scene, *, n_states: int = dc.DEFAULT_STATES, seed: int 
                             n_states, seed))
 
     # Primary, files as written, against the defaults.
-    m_file = _compile_as_written(scene)
+    mw = as_written(scene, "mujoco", model0)
+    m_file = mw.model
     lw = Load(f"MuJoCo <- {scene.mjcf.name} as written (against the scene.toml defaults)", True)
     lw.details = [_mujoco_options(m_file, scene)]
-    lw.problems = compare_bodies(mujoco_bodies(m_file, model0), model0, rtol=AS_WRITTEN_RTOL) + _gravity(m_file.opt.gravity, model0)
+    lw.problems = mw.problems
     loads.append(lw)
-    p_file = read_urdf(scene.urdf, scene.urdf_root_joint)
-    check_joint_bodies_physical(pinocchio_joint_bodies(p_file), str(scene.urdf))
+    pw = as_written(scene, "pinocchio", model0)
+    p_file = pw.model
     lu = Load(f"Pinocchio <- {scene.urdf.name} as written (against the scene.toml defaults)", True)
-    lu.problems = compare_bodies(pinocchio_bodies(p_file, model0), model0, rtol=AS_WRITTEN_RTOL)
+    lu.problems = pw.problems
     lu.notes.append(f"a URDF cannot state gravity: Pinocchio's default {_v(p_file.gravity.linear)} m/s^2; "
                     "load_urdf and this dynamics check set the scene's")
     p_file.gravity = pin.Motion(np.concatenate([model0.gravity_W, np.zeros(3)]))

@@ -3,7 +3,8 @@
 ``mujoco_bodies`` / ``pinocchio_bodies`` read back, per scene body: mass (kg), centre of mass in
 the body frame (m), inertia about the centre of mass in the body frame (kg m^2), the body
 frame's position in its parent (m), joint type and hinge axis (body frame).
-``compare_bodies`` lists every disagreement with the ``Multibody`` beyond a relative tolerance.
+``body_discrepancies`` measures every quantity against the ``Multibody`` (``Discrepancy``: value,
+tolerance, unit, message); ``compare_bodies`` lists the disagreements beyond a relative tolerance.
 
 For any model file (no scene), ``mujoco_joint_bodies`` / ``pinocchio_joint_bodies`` read back,
 per joint, the rigid body it moves (fixed children merged) in the frame of its child link, and
@@ -101,31 +102,78 @@ def mujoco_spring_problems(m: mujoco.MjModel, model: Multibody, rtol: float = 1e
     return problems
 
 
-def compare_bodies(loaded: list[LoadedBody], model: Multibody, rtol: float = 1e-9) -> list[str]:
-    """Disagreements between loaded bodies and the scene description, one message each."""
-    problems = []
+@dataclass(frozen=True)
+class Discrepancy:
+    """One quantity of one loaded body measured against the scene description.
+
+    Attributes:
+        body: the body's name ("" for a model-wide quantity: gravity).
+        quantity: ``present``, ``mass``, ``com``, ``inertia``, ``joint_position``, ``joint_type``,
+            ``axis`` or ``gravity``.
+        value: the disagreement, in ``unit``: ``rel`` for mass (|m - m_s| / m_s), centre of mass
+            and joint position (distance over the body's length scale, m / m), inertia (largest
+            entry difference over the scene's largest entry) and gravity (|g - g_s| over
+            max(|g_s|, 1 m/s^2)); ``rad`` for an axis (angle between the loaded and the scene's
+            unit axis); ``""`` for presence and joint type (1 when they differ, else 0).
+        tolerance: the largest value that agrees, in ``unit``.
+        message: what disagrees, loaded value against the scene's (as ``compare_bodies`` lists it).
+    """
+
+    body: str
+    quantity: str
+    value: float
+    tolerance: float
+    unit: str
+    message: str
+
+    @property
+    def passed(self) -> bool:
+        return bool(np.isfinite(self.value) and self.value <= self.tolerance)
+
+
+AXIS_TOL = 1e-9  # rad: an axis is a direction in a file, written exactly (0 -1 0), never rounded
+
+
+def body_discrepancies(loaded: list[LoadedBody], model: Multibody, rtol: float = 1e-9) -> list[Discrepancy]:
+    """Every quantity of every body, loaded against the scene description (agreeing ones too):
+    presence; mass; centre of mass; inertia about it; joint position in the parent (joints with
+    a joint point); joint type; joint axis (joints with one, when the types agree). Relative
+    quantities are judged against ``rtol``, the axis against ``AXIS_TOL`` rad."""
+    out = []
     seen = {b.name for b in loaded}
     for body in model.bodies:
         if body.name not in seen:
-            problems.append(f"body {body.name!r} is missing")
+            out.append(Discrepancy(body.name, "present", 1.0, 0.0, "", f"body {body.name!r} is missing"))
     for lb in loaded:
         body = model.body(lb.name)
         length = max(np.linalg.norm(body.p_BCm_B), np.linalg.norm(body.p_PB_P), 1e-3)
-        if not np.isclose(lb.mass, body.mass, rtol=rtol, atol=0):
-            problems.append(f"{lb.name}: mass {lb.mass:.9g} kg, scene says {body.mass:.9g} kg")
-        if np.linalg.norm(lb.p_BCm_B - body.p_BCm_B) > rtol * length:
-            problems.append(f"{lb.name}: centre of mass {lb.p_BCm_B.tolist()} m, scene says {body.p_BCm_B.tolist()} m")
-        scale = np.abs(body.I_Cm_B).max()
-        if np.abs(lb.I_Cm_B - body.I_Cm_B).max() > rtol * scale:
-            problems.append(f"{lb.name}: inertia about the centre of mass {np.round(lb.I_Cm_B, 12).tolist()} kg m^2, "
-                            f"scene says {np.round(body.I_Cm_B, 12).tolist()} kg m^2")
-        if JOINTS[body.joint].constrained and np.linalg.norm(lb.p_PB_P - body.p_PB_P) > rtol * length:
-            problems.append(f"{lb.name}: joint position in parent {lb.p_PB_P.tolist()} m, scene says {body.p_PB_P.tolist()} m")
-        if lb.joint != body.joint:
-            problems.append(f"{lb.name}: joint type {lb.joint}, scene says {body.joint}")
-        elif JOINTS[body.joint].axis and np.linalg.norm(lb.axis_B / np.linalg.norm(lb.axis_B) - body.axis_B) > 1e-9:
-            problems.append(f"{lb.name}: {body.joint} axis {lb.axis_B.tolist()}, scene says {body.axis_B.tolist()}")
-    return problems
+        out.append(Discrepancy(lb.name, "mass", abs(lb.mass - body.mass) / body.mass, rtol, "rel",
+                               f"{lb.name}: mass {lb.mass:.9g} kg, scene says {body.mass:.9g} kg"))
+        out.append(Discrepancy(lb.name, "com", float(np.linalg.norm(lb.p_BCm_B - body.p_BCm_B) / length), rtol, "rel",
+                               f"{lb.name}: centre of mass {lb.p_BCm_B.tolist()} m, scene says {body.p_BCm_B.tolist()} m"))
+        scale = max(float(np.abs(body.I_Cm_B).max()), 1e-300)
+        out.append(Discrepancy(lb.name, "inertia", float(np.abs(lb.I_Cm_B - body.I_Cm_B).max() / scale), rtol, "rel",
+                               f"{lb.name}: inertia about the centre of mass {np.round(lb.I_Cm_B, 12).tolist()} kg m^2, "
+                               f"scene says {np.round(body.I_Cm_B, 12).tolist()} kg m^2"))
+        if JOINTS[body.joint].constrained:
+            out.append(Discrepancy(lb.name, "joint_position", float(np.linalg.norm(lb.p_PB_P - body.p_PB_P) / length), rtol,
+                                   "rel", f"{lb.name}: joint position in parent {lb.p_PB_P.tolist()} m, "
+                                          f"scene says {body.p_PB_P.tolist()} m"))
+        same = lb.joint == body.joint
+        out.append(Discrepancy(lb.name, "joint_type", 0.0 if same else 1.0, 0.0, "",
+                               f"{lb.name}: joint type {lb.joint}, scene says {body.joint}"))
+        if same and JOINTS[body.joint].axis:
+            norm = float(np.linalg.norm(lb.axis_B))
+            chord = float(np.linalg.norm(lb.axis_B / norm - body.axis_B)) if norm > 0 else 2.0
+            out.append(Discrepancy(lb.name, "axis", 2.0 * float(np.arcsin(min(1.0, chord / 2.0))), AXIS_TOL, "rad",
+                                   f"{lb.name}: {body.joint} axis {lb.axis_B.tolist()}, scene says {body.axis_B.tolist()}"))
+    return out
+
+
+def compare_bodies(loaded: list[LoadedBody], model: Multibody, rtol: float = 1e-9) -> list[str]:
+    """Disagreements between loaded bodies and the scene description, one message each
+    (the failing ``body_discrepancies``)."""
+    return [d.message for d in body_discrepancies(loaded, model, rtol) if not d.passed]
 
 
 # --------------------------------------------------------------------------- any model, per joint
@@ -322,9 +370,15 @@ def check_joint_bodies_physical(bodies: list[JointBody], source: str) -> None:
         check_inertia(x.I_Cm_B, what, source)
 
 
+def gravity_discrepancy(g_loaded: np.ndarray, g_scene: np.ndarray, rtol: float = 1e-9) -> Discrepancy:
+    """The loaded gravity (m/s^2, world) against the scene's: |g - g_s| / max(|g_s|, 1 m/s^2)."""
+    scale = max(np.linalg.norm(g_scene), 1.0)
+    value = float(np.linalg.norm(np.asarray(g_loaded) - g_scene) / scale)
+    return Discrepancy("", "gravity", value, rtol, "rel",
+                       f"gravity {np.round(g_loaded, 12).tolist()} m/s^2, scene says {np.round(g_scene, 12).tolist()} m/s^2")
+
+
 def gravity_problem(g_loaded: np.ndarray, g_scene: np.ndarray, rtol: float = 1e-9) -> str | None:
     """A message when the loaded gravity (m/s^2, world) differs from the scene's, else None."""
-    scale = max(np.linalg.norm(g_scene), 1.0)
-    if np.linalg.norm(np.asarray(g_loaded) - g_scene) > rtol * scale:
-        return f"gravity {np.round(g_loaded, 12).tolist()} m/s^2, scene says {np.round(g_scene, 12).tolist()} m/s^2"
-    return None
+    d = gravity_discrepancy(g_loaded, g_scene, rtol)
+    return None if d.passed else d.message

@@ -1,12 +1,23 @@
 """Validation of scenes: run every engine, compare, check each quantity against its tolerance.
 
-For each scene: an in-house reference run (DOP853, rtol = atol = 1e-12) is made first; then
+First, for each scene, the model files are judged AS WRITTEN (``model_checks``): each engine that
+reads one (MuJoCo the MJCF, Pinocchio the URDF) loads it without the scene's parameters applied
+(``harness.tools.inspection.as_written``), and every body's mass, centre of mass, inertia, joint
+position, joint type and axis (and the MJCF's gravity) is checked against the scene at its
+``scene.toml`` defaults, which the files must hold: checks ``model.<body>.<quantity>`` of that
+engine (relative, 1e-6, the files' rounded decimals; axes 1e-9 rad). The runs themselves load the
+files with the scene's parameters written over them (``load_mjcf``, ``load_urdf``), which is how
+``--set`` overrides reach every engine, and why a wrong number in a file shows only here.
+
+Then, for each scene: an in-house reference run (DOP853, rtol = atol = 1e-12) is made first; then
 each engine runs at the scene's default integrator and step. Checks (those the scene declares
 in ``[checks.*]`` of its ``scene.toml``):
 
 * ``energy_drift`` (unforced) or ``energy_balance`` (forced: E - E0 - work of the forces);
 * ``momentum_drift.<c>`` for each conserved component the scene lists;
-* ``trajectory.position/orientation/velocity/angular_velocity`` against the reference;
+* ``trajectory.position/orientation/velocity/angular_velocity`` against the reference (each
+  quantity, its scale and its tolerance defined once in ``harness.validate.quantities``, which
+  ``harness debug`` judges by too);
 * ``constraint.position/axis``, joint violations from maximal coordinates;
 * ``exact``: against the scene's closed-form solution (``harness.measure.exact``);
 * ``reaction.force/moment`` (scenes with ``[checks.reaction]``): joint reactions against the
@@ -17,7 +28,9 @@ in ``[checks.*]`` of its ``scene.toml``):
 * ``engine_energy``: the engine's own energy against the harness's recomputation.
 
 A ``[checks.trajectory]`` tolerance is a number for every engine or a table per engine (rolling_disk:
-MuJoCo's soft contact is held to what it can reach, the ideal-constraint engines to 1e-9).
+MuJoCo's soft contact is held to what it can reach, the ideal-constraint engines to 1e-9). A check
+whose tolerance is such a regression bound (what the engine reaches, with a margin) is marked
+``regression_only`` (``harness.validate.quantities.regression_only``).
 
 The reference run is itself checked (engine ``reference``) for conservation and against the
 exact solution before it judges anything. Every run (reference, and each scene x engine) is
@@ -40,10 +53,11 @@ from harness.measure import compare, contact_metrics, exact
 from harness.measure.trajectory import Trajectory
 from harness.model import forces
 from harness.model.errors import InputError
-from harness.model.scene import Scene
+from harness.model.scene import MODELS_DIR, Scene
+from harness.validate import quantities
+from harness.validate.quantities import REFERENCE_ENGINE  # the engine of the reference run (``reference_case``)
 from harness.validate.workers import Outcome, run_cases
 
-REFERENCE_ENGINE = "inhouse"  # the engine of the reference run (``reference_case``)
 REFERENCE_METHOD = "DOP853"
 REFERENCE_TOL = 1e-12
 ENGINE_ENERGY_TOL = 1e-9  # relative; a larger mismatch means the engine's mass model differs
@@ -62,6 +76,17 @@ class CheckResult:
     unit: str
     passed: bool
     detail: str = ""
+    regression_only: bool = False  # the tolerance is a regression bound (quantities.regression_only)
+
+    @property
+    def margin(self) -> float:
+        """value / tolerance (1 = at the tolerance); 0 for a zero value, inf for a nonzero value
+        against a zero tolerance, NaN for a missing value."""
+        if not np.isfinite(self.value):
+            return float("nan")
+        if self.value == 0.0:
+            return 0.0
+        return self.value / self.tolerance if self.tolerance > 0 else float("inf")
 
 
 @dataclass(frozen=True)
@@ -92,6 +117,7 @@ class SceneValidation:
     runs: list[RunRecord] = field(default_factory=list)
     cross: dict[str, dict[str, float]] = field(default_factory=dict)
     tolerance_changes: list[str] = field(default_factory=list)
+    overrides: dict[str, dict] = field(default_factory=dict)  # parameter -> {"value", "default"}: set away from scene.toml
 
     @property
     def passed(self) -> bool:
@@ -141,6 +167,8 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
     Raises InputError if any case reports bad input (e.g. a model that does not load).
     """
     jobs = jobs or os.cpu_count() or 1
+    defaults = {s.name: _defaults(s) for s in scenes}
+    models = {s.name: model_checks(s, engines, defaults[s.name]) for s in scenes}
     refs = run_cases([(s.name, reference_case, (s,)) for s in scenes], jobs, timeout)
     _raise_input_errors(refs)
     cases = []
@@ -154,7 +182,9 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
     results = []
     for s in scenes:
         v = SceneValidation(scene=s.name, parameters={k: _jsonable(x) for k, x in s.params.items()},
-                            tolerance_changes=list((tolerance_changes or {}).get(s.name, [])))
+                            tolerance_changes=list((tolerance_changes or {}).get(s.name, [])),
+                            overrides=parameter_overrides(s, defaults[s.name]))
+        v.checks.extend(models[s.name])
         _collect(v, s, "reference", refs[s.name], reference_settings(s))
         trajectories = {}
         for e in engines:
@@ -176,6 +206,55 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
 def validate_scene(scene: Scene, engines: list[str], **kwargs) -> SceneValidation:
     """Validate one scene (see ``validate``)."""
     return validate([scene], engines, **kwargs)[0]
+
+
+def _defaults(scene: Scene) -> Scene:
+    from harness.tools.inspection import scene_defaults
+
+    return scene_defaults(scene)
+
+
+def parameter_overrides(scene: Scene, defaults: Scene) -> dict[str, dict]:
+    """The parameters whose value differs from the ``scene.toml`` default (set by ``--set``):
+    name -> ``{"value": ..., "default": ...}`` (units of the parameter)."""
+    base = defaults.params
+    return {k: {"value": _jsonable(x), "default": _jsonable(base.get(k))}
+            for k, x in scene.params.items() if base.get(k) != x}
+
+
+def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None) -> list[CheckResult]:
+    """The model files of ``scene`` as written, against the scene at its ``scene.toml`` defaults
+    (``defaults``; re-read when not given), for each of ``engines`` that reads one: a check
+    ``model.<body>.<quantity>`` (``model.gravity`` for the MJCF's gravity) per quantity of
+    ``harness.tools.loaded_models.body_discrepancies``, engine = the loader. A file that does not
+    load or holds a non-physical body raises InputError; any other failure to read it back is
+    a failed ``model.load`` check."""
+    from harness.tools.inspection import MODEL_FILE_ENGINES, as_written
+
+    model0 = (defaults if defaults is not None else _defaults(scene)).multibody()
+    hint = f"harness inspect {scene.name}"
+    if scene.directory.parent.resolve() != MODELS_DIR.resolve():
+        hint += f" --models-dir {scene.directory.parent}"
+    out: list[CheckResult] = []
+    for engine in engines:
+        if engine not in MODEL_FILE_ENGINES:
+            continue
+        try:
+            loaded = as_written(scene, engine, model0)
+        except InputError:
+            raise
+        except Exception as err:  # noqa: BLE001 - a model that cannot be read back is a failed check
+            path = scene.mjcf if engine == "mujoco" else scene.urdf
+            out.append(CheckResult(scene.name, engine, "model.load", float("nan"), 0.0, "", False,
+                                   f"{path.name} as written: {type(err).__name__}: {' '.join(str(err).split())}; {hint} shows more"))
+            continue
+        for d in loaded.discrepancies:
+            name = f"model.{d.body}.{d.quantity}" if d.body else f"model.{d.quantity}"
+            detail = f"{loaded.path.name} as written vs scene.toml defaults: {d.message}"
+            if not d.passed:
+                detail += f"; {hint} shows more"
+            out.append(CheckResult(scene.name, engine, name, float(d.value), float(d.tolerance), d.unit, d.passed, detail))
+    return out
 
 
 def _raise_input_errors(outcomes: dict[Any, Outcome]) -> None:
@@ -205,7 +284,8 @@ def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Traj
 
     def add(check, value, tol, unit, detail=""):
         ok = bool(np.isfinite(value) and value <= tol)
-        out.append(CheckResult(scene.name, label, check, float(value), float(tol), unit, ok, detail))
+        out.append(CheckResult(scene.name, label, check, float(value), float(tol), unit, ok, detail,
+                               quantities.regression_only(scene.name, checks, check, engine)))
 
     if not traj.ok:
         out.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False, f"{traj.status}: {traj.message}"))
@@ -227,20 +307,11 @@ def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Traj
                                    f"reference run {ref.status}: {ref.message}"))
         else:
             err = compare.trajectory_error(traj, ref)
-            scale = compare.motion_scales(ref, model)
-            tol = checks["trajectory"]
-            for key, tol_key, unit, scale_key, what in (
-                ("position", "position", "m", "length", "centre of mass"),
-                ("orientation", "orientation", "rad", None, "geodesic angle on SO(3)"),
-                ("velocity", "velocity", "m/s", "velocity", "centre-of-mass velocity"),
-                ("angular_velocity", "velocity", "rad/s", "angular_velocity", "world frame"),
-            ):
-                value = err[f"{key}_max"]
-                if scale_key is None:
-                    add(f"trajectory.{key}", value, _per_engine(tol[tol_key], engine), unit, f"max over bodies and samples; {what}")
-                else:
-                    add(f"trajectory.{key}", value / scale[scale_key], _per_engine(tol[tol_key], engine), "rel",
-                        f"{value:.2e} {unit} over {scale_key} scale {scale[scale_key]:.3g} {unit}; {what}")
+            scales = compare.motion_scales(ref, model)
+            for q in quantities.TRAJECTORY:
+                raw = err[f"{q.name}_max"]
+                add(q.check, q.judged(raw, scales), quantities.tolerance(checks, q, engine), q.judged_unit,
+                    q.detail(raw, scales))
     if "constraint" in checks:
         viol = compare.constraint_violation(traj, model)
         tol = checks["constraint"][engine]
@@ -292,11 +363,6 @@ def _check_reactions(scene: Scene, label: str, engine: str, traj: Trajectory, re
         add("reaction.exact", value / f_scale, tol, "rel", f"{value:.2e} N over force scale {f_scale:.3g} N; {detail}")
 
 
-def _per_engine(tol, engine: str) -> float:
-    """A tolerance given for all engines (a number) or per engine (a table of numbers)."""
-    return tol[engine] if isinstance(tol, dict) else tol
-
-
 def _record(scene, engine, settings, traj, wall) -> RunRecord:
     adaptive = integrator(REFERENCE_ENGINE if engine == "reference" else engine, settings.integrator).adaptive
     return RunRecord(scene.name, engine, settings.integrator, settings.dt,
@@ -313,6 +379,7 @@ def as_dict(v: SceneValidation) -> dict:
         "scene": v.scene,
         "passed": v.passed,
         "parameters": v.parameters,
+        "parameter_overrides": v.overrides,
         "tolerance_changes": v.tolerance_changes,
         "runs": [asdict(r) for r in v.runs],
         "checks": [asdict(c) for c in v.checks],

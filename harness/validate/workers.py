@@ -2,27 +2,54 @@
 a hang or a blow-up in one engine is recorded as that case's failure and nothing else is lost.
 
 ``run_cases(cases, jobs, timeout)`` runs ``(key, fn, args)`` cases at most ``jobs`` at a time
-and returns ``{key: Outcome}``. Workers are forked (POSIX) so they start in milliseconds;
-where fork is unavailable, spawned.
+and returns ``{key: Outcome}``. ``Workers`` is the same machinery for a caller that decides
+what to start next as cases end (the stress study). Workers are forked (POSIX) so they start in
+milliseconds; where fork is unavailable, spawned. Each case gets a fresh process: nothing one
+case does (a segfault, a leaked global, an exhausted heap) reaches another.
+
+Hygiene under faults:
+
+* Workers die with their parent. On Linux each worker asks the kernel for ``SIGKILL`` when its
+  parent dies (``prctl(PR_SET_PDEATHSIG)``), so even a ``SIGKILL`` of the parent (a CI timeout)
+  leaves no orphan. Independently, while cases run, the parent kills its workers on ``SIGTERM``
+  (then dies of that ``SIGTERM`` as it would have) and on any exception or normal return.
+* Results of any size come back: the parent waits on all result pipes and process sentinels
+  at once (``multiprocessing.connection.wait``) and reads a result as soon as it starts to
+  arrive, so a worker never blocks for long on a full pipe.
+* No spurious timeouts under load: at most ``usable_cpus()`` cases run at once (the CPUs this
+  process may use: its affinity mask and its cgroup CPU quota), however large ``jobs`` is, and
+  each case's ``timeout`` (wall-clock seconds) counts from that case's own start.
 """
 
 from __future__ import annotations
 
+import collections
+import ctypes
+import functools
+import math
 import multiprocessing as mp
+import multiprocessing.connection as mpc
 import os
+import signal
+import sys
+import threading
 import time
 import traceback
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Callable, Hashable
 
 from harness.model.errors import InputError
+
+_PR_SET_PDEATHSIG = 1
 
 
 @dataclass(frozen=True)
 class Outcome:
     """How one case ended: ``status`` is ``ok`` (``value`` holds the result), ``input_error``
     (``message`` is the one-line InputError), ``error`` (an exception, ``message`` says which),
-    ``crashed`` (the worker died, e.g. a signal) or ``timeout``."""
+    ``crashed`` (the worker died, e.g. a signal) or ``timeout``. ``wall_s``: wall-clock seconds
+    from the case's start to its end."""
 
     status: str
     value: Any = None
@@ -30,12 +57,109 @@ class Outcome:
     wall_s: float = 0.0
 
 
+# ------------------------------------------------------------------------------------ CPUs
+def _cgroup_cpu_limit() -> float | None:
+    """CPUs allowed by the cgroup CPU quota of this process (``quota / period``), the smallest
+    along its cgroup path; None without a quota or off Linux. Reads cgroup v2 ``cpu.max`` and
+    cgroup v1 ``cpu.cfs_quota_us`` / ``cpu.cfs_period_us``."""
+    limits: list[float] = []
+    try:
+        lines = Path("/proc/self/cgroup").read_text().splitlines()
+    except OSError:
+        return None
+    for line in lines:
+        parts = line.split(":", 2)
+        if len(parts) != 3:
+            continue
+        hier, controllers, rel = parts
+        if hier == "0" and controllers == "":  # cgroup v2
+            roots, name = [Path("/sys/fs/cgroup")], "cpu.max"
+        elif "cpu" in controllers.split(","):  # cgroup v1
+            roots, name = [Path("/sys/fs/cgroup") / c for c in ("cpu", "cpu,cpuacct", controllers)], None
+        else:
+            continue
+        for root in roots:
+            folder = root / rel.lstrip("/")
+            while True:
+                try:
+                    if name:
+                        quota, period = (folder / name).read_text().split()[:2]
+                        if quota != "max":
+                            limits.append(int(quota) / int(period))
+                    else:
+                        quota = int((folder / "cpu.cfs_quota_us").read_text())
+                        period = int((folder / "cpu.cfs_period_us").read_text())
+                        if quota > 0 and period > 0:
+                            limits.append(quota / period)
+                except (OSError, ValueError):
+                    pass
+                if folder == root or folder.parent == folder:
+                    break
+                folder = folder.parent
+    return min(limits) if limits else None
+
+
+def usable_cpus() -> int:
+    """How many CPUs this process may use: the size of its affinity mask
+    (``os.sched_getaffinity(0)``, else ``os.cpu_count()``), further limited by a cgroup CPU
+    quota rounded up (a quota of 1.5 CPUs gives 2). At least 1."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    limit = _cgroup_cpu_limit()
+    if limit:
+        n = min(n, max(1, math.ceil(limit - 1e-9)))
+    return max(1, n)
+
+
+def effective_jobs(jobs: int | None) -> int:
+    """The number of cases run at once for a requested ``jobs``: ``None`` or ``0`` means all
+    usable CPUs; anything larger than ``usable_cpus()`` is clamped to it (more processes than
+    CPUs only slows every case and makes wall-clock timeouts fire spuriously); at least 1."""
+    cpus = usable_cpus()
+    return cpus if not jobs or jobs < 0 else max(1, min(int(jobs), cpus))
+
+
+# ------------------------------------------------------------------------------------ worker side
 def _context():
     methods = mp.get_all_start_methods()
     return mp.get_context("fork" if "fork" in methods else "spawn")
 
 
+@functools.lru_cache(maxsize=None)
+def _prctl():
+    """libc's ``prctl`` on Linux, else None (looked up once, in the parent, before forking).
+    Note: the kernel sends the death signal when the *thread* that forked the worker ends; the
+    parent's calls block until their workers end, so that thread outlives them."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        return ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+
+
+def _die_with_parent() -> None:
+    """In a worker: SIGKILL when the parent dies (Linux), default SIGTERM/SIGINT handling (a
+    forked worker inherits the parent's Python handlers), and exit at once if the parent is
+    already gone."""
+    for sig in (signal.SIGTERM,):
+        try:
+            signal.signal(sig, signal.SIG_DFL)
+        except (ValueError, OSError):
+            pass
+    prctl = _prctl()
+    if prctl is not None:
+        prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    parent = mp.parent_process()
+    if parent is not None and parent.pid is not None and os.getppid() != parent.pid:
+        os._exit(1)  # the parent died before prctl took effect
+
+
 def _worker(conn, fn, args):
+    """Body of a worker process: run ``fn(*args)`` and send ``(status, value, message)``."""
+    _die_with_parent()
     try:
         conn.send(("ok", fn(*args), ""))
     except InputError as err:
@@ -48,46 +172,173 @@ def _worker(conn, fn, args):
         conn.close()
 
 
-def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int, timeout: float) -> dict[Hashable, Outcome]:
-    """Run each ``fn(*args)`` in its own process, ``jobs`` at a time, each limited to ``timeout`` s."""
-    ctx = _context()
-    pending = list(cases)
-    running: dict[Hashable, tuple[Any, Any, float]] = {}
+# ------------------------------------------------------------------------------------ parent side
+# Worker processes started by this process and not yet reaped. Changed only by the thread that
+# runs the cases, read by the SIGTERM handler (which runs in the main thread between bytecodes,
+# so it sees the set whole; a lock here could deadlock against the interrupted thread).
+_LIVE: set = set()
+
+
+def _kill_live() -> None:
+    for proc in list(_LIVE):
+        try:
+            proc.kill()
+        except (OSError, ValueError, AttributeError):
+            pass
+
+
+def _died(proc) -> str:
+    code = proc.exitcode
+    if code is not None and code < 0:
+        try:
+            return f"worker died (exit code {code}, {signal.Signals(-code).name})"
+        except ValueError:
+            pass
+    return f"worker died (exit code {code})"
+
+
+@dataclass
+class _Running:
+    key: Hashable
+    proc: Any
+    conn: Any
+    start: float
+    timeout: float
+
+
+class Workers:
+    """Worker processes for isolated cases, at most ``slots`` at a time.
+
+    Use as a context manager: on leaving it (normally or by an exception) every worker still
+    running is killed; inside it, a ``SIGTERM`` to this process kills the workers and then
+    terminates the process as the signal would have (installed only from the main thread, and
+    only where ``SIGTERM`` has its default action or a Python handler, which is then chained).
+
+    ``start(key, fn, args, timeout)`` starts a case (``timeout`` in wall-clock seconds from now);
+    ``wait()`` blocks until at least one running case ends and returns ``[(key, Outcome)]``.
+    ``slots = effective_jobs(jobs)``.
+    """
+
+    def __init__(self, jobs: int | None = None):
+        self.slots = effective_jobs(jobs)
+        self._ctx = _context()
+        _prctl()  # look it up before forking, once
+        self._running: dict[int, _Running] = {}
+        self._serial = 0
+        self._previous: Any = None
+        self._installed = False
+
+    # -- context
+    def __enter__(self) -> "Workers":
+        if threading.current_thread() is threading.main_thread():
+            previous = signal.getsignal(signal.SIGTERM)
+            if previous is signal.SIG_DFL or callable(previous):
+                self._previous = previous
+                signal.signal(signal.SIGTERM, self._on_sigterm)
+                self._installed = True
+        return self
+
+    def __exit__(self, *exc) -> None:
+        try:
+            self.close()
+        finally:
+            if self._installed:
+                signal.signal(signal.SIGTERM, self._previous)
+                self._installed = False
+
+    def _on_sigterm(self, signum, frame) -> None:
+        _kill_live()
+        previous, self._installed = self._previous, False
+        signal.signal(signal.SIGTERM, previous)
+        if callable(previous):
+            previous(signum, frame)
+        else:
+            os.kill(os.getpid(), signum)  # default action: die of SIGTERM, as without us
+
+    def close(self) -> None:
+        """Kill and reap every worker still running (their cases get no outcome)."""
+        for run in list(self._running.values()):
+            self._finish(run, kill=True)
+        self._running.clear()
+
+    # -- cases
+    def __len__(self) -> int:
+        return len(self._running)
+
+    def free(self) -> int:
+        """How many more cases may start now."""
+        return max(0, self.slots - len(self._running))
+
+    def start(self, key: Hashable, fn: Callable, args: tuple, timeout: float) -> None:
+        """Start ``fn(*args)`` in a new worker process, limited to ``timeout`` s from now."""
+        parent, child = self._ctx.Pipe(duplex=False)
+        proc = self._ctx.Process(target=_worker, args=(child, fn, args), daemon=True)
+        proc.start()
+        _LIVE.add(proc)
+        child.close()
+        self._serial += 1
+        self._running[self._serial] = _Running(key, proc, parent, time.monotonic(), float(timeout))
+
+    def _finish(self, run: _Running, kill: bool = False) -> None:
+        if kill and run.proc.is_alive():
+            run.proc.kill()
+        run.proc.join(5.0)
+        if run.proc.is_alive():  # sent its result but does not exit
+            run.proc.kill()
+            run.proc.join()
+        _LIVE.discard(run.proc)
+        run.conn.close()
+
+    def wait(self) -> list[tuple[Hashable, Outcome]]:
+        """Block until at least one running case ends (result, crash or timeout); return the
+        cases that ended as ``[(key, Outcome)]``. Returns ``[]`` at once if none is running."""
+        while self._running:
+            now = time.monotonic()
+            deadline = min(r.start + r.timeout for r in self._running.values())
+            handles = [r.conn for r in self._running.values()] + [r.proc.sentinel for r in self._running.values()]
+            ready = set(mpc.wait(handles, timeout=max(0.0, deadline - now)))
+            ended: list[tuple[Hashable, Outcome]] = []
+            for serial, run in list(self._running.items()):
+                outcome = None
+                if run.conn in ready or run.proc.sentinel in ready:
+                    # Read the result first: a worker may have exited with its whole result
+                    # still in the pipe, and a large result is read while the worker writes it.
+                    if run.conn.poll():
+                        try:
+                            status, value, message = run.conn.recv()
+                        except (EOFError, OSError):
+                            run.proc.join(1.0)
+                            outcome = Outcome("crashed", message=_died(run.proc), wall_s=time.monotonic() - run.start)
+                        else:
+                            outcome = Outcome(status, value, message, time.monotonic() - run.start)
+                    else:
+                        run.proc.join(1.0)
+                        outcome = Outcome("crashed", message=_died(run.proc), wall_s=time.monotonic() - run.start)
+                    self._finish(run)
+                elif time.monotonic() - run.start > run.timeout:
+                    self._finish(run, kill=True)
+                    outcome = Outcome("timeout", message=f"no result within {run.timeout:g} s",
+                                      wall_s=time.monotonic() - run.start)
+                if outcome is not None:
+                    del self._running[serial]
+                    ended.append((run.key, outcome))
+            if ended:
+                return ended
+        return []
+
+
+def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, timeout: float) -> dict[Hashable, Outcome]:
+    """Run each ``fn(*args)`` in its own process, at most ``effective_jobs(jobs)`` at a time,
+    each limited to ``timeout`` wall-clock seconds from its own start. Returns ``{key: Outcome}``
+    for every case. Workers still running when this returns or raises (or when the process gets
+    SIGTERM) are killed; on Linux they also die if this process is killed outright."""
+    pending = collections.deque(cases)
     results: dict[Hashable, Outcome] = {}
-    jobs = max(1, jobs)
-    while pending or running:
-        while pending and len(running) < jobs:
-            key, fn, args = pending.pop(0)
-            parent, child = ctx.Pipe(duplex=False)
-            proc = ctx.Process(target=_worker, args=(child, fn, args), daemon=True)
-            proc.start()
-            child.close()
-            running[key] = (proc, parent, time.perf_counter())
-        done = []
-        for key, (proc, conn, start) in running.items():
-            elapsed = time.perf_counter() - start
-            if conn.poll():
-                try:
-                    status, value, message = conn.recv()
-                except (EOFError, OSError):
-                    proc.join(1.0)
-                    results[key] = Outcome("crashed", message=f"worker died (exit code {proc.exitcode})", wall_s=elapsed)
-                else:
-                    results[key] = Outcome(status, value, message, elapsed)
-                proc.join(5.0)
-                done.append(key)
-            elif not proc.is_alive():
-                proc.join()
-                results[key] = Outcome("crashed", message=f"worker died (exit code {proc.exitcode})", wall_s=elapsed)
-                done.append(key)
-            elif elapsed > timeout:
-                proc.kill()
-                proc.join()
-                results[key] = Outcome("timeout", message=f"no result within {timeout:g} s", wall_s=elapsed)
-                done.append(key)
-        for key in done:
-            proc, conn, _ = running.pop(key)
-            conn.close()
-        if running and not done:
-            time.sleep(0.005)
+    with Workers(jobs) as workers:
+        while pending or len(workers):
+            while pending and workers.free():
+                key, fn, args = pending.popleft()
+                workers.start(key, fn, args, timeout)
+            for key, outcome in workers.wait():
+                results[key] = outcome
     return results

@@ -4,6 +4,7 @@ import shutil
 import subprocess
 import sys
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -103,3 +104,290 @@ def test_console_script_is_installed():
     proc = subprocess.run([sys.executable, "-m", "harness.cli.main", "simulate", "nope", "--engine", "mujoco", "--out", "x.csv"],
                           capture_output=True, text=True)
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1
+
+
+# ---------------------------------------------------------------- no vacuous verdicts
+
+def _validate(args, tmp_path, capsys):
+    reports = tmp_path / "reports"
+    code, out, err = run(["validate", *args, "--out-dir", str(reports)], capsys)
+    return code, out, err, reports
+
+
+@pytest.mark.parametrize("make_dir,args,fragment", [
+    (False, ["--models-dir", "{tmp}/modles"], "argument --models-dir: no such folder"),
+    (True, ["--models-dir", "{tmp}/empty"], "nothing to run: no scenes under"),
+    (False, ["--engines", ","], "--engines selects nothing"),
+    (False, ["--scenes", ","], "--scenes selects nothing"),
+    (False, ["--scenes", "heavy_top", "--jobs", "-1"], "--jobs must be >= 0"),
+    (False, ["--scenes", "heavy_top", "--timeout", "nan"], "argument --timeout: not a finite number"),
+])
+def test_validate_over_nothing_is_exit_2(tmp_path, capsys, make_dir, args, fragment):
+    if make_dir:
+        (tmp_path / "empty").mkdir()
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    code, out, err, reports = _validate(args, tmp_path, capsys)
+    assert_one_line_error(code, err, fragment)
+    assert not reports.exists() and out == ""
+
+
+def test_validation_in_which_no_check_ran_is_exit_2(tmp_path, capsys, monkeypatch):
+    """Whatever makes a scene yield no check, the CLI writes nothing and exits 2."""
+    import harness.validate.run as run_module
+    from harness.validate.run import SceneValidation
+
+    called = []
+
+    def no_checks(scenes, engines, **kwargs):
+        called.append([s.name for s in scenes])
+        return [SceneValidation(scene=s.name, parameters={}) for s in scenes]
+
+    monkeypatch.setattr(run_module, "validate", no_checks)
+    code, _, err, reports = _validate(["--scenes", "heavy_top", "--engines", "mujoco"], tmp_path, capsys)
+    assert called == [["heavy_top"]]
+    assert_one_line_error(code, err, "no check ran for heavy_top")
+    assert not reports.exists()
+
+
+ENERGY = "[checks.energy_drift]\ninhouse = 1e-8\nmujoco = 1e-8\npinocchio = 1e-8\n"
+
+
+@pytest.mark.parametrize("old,new,fragment", [
+    ("[checks.energy_drift]", "[checks.enrgy_drift]", "unknown check table [checks.enrgy_drift]"),
+    (ENERGY, ENERGY.replace("inhouse", "inhous"), "unknown key 'inhous' at [checks.energy_drift]"),
+    ("t_end = 5.0", 't_end = "abc"', "[simulation] t_end must be a number"),
+    (ENERGY, ENERGY.replace("mujoco = 1e-8\n", ""), "[checks.energy_drift] lacks mujoco"),
+    ("[parameters]", 'colour = "red"\n[parameters]', "unknown key 'colour' at [needs]"),
+])
+def test_scene_description_mistakes_are_exit_2(models_copy, tmp_path, capsys, old, new, fragment):
+    path = models_copy / "heavy_top" / "scene.toml"
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+    code, _, err, reports = _validate(["--models-dir", str(models_copy)], tmp_path, capsys)
+    assert_one_line_error(code, err, fragment)
+    assert str(path) in err and not reports.exists()
+
+
+def test_scene_without_checks_is_exit_2(models_copy, tmp_path, capsys):
+    path = models_copy / "heavy_top" / "scene.toml"
+    text = path.read_text()
+    path.write_text(text[:text.index("[checks.")])
+    code, _, err, reports = _validate(["--models-dir", str(models_copy)], tmp_path, capsys)
+    assert_one_line_error(code, err, "declares no [checks.<name>] table")
+    assert not reports.exists()
+
+
+# ---------------------------------------------------------------- one line, never a traceback
+
+@pytest.mark.parametrize("fname", ["scene.toml", "heavy_top.urdf", "heavy_top.xml"])
+def test_non_utf8_files_are_exit_2(models_copy, tmp_path, capsys, fname):
+    path = models_copy / "heavy_top" / fname
+    path.write_bytes(path.read_bytes().replace(b"heavy", b"h\xe9avy", 1))
+    code, _, err, reports = _validate(["--models-dir", str(models_copy)], tmp_path, capsys)
+    assert_one_line_error(code, err, "not UTF-8 text (byte 0xe9 at offset")
+    assert str(path) in err and not reports.exists()
+    out_file = tmp_path / "top.csv"
+    code, _, err = run(["simulate", "heavy_top", "--engine", "pinocchio", "--models-dir", str(models_copy),
+                        "--out", str(out_file)], capsys)
+    assert_one_line_error(code, err, "not UTF-8 text")
+    assert not out_file.exists()
+
+
+def test_non_utf8_model_in_check_is_exit_2(tmp_path, capsys):
+    urdf = tmp_path / "m.urdf"
+    urdf.write_bytes((MODELS_DIR / "heavy_top" / "heavy_top.urdf").read_bytes().replace(b"top", b"t\xf6p", 1))
+    code, _, err = run(["check", "--urdf", str(urdf), "--out-dir", str(tmp_path / "r")], capsys)
+    assert_one_line_error(code, err, f"{urdf}: URDF file is not UTF-8 text")
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("text,fragment", [
+    ("heavy_top = 5\n", "heavy_top = 5: expected tables [heavy_top.<check>] of tolerances"),
+    (b"[heavy_top.energy_drift]\nmujoco = 1e-9 # \xff\n", "not UTF-8 text"),
+    ("[heavy_top.energy_drift]\nmujoco = inf\n", "must be positive and finite"),
+])
+def test_bad_tolerance_file_is_exit_2(tmp_path, capsys, text, fragment):
+    tol = tmp_path / "tol.toml"
+    (tol.write_bytes if isinstance(text, bytes) else tol.write_text)(text)
+    code, _, err, reports = _validate(["--scenes", "heavy_top", "--tolerances", str(tol)], tmp_path, capsys)
+    assert_one_line_error(code, err, fragment)
+    assert str(tol) in err and not reports.exists()
+
+
+@pytest.mark.parametrize("args,fragment", [
+    (["simulate", "double_pendulum", "--engine", "mujoco", "--set", "L=1e300"], "parameter 'L' = '1e300' is beyond +-1e+100"),
+    (["simulate", "double_pendulum", "--engine", "mujoco", "--set", "L=-1e101"], "parameter 'L' = '-1e101' is beyond"),
+    (["simulate", "torque_free", "--engine", "mujoco", "--t-end", "1e9"], "--t-end and --save-every"),
+    (["simulate", "torque_free", "--engine", "mujoco", "--t-end", "inf"], "argument --t-end: not a finite number"),
+    (["simulate", "torque_free", "--engine", "inhouse", "--integrator", "DOP853", "--rtol", "0"], "--rtol must be positive"),
+    (["simulate", "torque_free", "--engine", "mujoco", "--models-dir", "/nonexistent/models"], "no such folder"),
+])
+def test_simulate_out_of_range_is_exit_2(tmp_path, capsys, args, fragment):
+    out_file = tmp_path / "x.csv"
+    code, _, err = run(args + ["--out", str(out_file)], capsys)
+    assert_one_line_error(code, err, fragment)
+    assert not out_file.exists()
+
+
+def test_validate_overflowing_parameter_is_exit_2(tmp_path, capsys):
+    code, _, err, reports = _validate(["--scenes", "double_pendulum", "--engines", "mujoco", "--set", "L=1e300"],
+                                      tmp_path, capsys)
+    assert_one_line_error(code, err, "parameter 'L' = '1e300' is beyond +-1e+100")
+    assert not reports.exists()
+
+
+def test_debug_huge_horizon_is_exit_2(tmp_path, capsys):
+    code, _, err = run(["debug", "torque_free", "--engines", "mujoco,pinocchio", "--t-end", "1e9",
+                        "--out-dir", str(tmp_path / "d")], capsys)
+    assert_one_line_error(code, err, "--t-end: a horizon of 1e+09 s")
+    assert not (tmp_path / "d").exists()
+
+
+def test_non_finite_values_are_a_blowup_not_ok(tmp_path, capsys, monkeypatch):
+    """An engine that reports ok while a velocity went non-finite (here: the in-house run with an
+    inf put into sample 3): the CLI reports a blow-up, exit 1, and writes only samples 0-2."""
+    from dataclasses import replace
+
+    from harness.engines.inhouse import ENGINE
+
+    real = ENGINE.simulate
+
+    def misses_blowup(scene, settings):
+        traj = real(scene, settings)
+        v = traj.v_WCm_W.copy()
+        v[3, 0, 0] = np.inf
+        return replace(traj, v_WCm_W=v)
+
+    monkeypatch.setattr(ENGINE, "simulate", misses_blowup)
+    out_file = tmp_path / "top.csv"
+    code, out, err = run(["simulate", "torque_free", "--engine", "inhouse", "--t-end", "0.1", "--out", str(out_file)],
+                         capsys)
+    assert code == 1, (out, err)
+    assert "status blowup (non-finite kinetic, energy, px and " in out and "at t = 0.03 s" in out, out
+    frame = pd.read_csv(out_file)
+    assert list(frame["t"]) == pytest.approx([0.0, 0.01, 0.02])
+    assert np.isfinite(frame.to_numpy(dtype=float)).all()
+
+
+def test_failed_run_writes_no_inf(tmp_path, capsys):
+    """A huge pendulum rate (1e100 rad/s on a 1e5 m rod of 1e100 kg): the kinetic energy overflows
+    at t = 0 and the in-house engine fails at its first step; the CSV holds no inf."""
+    out_file = tmp_path / "cart.csv"
+    code, out, err = run(["simulate", "cart_pendulum", "--engine", "inhouse", "--set", "m=1e100", "--set", "L=1e5",
+                          "--set", "dtheta0=1e100", "--t-end", "0.1", "--out", str(out_file)], capsys)
+    assert code == 1 and "Traceback" not in err
+    assert "status failed" in out and "non-finite kinetic, energy at t = 0 s" in out, out
+    frame = pd.read_csv(out_file)
+    assert list(frame.columns[:4]) == ["t", "kinetic", "potential", "energy"]
+    assert np.isfinite(frame.to_numpy(dtype=float)).all()
+
+
+def test_finite_rows_cuts_at_the_first_non_finite_value():
+    from harness.cli.main import finite_rows
+
+    frame = pd.DataFrame({"t": [0.0, 0.1, 0.2, 0.3], "energy": [1.0, 1.0, float("inf"), 1.0],
+                          "b.x": [0.0, 0.0, float("nan"), float("nan")]})
+    kept, message = finite_rows(frame)
+    assert list(kept["t"]) == [0.0, 0.1]
+    assert message == "non-finite energy, b.x at t = 0.2 s"
+    same, none = finite_rows(frame.iloc[:2])
+    assert none == "" and len(same) == 2
+
+
+def test_diverging_check_is_exit_2(tmp_path, capsys, monkeypatch):
+    """A free motion that diverges inside the linear algebra ends as one line, exit 2."""
+    import harness.tools.check as check_module
+
+    def diverges(*args, **kwargs):
+        raise np.linalg.LinAlgError("Singular matrix")
+
+    monkeypatch.setattr(check_module, "run_check", diverges)
+    urdf = MODELS_DIR / "heavy_top" / "heavy_top.urdf"
+    code, _, err = run(["check", "--urdf", str(urdf), "--out-dir", str(tmp_path / "r")], capsys)
+    assert_one_line_error(code, err, f"{urdf}: the comparison diverged (LinAlgError: Singular matrix)")
+    assert not (tmp_path / "r").exists()
+
+
+def test_diverging_free_motion_in_check_is_one_line(tmp_path, capfd):
+    """A real divergence (RKMK4 at a 0.5 s step for 50 s): SVD fails on the non-finite rotations.
+    Nothing else reaches stderr (numpy's and MuJoCo's warnings are held back); nothing written."""
+    urdf = MODELS_DIR / "double_pendulum" / "double_pendulum.urdf"
+    code = main(["check", "--urdf", str(urdf), "--dt", "0.5", "--t-end", "50", "--out-dir", str(tmp_path / "r")])
+    err = capfd.readouterr().err
+    assert_one_line_error(code, err, f"{urdf}: the comparison diverged (LinAlgError:")
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("exc,fragment", [
+    (OverflowError("(34, 'Numerical result out of range')"), "a value overflows (OverflowError"),
+    (MemoryError(), "out of memory"),
+    (UnicodeDecodeError("utf-8", b"\xff", 0, 1, "invalid start byte"), "a file is not UTF-8 text"),
+])
+def test_boundary_turns_input_caused_failures_into_one_line(capsys, monkeypatch, exc, fragment):
+    import harness.cli.main as cli
+
+    def boom(args):
+        raise exc
+
+    monkeypatch.setitem(cli.COMMANDS, "scenes", boom)
+    code, _, err = run(["scenes"], capsys)
+    assert_one_line_error(code, err, fragment)
+
+
+# ---------------------------------------------------------------- help
+
+def _subparsers():
+    from harness.cli.main import build_parser
+
+    parser = build_parser()
+    action = next(a for a in parser._actions if a.dest == "command")
+    return action.choices
+
+
+def test_every_command_and_option_has_help():
+    import argparse
+
+    commands = _subparsers()
+    assert {"scenes", "simulate", "validate", "inspect", "debug", "check", "workprecision", "stress",
+            "rolling-study"} <= set(commands)
+    missing = [f"{name} {a.option_strings or a.dest}" for name, sub in commands.items() for a in sub._actions
+               if not isinstance(a, argparse._HelpAction) and not (a.help and a.help.strip())]
+    assert missing == []
+
+
+def test_option_help_states_units_and_defaults():
+    commands = _subparsers()
+    helps = {a.dest: a.help for a in commands["simulate"]._actions}
+    assert "(s," in helps["t_end"] and "(s," in helps["dt"] and "(s;" in helps["save_every"]
+    assert "inhouse" in helps["engine"] and "mujoco" in helps["engine"] and "pinocchio" in helps["engine"]
+    assert "default 1e-10" in helps["rtol"]
+
+
+def test_simulate_help_lists_every_option(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["simulate", "--help"])
+    assert stop.value.code == 0
+    text = " ".join(capsys.readouterr().out.split())
+    for option in ("--engine", "--set", "--t-end", "--dt", "--integrator", "--save-every", "--rtol", "--atol",
+                   "--out", "--models-dir"):
+        assert option in text
+    assert "horizon (s" in text and "default 1e-10" in text
+
+
+@pytest.mark.parametrize("args,fragment", [
+    (["workprecision", "--engines", ","], "--engines selects nothing"),
+    (["workprecision", "--models-dir", "{empty}"], "nothing to run: no scenes under"),
+    (["workprecision", "--t-end", "inf"], "argument --t-end: not a finite number"),
+    (["workprecision", "--saves", "100000000"], "--saves out of range"),
+    (["stress", "--variants", ","], "--variants selects nothing"),
+    (["rolling-study", "--models-dir", "{tmp}/nope"], "argument --models-dir: no such folder"),
+    (["inspect", "heavy_top", "--models-dir", "{tmp}/nope"], "argument --models-dir: no such folder"),
+])
+def test_studies_over_nothing_are_exit_2(tmp_path, capsys, args, fragment):
+    (tmp_path / "empty").mkdir()
+    args = [a.replace("{empty}", str(tmp_path / "empty")).replace("{tmp}", str(tmp_path)) for a in args]
+    out = tmp_path / "out"
+    code, _, err = run(args + (["--out-dir", str(out)] if args[0] != "inspect" else []), capsys)
+    assert_one_line_error(code, err, fragment)
+    assert not out.exists()

@@ -1,6 +1,8 @@
-"""``harness debug``: first times a quantity leaves its tolerance, the state dump, the plot."""
+"""``harness debug``: first times a quantity leaves its tolerance, the state dump, the plot; each
+quantity judged exactly as ``harness validate`` judges it."""
 
 import shutil
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -8,6 +10,8 @@ import pytest
 from harness.tools import debug as debug_run
 from harness.cli.main import main
 from harness.model.scene import MODELS_DIR, load_scene
+from harness.validate import quantities
+from harness.validate.run import validate
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -39,7 +43,7 @@ def test_diverging_run_names_first_times_and_dumps_states(tmp_path, capsys):
     code, out, _ = run(["debug", "double_pendulum", "--engines", "reference,mujoco", "--t-end", "0.5",
                         "--models-dir", str(models), "--out-dir", str(out_dir)], capsys)
     assert code == 1
-    assert "first leaves 1.0e-06 m at t = 0.01 s" in out  # position, first saved time after 0
+    assert "first leaves 1.0e-06 rel at t = 0.01 s" in out  # position over the length scale, first saved time after 0
     assert "states at t = 0.01 s" in out
     for body in ("bar1", "bar2"):
         assert sum(ln.strip().startswith(body) for ln in out.splitlines()) == 3  # reference, mujoco, difference
@@ -51,6 +55,42 @@ def test_energy_tolerance_is_the_sum_of_the_drift_tolerances():
     tol = debug_run.tolerances(scene, ("reference", "mujoco"))
     assert tol["energy"] == pytest.approx(2e-8)
     assert tol["angular_velocity"] == tol["velocity"] == 1e-4
+
+
+def test_tolerances_are_validates():
+    scene = load_scene("rolling_disk")  # a tolerance per engine
+    traj = scene.checks["trajectory"]
+    assert debug_run.tolerances(scene, ("reference", "mujoco"))["position"] == traj["position"]["mujoco"]
+    assert debug_run.tolerances(scene, ("inhouse", "reference"))["angular_velocity"] == traj["velocity"]["inhouse"]
+    # two engines: the larger of the two (never looser than either engine's own check against the reference)
+    assert debug_run.tolerances(scene, ("pinocchio", "mujoco"))["orientation"] == traj["orientation"]["mujoco"]
+    assert debug_run.UNITS == {"position": "rel", "orientation": "rad", "velocity": "rel", "angular_velocity": "rel",
+                               "energy": "rel"}
+
+
+@pytest.mark.parametrize("name,engine", [("rolling_disk", "inhouse"), ("heavy_top", "mujoco")])
+def test_debug_and_validate_give_the_same_value_and_verdict(name, engine):
+    """The brief's cases: rolling_disk's angular velocity (absolute in debug, relative in validate,
+    once) and heavy_top's position (10x looser in debug, once); on a shortened horizon."""
+    scene = replace(load_scene(name), t_end=0.2)
+    res = debug_run.debug(scene, (engine, "reference"))
+    (val,) = validate([scene], [engine], jobs=1)
+    checks = {c.check: c for c in val.checks if c.engine == engine}
+    for q in quantities.TRAJECTORY:
+        c = checks[q.check]
+        assert res.worst(q.name) == pytest.approx(c.value, rel=1e-12, abs=0.0), q.name
+        assert res.tolerances[q.name] == c.tolerance and debug_run.UNITS[q.name] == c.unit
+        assert (res.first_exceed[q.name] is None) == c.passed
+    assert res.passed == all(checks[q.check].passed for q in quantities.TRAJECTORY)
+
+
+def test_debug_prints_the_judged_and_the_raw_value(capsys, tmp_path):
+    code, out, _ = run(["debug", "rolling_disk", "--engines", "inhouse,reference", "--t-end", "0.2",
+                        "--out-dir", str(tmp_path)], capsys)
+    assert code == 0, out
+    line = next(ln for ln in out.splitlines() if ln.strip().startswith("angular_velocity"))
+    assert " rel (" in line and " rad/s) <= 1.0e-09: within tolerance" in line
+    assert "motion scales of the reference run" in out
 
 
 def test_error_series_is_zero_for_identical_runs():

@@ -7,7 +7,8 @@ import shutil
 import pytest
 
 from harness.cli.main import main
-from harness.model.scene import available_scenes, MODELS_DIR
+from harness.model.scene import available_scenes, load_scene, MODELS_DIR
+from harness.validate.run import model_checks
 
 BAR2_URDF_INERTIA = '<inertia ixx="0.083358333333333" ixy="0" ixz="0" iyy="0.083358333333333" iyz="0" izz="0.00005"/>'
 
@@ -60,6 +61,16 @@ def test_inertia_about_the_joint_in_the_urdf_is_named(models, capsys):
     applied = out[out.index("-- scene parameters applied"):out.index("-- files as written")]
     assert "DIFFERS" not in applied  # load_urdf overwrites the inertia: only the file as written shows it
     assert "RESULT: DISAGREEMENT" in out
+
+
+def test_inspect_and_validate_judge_a_file_alike(models, capsys):
+    edit_bar2(models, BAR2_URDF_INERTIA,
+              '<inertia ixx="0.333358333333333" ixy="0" ixz="0" iyy="0.333358333333333" iyz="0" izz="0.00005"/>')
+    _, out, _ = run(["inspect", "double_pendulum", "--models-dir", str(models)], capsys)
+    disagree = [ln.split("DISAGREES: ", 1)[1] for ln in out.splitlines() if "DISAGREES" in ln]
+    bad = [c for c in model_checks(load_scene("double_pendulum", models_dir=models), ["mujoco", "pinocchio"]) if not c.passed]
+    assert len(disagree) == len(bad) == 1
+    assert (bad[0].engine, bad[0].check) == ("pinocchio", "model.bar2.inertia") and disagree[0] in bad[0].detail
 
 
 def test_moved_inertial_origin_is_named(models, capsys):

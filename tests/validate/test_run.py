@@ -1,16 +1,20 @@
-"""Validation: checks per scene, isolation of a crashing engine, reports, JUnit, tolerance file."""
+"""Validation: checks per scene, the model files judged as written, isolation of a crashing
+engine, reports, JUnit, tolerance file."""
 
 import json
 import os
+import shutil
 import signal
+import time
 import xml.etree.ElementTree as ET
 
 import pytest
 
 from harness.cli.main import main
 from harness.engines.mujoco.engine import MujocoEngine
-from harness.model.scene import load_scene
-from harness.validate.run import validate
+from harness.model.scene import MODELS_DIR, available_scenes, load_scene
+from harness.validate import quantities
+from harness.validate.run import model_checks, validate
 
 SHORT = {"t_end": 0.5}
 
@@ -35,6 +39,10 @@ def test_forced_pendulum_checks_energy_balance_not_conservation():
     names = {c.check for c in res.checks if c.engine == "pinocchio"}
     assert "energy_balance" in names and "energy_drift" not in names
     assert res.passed, [c for c in res.checks if not c.passed]
+    # the overrides reach the runs (energy balance above), the file is judged at the defaults, and
+    # the result says which parameters the overrides set
+    assert res.overrides == {"F0": {"value": 2.0, "default": 0.0}, "omega_f": {"value": 3.0, "default": 0.0}}
+    assert {"model.bar1.mass", "model.bar2.inertia"} <= names
 
 
 def test_a_killed_engine_worker_leaves_the_other_results(monkeypatch):
@@ -43,7 +51,7 @@ def test_a_killed_engine_worker_leaves_the_other_results(monkeypatch):
 
     monkeypatch.setattr(MujocoEngine, "simulate", die)  # inherited by the forked worker
     (res,) = validate([short("torque_free")], ["mujoco", "pinocchio"], jobs=2)
-    run = [c for c in res.checks if c.engine == "mujoco"]
+    run = [c for c in res.checks if c.engine == "mujoco" and not c.check.startswith("model.")]
     assert len(run) == 1 and run[0].check == "run" and not run[0].passed
     assert "crashed" in run[0].detail
     pin_checks = [c for c in res.checks if c.engine == "pinocchio"]
@@ -55,7 +63,7 @@ def test_a_hanging_engine_times_out(monkeypatch):
 
     monkeypatch.setattr(MujocoEngine, "simulate", lambda self, s, st: time.sleep(60))
     (res,) = validate([short("torque_free")], ["mujoco"], jobs=1, timeout=3.0)
-    assert [c.detail.split(":")[0] for c in res.checks if c.engine == "mujoco"] == ["timeout"]
+    assert [c.detail.split(":")[0] for c in res.checks if c.engine == "mujoco" and not c.check.startswith("model.")] == ["timeout"]
 
 
 def test_cli_writes_reports_junit_and_exit_codes(tmp_path, capsys):
@@ -94,3 +102,138 @@ def test_bad_tolerance_file(tmp_path, capsys, text, fragment):
     err = capsys.readouterr().err
     assert code == 2 and fragment in err and str(tol) in err and err.count("\n") == 1
     assert not (tmp_path / "r").exists()
+
+
+# --------------------------------------------------------------------------- model files as written
+
+BAR1_MJCF_INERTIAL = '<inertial pos="0 0 -0.5" mass="1" diaginertia="0.083358333333333 0.083358333333333 0.00005"/>'
+BAR2_URDF_INERTIA = '<inertia ixx="0.083358333333333" ixy="0" ixz="0" iyy="0.083358333333333" iyz="0" izz="0.00005"/>'
+
+
+def copy_double_pendulum(tmp_path, t_end=None):
+    """A copy of models/double_pendulum (its horizon shortened in the copy's scene.toml)."""
+    dst = tmp_path / "models"
+    shutil.copytree(MODELS_DIR / "double_pendulum", dst / "double_pendulum")
+    if t_end is not None:
+        toml = dst / "double_pendulum" / "scene.toml"
+        text = toml.read_text()
+        assert "t_end = 10.0" in text
+        toml.write_text(text.replace("t_end = 10.0", f"t_end = {t_end}"))
+    return dst
+
+
+def move_bar1_com(models):
+    """bar1's centre of mass 2 cm further down the bar in the MJCF (the first <inertial> is bar1's)."""
+    path = models / "double_pendulum" / "double_pendulum.xml"
+    text = path.read_text()
+    assert text.count(BAR1_MJCF_INERTIAL) == 2
+    path.write_text(text.replace(BAR1_MJCF_INERTIAL, BAR1_MJCF_INERTIAL.replace('pos="0 0 -0.5"', 'pos="0 0 -0.52"'), 1))
+
+
+def swap_bar2_inertia(models):
+    """bar2's inertia diagonal swapped (ixx <-> izz) in the URDF."""
+    path = models / "double_pendulum" / "double_pendulum.urdf"
+    text = path.read_text()
+    start = text.index('<link name="bar2">')
+    swapped = '<inertia ixx="0.00005" ixy="0" ixz="0" iyy="0.083358333333333" iyz="0" izz="0.083358333333333"/>'
+    assert BAR2_URDF_INERTIA in text[start:]
+    path.write_text(text[:start] + text[start:].replace(BAR2_URDF_INERTIA, swapped, 1))
+
+
+@pytest.mark.parametrize("name", available_scenes())
+def test_every_scene_file_holds_its_defaults(name):
+    scene = load_scene(name)
+    t0 = time.perf_counter()
+    checks = model_checks(scene, ["inhouse", "mujoco", "pinocchio"])
+    wall = time.perf_counter() - t0
+    assert checks and all(c.passed for c in checks), [c for c in checks if not c.passed]
+    assert {c.engine for c in checks} == {"mujoco", "pinocchio"}  # the in-house engine reads no file
+    for body in scene.multibody().bodies:
+        for engine in ("mujoco", "pinocchio"):
+            names = {c.check for c in checks if c.engine == engine}
+            assert {f"model.{body.name}.{q}" for q in ("mass", "com", "inertia", "joint_type")} <= names
+    assert wall < 1.0, f"model check of {name} took {wall:.2f} s"
+
+
+def test_a_moved_centre_of_mass_in_the_mjcf_is_a_failed_model_check(tmp_path):
+    models = copy_double_pendulum(tmp_path)
+    move_bar1_com(models)
+    checks = model_checks(load_scene("double_pendulum", models_dir=models), ["mujoco", "pinocchio"])
+    bad = [c for c in checks if not c.passed]
+    assert [(c.engine, c.check) for c in bad] == [("mujoco", "model.bar1.com")]
+    (c,) = bad
+    # 2 cm over bar1's length scale, the larger of its centre-of-mass (0.5 m) and joint (0 m) distances
+    assert c.value == pytest.approx(0.02 / 0.5, rel=1e-9) and c.unit == "rel"
+    assert "[0.0, 0.0, -0.52]" in c.detail and "scene says [0.0, 0.0, -0.5]" in c.detail
+    assert f"harness inspect double_pendulum --models-dir {models}" in c.detail
+
+
+def test_a_swapped_inertia_in_the_urdf_is_a_failed_model_check(tmp_path):
+    models = copy_double_pendulum(tmp_path)
+    swap_bar2_inertia(models)
+    checks = model_checks(load_scene("double_pendulum", models_dir=models), ["mujoco", "pinocchio"])
+    bad = [c for c in checks if not c.passed]
+    assert [(c.engine, c.check) for c in bad] == [("pinocchio", "model.bar2.inertia")]
+    assert "[[5e-05, 0.0, 0.0]" in bad[0].detail and "double_pendulum.urdf as written" in bad[0].detail
+
+
+def test_overrides_do_not_count_against_the_files():
+    scene = load_scene("double_pendulum", {"m": 2.0, "L": 0.5})
+    assert all(c.passed for c in model_checks(scene, ["mujoco", "pinocchio"]))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("edit,engine,check", [
+    (move_bar1_com, "mujoco", "model.bar1.com"),
+    (swap_bar2_inertia, "pinocchio", "model.bar2.inertia"),
+])
+def test_validate_fails_on_a_wrong_model_file(tmp_path, capsys, edit, engine, check):
+    models = copy_double_pendulum(tmp_path, t_end=0.5)
+    out = tmp_path / "out"
+    args = ["validate", "--scenes", "double_pendulum", "--engines", engine, "--models-dir", str(models), "--out-dir", str(out)]
+    assert main(args) == 0, capsys.readouterr().out  # the unmodified copy passes
+    edit(models)
+    code = main(args)
+    printed = capsys.readouterr().out
+    assert code == 1
+    assert f"FAIL {engine} {check}:" in printed and "harness inspect double_pendulum" in printed
+    data = json.loads((out / "validation.json").read_text())
+    failed = [(c["engine"], c["check"]) for s in data["scenes"] for c in s["checks"] if not c["passed"]]
+    assert failed == [(engine, check)]  # the runs load the file with the scene's parameters: they still agree
+    head = (out / "validation.md").read_text().split("\n## ")[0]  # the matrix, before the details
+    assert "**FAIL** " in head and f"`{check}`" in head
+
+
+def test_a_check_table_marks_its_regression_bounds():
+    """``regression_only = ["mujoco"]`` in a check table (as rolling_disk's MuJoCo tolerances need:
+    about 4x what soft contact reaches) marks those checks of that engine, and no others."""
+    checks = load_scene("heavy_top").checks
+    assert not any(quantities.regression_only("heavy_top", checks, c, "mujoco") for c in ("energy_drift", "exact"))
+    marked = {**checks, "energy_drift": {**checks["energy_drift"], "regression_only": ["mujoco"]},
+              "trajectory": {**checks["trajectory"], "regression_only": ["mujoco"]}}
+    for check in ("energy_drift", "trajectory.position", "trajectory.angular_velocity"):
+        assert quantities.regression_only("heavy_top", marked, check, "mujoco"), check
+        assert not quantities.regression_only("heavy_top", marked, check, "pinocchio"), check
+    assert quantities.regression_only("heavy_top", marked, "energy_balance", "mujoco")  # the forced form, same table
+    assert not quantities.regression_only("heavy_top", marked, "exact", "mujoco")
+    assert not quantities.regression_only("heavy_top", marked, "engine_energy", "mujoco")  # a fixed 1e-9
+    assert not quantities.regression_only("heavy_top", marked, "model.top.mass", "mujoco")
+    from dataclasses import replace
+
+    (res,) = validate([replace(short("heavy_top"), checks=marked)], ["mujoco"], jobs=1)
+    flagged = {c.check for c in res.checks if c.regression_only}
+    assert flagged == {"energy_drift", "trajectory.position", "trajectory.orientation", "trajectory.velocity",
+                       "trajectory.angular_velocity"}
+    assert all(c.engine == "mujoco" for c in res.checks if c.regression_only)
+
+
+def test_trajectory_checks_follow_the_shared_definition():
+    scene = short("heavy_top")
+    (res,) = validate([scene], ["pinocchio"], jobs=1)
+    by_name = {c.check: c for c in res.checks if c.engine == "pinocchio"}
+    for q in quantities.TRAJECTORY:
+        c = by_name[q.check]
+        assert c.unit == q.judged_unit
+        assert c.tolerance == quantities.tolerance(scene.checks, q, "pinocchio")
+    assert by_name["trajectory.position"].unit == "rel" and by_name["trajectory.orientation"].unit == "rad"
+    assert by_name["trajectory.angular_velocity"].tolerance == scene.checks["trajectory"]["velocity"]

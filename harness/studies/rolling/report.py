@@ -2,7 +2,8 @@
 ``rolling_disk_settings.png``, ``rolling_disk_lean.png``, ``rolling_disk_threshold.png``.
 
 ``write_reports(result, out, prov, quick)`` writes them from a ``harness.studies.rolling.run``
-result (every file atomically) and returns the paths of the PNGs.
+result as one set (``harness.io.atomic.write_set``: all old or all new, nothing written if the
+folder is not writable) and returns the paths of the PNGs.
 """
 
 from __future__ import annotations
@@ -14,13 +15,18 @@ from pathlib import Path
 from harness.io import atomic
 
 
-def write_reports(result, out: Path, prov: dict, quick: bool) -> list[Path]:
-    """Write the study's Markdown, JSON and PNGs into ``out``; returns the PNG paths."""
+def write_reports(result, out: Path, prov: dict, quick: bool, command: str | None = None) -> list[Path]:
+    """Write the study's Markdown, JSON and PNGs into ``out`` as one set; returns the PNG paths.
+    ``command``: the "Reproduce with" command (default ``harness.io.provenance.command_line()``).
+    ``InputError`` if ``out`` cannot be written (the old files are then kept)."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    pngs = plots(result, out)
-    atomic.write_text(out / "rolling_disk.md", markdown(result, prov, pngs, quick))
-    atomic.write_text(out / "rolling_disk.json", json.dumps(as_json(result), indent=2, default=str, allow_nan=True))
+    atomic.check_writable(out)
+    figures = plot_files(result)
+    pngs = [out / name for name in figures]
+    files: dict[str, bytes | str] = dict(figures)
+    files["rolling_disk.md"] = markdown(result, prov, pngs, quick, command)
+    files["rolling_disk.json"] = json.dumps(as_json(result), indent=2, default=str, allow_nan=True)
+    atomic.write_set(out, files)
     return pngs
 
 
@@ -45,7 +51,13 @@ def best_setting(result) -> dict:
     return next(r for r in rows if err(r) <= 1.02 * least)
 
 
-def markdown(result, prov: dict, pngs: list[Path], quick: bool) -> str:
+def markdown(result, prov: dict, pngs: list[Path], quick: bool, command: str | None = None) -> str:
+    """The report; ``command`` is the "Reproduce with" command (default
+    ``harness.io.provenance.command_line()``, the command this process was started with)."""
+    if command is None:
+        from harness.io.provenance import command_line
+
+        command = command_line()
     th = result.thresholds
     scene = result.scene
     p = scene.params
@@ -53,7 +65,7 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool) -> str:
         "# Rolling disk: how close each engine comes to ideal rolling",
         "",
         f"Made {prov['date_utc']} with MuJoCo {prov['mujoco']}, Pinocchio {prov['pinocchio']}, NumPy {prov['numpy']}, "
-        f"SciPy {prov['scipy']}, Python {prov['python']} on {prov['machine']}. Reproduce with `harness rolling-study`"
+        f"SciPy {prov['scipy']}, Python {prov['python']} on {prov['machine']}. Reproduce with `{command}`"
         + (" (this is a `--quick` smoke run: short horizons, few rows)." if quick else "."),
         "",
         f"Scene `rolling_disk` (`models/rolling_disk/`): a uniform coin, m = {p['mass']:g} kg, R = {p['R'] * 1e3:g} mm, "
@@ -179,12 +191,17 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool) -> str:
 
 
 def plots(result, out: Path) -> list[Path]:
-    """PNG figures of the study; returns their paths."""
+    """Write the PNG figures of the study into ``out`` as one set; returns their paths."""
+    return atomic.write_set(Path(out), plot_files(result))
+
+
+def plot_files(result) -> dict[str, bytes]:
+    """The PNG figures of the study: file name -> PNG bytes, in the report's order."""
     import numpy as np
 
     from harness.io.figures import new_figure, png_bytes
 
-    paths = []
+    files: dict[str, bytes] = {}
     # 1. settings: position error against slip
     fig = new_figure(8, 5.5)
     ax = fig.subplots()
@@ -198,10 +215,8 @@ def plots(result, out: Path) -> list[Path]:
     ax.set_ylabel("max position error / length scale")
     ax.set_title("MuJoCo contact settings, steady circle (numbers: rows of the table)")
     ax.grid(True, which="both", alpha=0.3)
-    path = out / "rolling_disk_settings.png"
     fig.tight_layout()
-    atomic.write_bytes(path, png_bytes(fig, dpi=110))
-    paths.append(path)
+    files["rolling_disk_settings.png"] = png_bytes(fig, dpi=110)
     # 2. lean over time, steady circle and transient
     fig = new_figure(11, 4.2)
     axes = fig.subplots(1, 2)
@@ -214,10 +229,8 @@ def plots(result, out: Path) -> list[Path]:
         ax.set_ylabel("θ: axis from vertical (rad)")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
-    path = out / "rolling_disk_lean.png"
     fig.tight_layout()
-    atomic.write_bytes(path, png_bytes(fig, dpi=110))
-    paths.append(path)
+    files["rolling_disk_lean.png"] = png_bytes(fig, dpi=110)
     # 3. threshold: max lean deviation vs speed
     th = result.thresholds
     fig = new_figure(11, 4.2)
@@ -243,11 +256,9 @@ def plots(result, out: Path) -> list[Path]:
     ax.set_ylabel("|θ − θ*| (rad)")
     ax.set_title("just below and just above v_c")
     ax.legend(fontsize=7)
-    path = out / "rolling_disk_threshold.png"
     fig.tight_layout()
-    atomic.write_bytes(path, png_bytes(fig, dpi=110))
-    paths.append(path)
-    return paths
+    files["rolling_disk_threshold.png"] = png_bytes(fig, dpi=110)
+    return files
 
 
 def as_json(result) -> dict:

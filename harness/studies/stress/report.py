@@ -1,7 +1,8 @@
 """Reports of ``harness stress``: ``stress.md`` (the stability map), ``stress.csv`` (every run),
 ``stress_map.csv`` (one row per variant x engine/integrator) and plots under ``stress/``.
 
-Every file is written atomically (``harness.io.atomic``). Plots use matplotlib's Agg canvas.
+All files are written as one set (``harness.io.atomic.write_set``: a reader sees all old or all
+new files; nothing is written if the folder is not writable). Plots use matplotlib's Agg canvas.
 """
 
 from __future__ import annotations
@@ -138,15 +139,22 @@ def _exact_measures(run: StressRun) -> str:
     return text + (": " + "; ".join(described) if described else "")
 
 
-def markdown(run: StressRun, prov: dict, plots: dict[str, str]) -> str:
-    """The report: how to read it, the map, the closing note, one section per variant."""
+def markdown(run: StressRun, prov: dict, plots: dict[str, str], command: str | None = None) -> str:
+    """The report: how to read it, the map, the closing note, one section per variant.
+    ``command``: the "Reproduce with" command (default ``harness.io.provenance.command_line()``,
+    the command this process was started with)."""
+    if command is None:
+        from harness.io.provenance import command_line
+
+        command = command_line()
     lines = ["# Stress: a stability map of every engine", ""]
     cat = run.catalogue
     n_runs = len(run.trials)
     lines += [
-        f"Made by `harness stress{' --quick' if run.quick else ''}` from `{_rel(cat.path)}`: "
+        f"Made from `{_rel(cat.path)}`{' (a `--quick` smoke run)' if run.quick else ''}: "
         f"{len(run.variants)} variants ({len(run.skipped)} skipped), {n_runs} runs in isolated worker processes "
-        f"({run.jobs} at a time, {run.timeout:g} s timeout each), {run.wall_s:.0f} s wall.",
+        f"({run.jobs} at a time, {run.timeout:g} s timeout each), {run.wall_s:.0f} s wall. "
+        f"Reproduce with `{command}`.",
         "",
         "| " + " | ".join(prov) + " |",
         "|" + "---|" * len(prov),
@@ -500,14 +508,22 @@ def _slug(text: str) -> str:
 
 
 def write_plots(run: StressRun, out_dir: Path) -> dict[str, str]:
-    """Write the plots; returns name -> path relative to ``out_dir`` (for the markdown)."""
+    """Write the plots (one set); returns name -> path relative to ``out_dir`` (for the markdown)."""
+    refs, files = plot_files(run)
+    atomic.write_set(Path(out_dir), files)
+    return refs
+
+
+def plot_files(run: StressRun) -> tuple[dict[str, str], dict[str, bytes]]:
+    """The plots: (name -> path relative to the report folder, for the markdown; that relative
+    path -> PNG bytes)."""
     out: dict[str, str] = {}
-    folder = Path(out_dir) / PLOT_DIR
+    files: dict[str, bytes] = {}
 
     def put(key: str, name: str, data: bytes | None) -> None:
         if data:
-            atomic.write_bytes(folder / name, data)
             out[key] = f"{PLOT_DIR}/{name}"
+            files[out[key]] = data
 
     put("map", "map.png", map_png(run))
     groups: dict[str, list[Variant]] = {}
@@ -520,15 +536,21 @@ def write_plots(run: StressRun, out_dir: Path) -> dict[str, str]:
     for v in run.variants:
         if v.name not in run.skipped:
             put(v.name, f"{v.name}.png", variant_png(run, v))
-    return out
+    return out, files
 
 
-def write_stress_reports(run: StressRun, prov: dict, out_dir: Path) -> list[Path]:
-    """Write ``stress.md``, ``stress.csv``, ``stress_map.csv`` and the plots into ``out_dir``."""
+def write_stress_reports(run: StressRun, prov: dict, out_dir: Path, command: str | None = None) -> list[Path]:
+    """Write ``stress.md``, ``stress.csv``, ``stress_map.csv`` and the plots into ``out_dir`` as
+    one set (``harness.io.atomic.write_set``); returns their paths. ``command``: the
+    "Reproduce with" command (default ``harness.io.provenance.command_line()``). ``InputError``
+    if ``out_dir`` cannot be written (the old files are then kept)."""
     out_dir = Path(out_dir)
-    plots = write_plots(run, out_dir)
-    paths = [out_dir / "stress.md", out_dir / "stress.csv", out_dir / "stress_map.csv"]
-    atomic.write_text(paths[1], trials_frame(run).to_csv(index=False))
-    atomic.write_text(paths[2], map_frame(run).to_csv(index=False))
-    atomic.write_text(paths[0], markdown(run, prov, plots))
-    return paths + [out_dir / p for p in plots.values()]
+    atomic.check_writable(out_dir)
+    plots, figures = plot_files(run)
+    files: dict[str, bytes | str] = {
+        "stress.md": markdown(run, prov, plots, command),
+        "stress.csv": trials_frame(run).to_csv(index=False),
+        "stress_map.csv": map_frame(run).to_csv(index=False),
+    }
+    files.update(figures)
+    return atomic.write_set(out_dir, files)

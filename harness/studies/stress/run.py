@@ -103,7 +103,7 @@ from harness.model.multibody import Multibody
 from harness.model.scene import Scene, available_scenes, load_scene
 from harness.measure.trajectory import Trajectory
 from harness.model.sanity import check_multibody
-from harness.validate.workers import Outcome
+from harness.validate.workers import Outcome, effective_jobs
 
 DEFAULT_CATALOGUE = Path(__file__).resolve().with_name("catalogue.toml")
 QUANTITIES = ("exact", "position", "orientation", "velocity", "angular_velocity", "energy")
@@ -985,7 +985,7 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
     """Run the variants on the engines (module docstring); every trial in its own worker, each
     limited to ``timeout`` s (a reference run to 4 ``timeout``)."""
     start = time.perf_counter()
-    jobs = jobs or os.cpu_count() or 1
+    jobs = effective_jobs(jobs)  # clamped to the CPUs this process may use
     bounds = catalogue.bounds
     skipped, scenes, rates = {}, {}, {}
     for v in variants:

@@ -1,6 +1,7 @@
 """Reports of a work-precision sweep: ``workprecision.md``, ``workprecision.csv`` and one
-log-log figure per scene, ``workprecision/<scene>.png``; all written atomically and stamped with
-the provenance of the run."""
+log-log figure per scene, ``workprecision/<scene>.png``; written as one set
+(``harness.io.atomic.write_set``: all old or all new) and stamped with the provenance of the
+run and the command that made it."""
 
 from __future__ import annotations
 
@@ -82,10 +83,15 @@ def _best(rows: list[dict], predicate, target: float) -> tuple[str, float]:
 
 
 def markdown(results: list[SceneSweep], provenance: dict, options: SweepOptions,
-             load: tuple[float, float] | None = None) -> str:
-    """The report (see the module docstring)."""
+             load: tuple[float, float] | None = None, command: str | None = None) -> str:
+    """The report (see the module docstring). ``command``: the "Reproduce with" command (default
+    ``harness.io.provenance.command_line()``, the command this process was started with)."""
+    if command is None:
+        from harness.io.provenance import command_line
+
+        command = command_line()
     lines = ["# Work-precision: error against run time", ""]
-    lines.append("Made by `harness workprecision` — " + ", ".join(f"{k} {v}" for k, v in provenance.items()) + ".")
+    lines.append(f"Reproduce with `{command}`. Made with " + ", ".join(f"{k} {v}" for k, v in provenance.items()) + ".")
     if load:
         lines.append(f"Load average of the machine (1 min) before and after the sweep: {load[0]:.2f}, {load[1]:.2f} "
                      "(other processes share the cores: compare times within one report only).")
@@ -227,22 +233,23 @@ def batch_section(results: list[SceneSweep]) -> list[str]:
 
 
 def write_reports(results: list[SceneSweep], provenance: dict, options: SweepOptions, out_dir: Path,
-                  load: tuple[float, float] | None = None) -> list[Path]:
+                  load: tuple[float, float] | None = None, command: str | None = None) -> list[Path]:
     """Write ``workprecision.md``, ``workprecision.csv`` and ``workprecision/<scene>.png`` under
-    ``out_dir``; returns the paths."""
+    ``out_dir`` as one set (``harness.io.atomic.write_set``: all old or all new); returns the
+    paths. ``command``: the "Reproduce with" command (default
+    ``harness.io.provenance.command_line()``). ``InputError`` if ``out_dir`` cannot be written
+    (the old files are then kept)."""
     out_dir = Path(out_dir)
-    paths = []
-    for sweep in results:
-        path = out_dir / "workprecision" / f"{sweep.scene}.png"
-        atomic.write_bytes(path, plot_scene(sweep, provenance))
-        paths.append(path)
+    atomic.check_writable(out_dir)
     table = points_table(results)
-    csv_path = out_dir / "workprecision.csv"
     header = "# " + "; ".join(f"{k}: {v}" for k, v in provenance.items()) + "\n"
-    atomic.write_text(csv_path, header + table.to_csv(index=False))
-    md_path = out_dir / "workprecision.md"
-    atomic.write_text(md_path, markdown(results, provenance, options, load))
-    return [md_path, csv_path] + paths
+    files: dict[str, bytes | str] = {
+        "workprecision.md": markdown(results, provenance, options, load, command),
+        "workprecision.csv": header + table.to_csv(index=False),
+    }
+    for sweep in results:
+        files[f"workprecision/{sweep.scene}.png"] = plot_scene(sweep, provenance)
+    return atomic.write_set(out_dir, files)
 
 
 __all__ = ["markdown", "plot_scene", "write_reports"]
