@@ -391,3 +391,37 @@ def test_studies_over_nothing_are_exit_2(tmp_path, capsys, args, fragment):
     code, _, err = run(args + (["--out-dir", str(out)] if args[0] != "inspect" else []), capsys)
     assert_one_line_error(code, err, fragment)
     assert not out.exists()
+
+
+@pytest.mark.slow
+def test_subset_validation_never_replaces_the_full_snapshot(tmp_path, capsys, monkeypatch):
+    """A run with --scenes writes to reports/partial/validate, leaving reports/ as it was; a
+    read-only output folder is refused before anything runs."""
+    monkeypatch.chdir(tmp_path)
+    snapshot = tmp_path / "reports" / "validation.md"
+    snapshot.parent.mkdir()
+    snapshot.write_text("the committed snapshot\n")
+    assert main(["validate", "--scenes", "rotating_plate", "--engines", "mujoco"]) == 0
+    assert snapshot.read_text() == "the committed snapshot\n"
+    partial = tmp_path / "reports" / "partial" / "validate" / "validation.md"
+    assert "Reproduce with `harness validate --scenes rotating_plate --engines mujoco`" in partial.read_text()
+    assert (partial.stat().st_mode & 0o777) == 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def test_unwritable_output_folder_is_refused_before_the_run(tmp_path, capsys, monkeypatch):
+    import harness.validate.run as run
+
+    blocker = tmp_path / "file"
+    blocker.write_text("")  # a file where the output folder should be
+    monkeypatch.setattr(run, "validate", lambda *a, **k: pytest.fail("validation ran before the folder was checked"))
+    code = main(["validate", "--scenes", "rotating_plate", "--engines", "mujoco", "--out-dir", str(blocker / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and str(blocker) in err
