@@ -1,6 +1,7 @@
 """The command line: exit codes, one-line errors on bad input, nothing written on failure."""
 
 import shutil
+from pathlib import Path
 import subprocess
 import sys
 
@@ -100,9 +101,11 @@ def test_missing_model_file_exit_2(models_copy, tmp_path, capsys):
     assert_one_line_error(code, err, "URDF file not found")
 
 
-def test_console_script_is_installed():
-    proc = subprocess.run([sys.executable, "-m", "harness.cli.main", "simulate", "nope", "--engine", "mujoco", "--out", "x.csv"],
-                          capture_output=True, text=True)
+def test_console_script_is_installed(tmp_path):
+    """The ``harness`` script of this environment (editable or plain install) runs, from any folder."""
+    script = Path(sys.executable).with_name("harness")
+    proc = subprocess.run([str(script), "simulate", "nope", "--engine", "mujoco", "--out", "x.csv"],
+                          capture_output=True, text=True, cwd=tmp_path)
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1
 
 

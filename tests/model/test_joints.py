@@ -132,12 +132,12 @@ def test_multibody_force_fields_are_read_through_the_force_table():
     assert offenders == [], "Multibody force fields read by name (use harness.model.forces):\n" + "\n".join(offenders)
 
 
-def test_the_model_layer_imports_no_engine_tool_or_measure():
+def test_the_model_layer_imports_no_engine_tool_or_measure(tmp_path):
     code = ("import sys, harness.model.joints, harness.model.forces, harness.model.multibody, harness.model.sanity, "
             "harness.model.kinematics, harness.model.scene, harness.model.rolling_contact\n"
             "bad = sorted(m for m in sys.modules if m.startswith(('harness.engines', 'harness.tools', 'harness.measure')))\n"
             "assert not bad, bad")
-    subprocess.run([sys.executable, "-c", code], check=True)
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path)  # not the checkout: the installed package
 
 
 # --------------------------------------------------------------------------- the table

@@ -186,7 +186,7 @@ def test_native_parser_output_is_suppressed(tmp_path):
     """urdfdom prints its own errors on file descriptor 2: the user still sees one line."""
     path = write(tmp_path, "arm.urdf", urdf(joint_type="screw"))
     proc = subprocess.run([sys.executable, "-m", "harness.cli.main", "check", "--urdf", str(path), "--out-dir", str(tmp_path / "r")],
-                          capture_output=True, text=True)
+                          capture_output=True, text=True, cwd=tmp_path)  # not the checkout: the installed package
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("harness: error:"), proc.stderr
     assert proc.stdout == ""

@@ -91,10 +91,10 @@ def _until(predicate, seconds: float) -> bool:
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="looks processes up in /proc")
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
-def test_workers_die_with_a_killed_parent(sig):
+def test_workers_die_with_a_killed_parent(sig, tmp_path):
     marker = f"HARNESS_WORKER_TEST={uuid.uuid4().hex}"
     env = {**os.environ, "HARNESS_WORKER_TEST": marker.split("=", 1)[1]}
-    parent = subprocess.Popen([sys.executable, "-c", _PARENT], env=env)
+    parent = subprocess.Popen([sys.executable, "-c", _PARENT], env=env, cwd=tmp_path)
     expected = min(4, workers.usable_cpus())
     try:
         assert _until(lambda: len(_marked(marker) - {parent.pid}) >= expected, 20.0), "workers did not start"
