@@ -18,6 +18,7 @@ from harness.cli import rolling as cli_rolling
 from harness.cli import stress as cli_stress
 from harness.cli import tools as cli_tools
 from harness.cli import workprecision as cli_workprecision
+from harness.io.progress import set_quiet
 from harness.io.provenance import set_argv
 from harness.model.errors import InputError
 from harness.cli.arg_types import (MODELS_DIR_HELP, check_samples, check_selection, csv_list as _csv_list,
@@ -94,6 +95,9 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
     v.add_argument("--timeout", type=_float, default=300.0, metavar="S",
                    help="seconds allowed per scene x engine case (> 0, default 300)")
+    v.add_argument("--quiet", action="store_true",
+                   help="no progress bar and no compile notice on stderr (the results and errors still print); "
+                        "the bar is drawn only when stderr is a terminal")
     cli_tools.add_parsers(sub)  # inspect, debug, check
     cli_workprecision.add_parser(sub)
     cli_stress.add_parser(sub)
@@ -190,6 +194,7 @@ def cmd_validate(args) -> int:
     from harness.model.scene import MODELS_DIR, available_scenes, load_scene
     from harness.validate.tolerances import apply_tolerances, check_scenes_known, read_tolerances
     from harness.validate.run import validate
+    from harness.io.progress import make_bar
 
     names = check_selection("--scenes", args.scenes, available_scenes(args.models_dir),
                             f"under {args.models_dir or MODELS_DIR} (a scene is a folder with a scene.toml)")
@@ -223,7 +228,9 @@ def cmd_validate(args) -> int:
     check_writable(out_dir)
     for scene in scenes:
         preflight(scene)
-    results = validate(scenes, engines, jobs=args.jobs or None, timeout=args.timeout, tolerance_changes=changes)
+    with make_bar(len(scenes) * (1 + len(engines)), desc="validate", unit="case", quiet=args.quiet) as bar:
+        results = validate(scenes, engines, jobs=args.jobs or None, timeout=args.timeout, tolerance_changes=changes,
+                           progress=bar)
     # the model-file checks run before any engine: a scene whose runs gave no check judged nothing
     empty = [r.scene for r in results if not any(not c.check.startswith("model.") for c in r.checks)]
     if not results or empty:
@@ -256,6 +263,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         set_argv(sys.argv[1:] if argv is None else argv)
         args = build_parser().parse_args(argv)
+        set_quiet(getattr(args, "quiet", False))
         return COMMANDS[args.command](args)
     except InputError as err:
         return _error(str(err))
@@ -274,6 +282,7 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     finally:
         set_argv(None)
+        set_quiet(False)
 
 
 def _error(message: str) -> int:

@@ -30,6 +30,8 @@ def add_parser(sub) -> None:
     r.add_argument("--quick", action="store_true", help="short horizons, few settings and speeds (a smoke run)")
     r.add_argument("--models-dir", type=models_dir_arg, metavar="DIR",
                    help=MODELS_DIR_HELP + "; it must hold rolling_disk")
+    r.add_argument("--quiet", action="store_true",
+                   help="no compile notice or other chatter on stderr (the summary lines and errors still print)")
 
 
 def run(args) -> int:

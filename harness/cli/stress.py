@@ -37,11 +37,15 @@ def add_parser(sub) -> None:
     s.add_argument("--catalogue", type=Path, metavar="FILE.toml",
                    help="stress catalogue TOML (default: harness/studies/stress/catalogue.toml)")
     s.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
+    s.add_argument("--quiet", action="store_true",
+                   help="no progress bar, no per-variant lines and no compile notice on stderr (the summary and "
+                        "errors still print); without it, a bar when stderr is a terminal, else one line per event")
 
 
 def run(args) -> int:
     from harness.model.errors import InputError
     from harness.io.atomic import check_writable, default_out_dir
+    from harness.io.progress import bar_enabled, make_bar
     from harness.io.provenance import provenance
     from harness.studies.stress.run import load_catalogue, run_stress, select
     from harness.studies.stress.report import write_stress_reports
@@ -58,9 +62,12 @@ def run(args) -> int:
     full = not (args.quick or args.variants or args.engines or args.catalogue or args.models_dir)
     out_dir = args.out_dir or default_out_dir("stress", full_run=full)
     check_writable(out_dir)
-    result = run_stress(catalogue, variants, engines, quick=args.quick, jobs=args.jobs or None,
-                        timeout=args.timeout, models_dir=args.models_dir,
-                        log=lambda line: print(line, file=sys.stderr, flush=True))
+    # a bar on a terminal; the per-variant lines only in a log (stderr not a terminal); neither with --quiet
+    lines = not (args.quiet or bar_enabled())
+    with make_bar(None, desc="stress", unit="cell", quiet=args.quiet) as bar:
+        result = run_stress(catalogue, variants, engines, quick=args.quick, jobs=args.jobs or None,
+                            timeout=args.timeout, models_dir=args.models_dir, progress=bar,
+                            log=(lambda line: print(line, file=sys.stderr, flush=True)) if lines else (lambda line: None))
     paths = write_stress_reports(result, provenance(), out_dir)
     stable = sum(1 for m in result.rows if m.stable_dt is not None or (m.nominal is not None and m.nominal.stable))
     print(f"stress: {len(variants)} variants ({len(result.skipped)} skipped), {len(result.rows)} engine/integrator "

@@ -73,6 +73,9 @@ def add_parsers(sub) -> None:
                    help="delete geoms and meshes from MuJoCo's copy (meshes need not be found; dynamics unchanged)")
     c.add_argument("--keep-static-links", action="store_true",
                    help="turn MuJoCo's fusestatic off (links on fixed joints stay separate bodies)")
+    c.add_argument("--quiet", action="store_true",
+                   help="print only the summary and errors: not what the engines printed on stderr during the "
+                        "comparison (numpy's and the importers' warnings)")
 
 
 def cmd_inspect(args) -> int:
@@ -130,9 +133,10 @@ def cmd_check(args) -> int:
         raise InputError(f"{model}: the comparison diverged ({type(failure).__name__}: "
                          f"{' '.join(str(failure).split())}): check the model's masses and inertias, or shorten "
                          f"--t-end ({args.t_end:g} s) or --dt ({args.dt:g} s)")
-    sys.stderr.write(native["text"])
-    for w in held:
-        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    if not args.quiet:
+        sys.stderr.write(native["text"])
+        for w in held:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     print("\n".join(summary_lines(result)))
     path = write_report(result, args.out_dir, _command_line(args))
     print(f"wrote {path}")

@@ -37,7 +37,9 @@ def add_parser(sub) -> None:
     w.add_argument("--batch-steps", type=_int, metavar="N",
                    help="steps per trajectory in that benchmark (>= 1, default 100)")
     w.add_argument("--quick", action="store_true", help="a small, fast sweep (for tests and smoke checks)")
-    w.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    w.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true",
+                   help="no progress bar and no compile notice on stderr (the summary and errors still print; "
+                        "--no-progress is the same); the bar is drawn only when stderr is a terminal")
     w.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
                    help="folder for workprecision.md, workprecision.csv, workprecision/ (default: reports for a full run; reports/partial/workprecision for a subset, --quick or --models-dir run, so that only a full run refreshes the committed snapshot)")
     w.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
@@ -61,7 +63,7 @@ def options_from_args(args):
         if not ok(value):
             raise InputError(f"--{name.replace('_', '-')} out of range: {value!r}")
         changes[attr] = value
-    changes["progress"] = not args.no_progress
+    changes["progress"] = not args.quiet
     return replace(opts, **changes)
 
 

@@ -274,7 +274,7 @@ class CheckResult:
     def free_passed(self) -> bool:
         tol = FREE_MOTION_TOL
         return all(r.joint <= tol["joint"] and r.velocity <= tol["velocity"] and r.position <= tol["position"]
-                   and r.orientation <= tol["orientation"] for r in self.free)
+                   and r.orientation <= tol["orientation"] for r in self.free)  # NaN (a motion gone to NaN) fails
 
     @property
     def passed(self) -> bool:
@@ -446,19 +446,27 @@ def free_motion(m: mujoco.MjModel, pmodel: pin.Model, jmap: dc.JointMap, q0: np.
         pin.framesForwardKinematics(pmodel, data, qp)
         qc_mj, vc_mj = _common_from_mujoco(jmap, d_rigid.qpos, d_rigid.qvel)
         qc_pin, vc_pin = _common_from_pinocchio(pmodel, jmap, qp, vp)
-        worst["joint"] = max(worst["joint"], _joint_distance(jmap, qc_mj, qc_pin))
-        worst["velocity"] = max(worst["velocity"], float(np.max(np.abs(vc_mj - vc_pin), initial=0.0)))
+        worst["joint"] = _worse(worst["joint"], _joint_distance(jmap, qc_mj, qc_pin))
+        worst["velocity"] = _worse(worst["velocity"], float(np.max(np.abs(vc_mj - vc_pin), initial=0.0)))
         qc_file, _ = _common_from_mujoco(jmap, d_file.qpos, d_file.qvel)
-        worst["constrained"] = max(worst["constrained"], _joint_distance(jmap, qc_mj, qc_file))
+        worst["constrained"] = _worse(worst["constrained"], _joint_distance(jmap, qc_mj, qc_file))
         for b, fid in zip(bodies, frames):
             oMf = data.oMf[fid]
             dp = float(np.linalg.norm(d_rigid.xpos[b] - oMf.translation))
-            dq = float(rotations.geodesic_angle(d_rigid.xquat[b], rotations.from_matrix(oMf.rotation)))
-            if dp > worst["position"] or dq > worst["orientation"]:
+            finite = np.all(np.isfinite(oMf.rotation)) and np.all(np.isfinite(d_rigid.xquat[b]))
+            dq = float(rotations.geodesic_angle(d_rigid.xquat[b], rotations.from_matrix(oMf.rotation))) if finite else float("nan")
+            if (dp > worst["position"] or dq > worst["orientation"]
+                    or (not np.isfinite(dp + dq) and np.isfinite(worst["position"] + worst["orientation"]))):
                 worst_body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b)
-            worst["position"], worst["orientation"] = max(worst["position"], dp), max(worst["orientation"], dq)
+            worst["position"], worst["orientation"] = _worse(worst["position"], dp), _worse(worst["orientation"], dq)
     return FreeMotion(k, worst["joint"], worst["velocity"], worst["position"], worst["orientation"], worst_body,
                       worst["constrained"])
+
+
+def _worse(old: float, new: float) -> float:
+    """The larger of two differences, NaN when either is NaN: a motion that went to NaN stays
+    NaN and fails its tolerance (``max(old, nan)`` would keep ``old``)."""
+    return float(np.maximum(old, new))
 
 
 def _mujoco_copy(m: mujoco.MjModel, dt: float, disable: int) -> mujoco.MjModel:

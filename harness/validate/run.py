@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -50,7 +50,7 @@ import numpy as np
 from harness.engines import get_engine, integrator
 from harness.engines.base import RunSettings
 from harness.measure import compare, contact_metrics, exact
-from harness.measure.trajectory import Trajectory
+from harness.measure.trajectory import Trajectory, first_non_finite
 from harness.model import forces
 from harness.model.errors import InputError
 from harness.model.scene import MODELS_DIR, Scene
@@ -148,7 +148,8 @@ def reference_case(scene: Scene) -> tuple[Trajectory, RunRecord, list[CheckResul
     t0 = time.perf_counter()
     traj = get_engine(REFERENCE_ENGINE).simulate(scene, settings)
     record = _record(scene, "reference", settings, traj, time.perf_counter() - t0)
-    return traj, record, check_run(scene, "reference", REFERENCE_ENGINE, traj, None, settings)
+    checks = check_run(scene, "reference", REFERENCE_ENGINE, traj, None, settings)
+    return traj, _with_verdict(record, checks), checks
 
 
 def engine_case(scene: Scene, engine: str, ref: Trajectory | None) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
@@ -157,26 +158,40 @@ def engine_case(scene: Scene, engine: str, ref: Trajectory | None) -> tuple[Traj
     t0 = time.perf_counter()
     traj = get_engine(engine).simulate(scene, settings)
     record = _record(scene, engine, settings, traj, time.perf_counter() - t0)
-    return traj, record, check_run(scene, engine, engine, traj, ref, settings)
+    checks = check_run(scene, engine, engine, traj, ref, settings)
+    return traj, _with_verdict(record, checks), checks
+
+
+def _with_verdict(record: RunRecord, checks: list[CheckResult]) -> RunRecord:
+    """The run record, its status "blowup" when ``check_run`` found a non-finite sample in a run
+    the engine reported as ok (the record then agrees with the failed ``run`` check)."""
+    blown = [c for c in checks if c.check == "run" and c.detail.startswith("blowup:")]
+    if record.status == "ok" and blown:
+        return replace(record, status="blowup", message=blown[0].detail[len("blowup: "):])
+    return record
 
 
 def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None,
-             timeout: float = DEFAULT_TIMEOUT, tolerance_changes: dict[str, list[str]] | None = None) -> list[SceneValidation]:
+             timeout: float = DEFAULT_TIMEOUT, tolerance_changes: dict[str, list[str]] | None = None,
+             progress=None) -> list[SceneValidation]:
     """Validate ``scenes`` on ``engines``, each run isolated in a worker process.
+    ``progress``: a bar (``harness.io.progress.make_bar``) ticked once per finished case (each
+    scene's reference run, then each scene x engine run), or None.
 
     Raises InputError if any case reports bad input (e.g. a model that does not load).
     """
     jobs = jobs or os.cpu_count() or 1
     defaults = {s.name: _defaults(s) for s in scenes}
     models = {s.name: model_checks(s, engines, defaults[s.name]) for s in scenes}
-    refs = run_cases([(s.name, reference_case, (s,)) for s in scenes], jobs, timeout)
+    tick = None if progress is None else (lambda key, outcome: progress.update(1))
+    refs = run_cases([(s.name, reference_case, (s,)) for s in scenes], jobs, timeout, on_done=tick)
     _raise_input_errors(refs)
     cases = []
     for s in scenes:
         ref_outcome = refs[s.name]
         ref = ref_outcome.value[0] if ref_outcome.status == "ok" else None
         cases += [((s.name, e), engine_case, (s, e, ref)) for e in engines]
-    outcomes = run_cases(cases, jobs, timeout)
+    outcomes = run_cases(cases, jobs, timeout, on_done=tick)
     _raise_input_errors(outcomes)
 
     results = []
@@ -289,6 +304,12 @@ def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Traj
 
     if not traj.ok:
         out.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False, f"{traj.status}: {traj.message}"))
+        return out
+    blown = first_non_finite(traj, model)  # any engine: a state or invariant that overflowed is never "ok"
+    if blown is not None:
+        t_bad, what = blown
+        out.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False,
+                               f"blowup: non-finite {what} at t = {t_bad:.6g} s ({traj.engine} reported ok)"))
         return out
     if "energy_drift" in checks:
         tol = checks["energy_drift"][engine]

@@ -327,11 +327,14 @@ class Workers:
         return []
 
 
-def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, timeout: float) -> dict[Hashable, Outcome]:
+def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, timeout: float,
+              on_done: Callable[[Hashable, Outcome], None] | None = None) -> dict[Hashable, Outcome]:
     """Run each ``fn(*args)`` in its own process, at most ``effective_jobs(jobs)`` at a time,
     each limited to ``timeout`` wall-clock seconds from its own start. Returns ``{key: Outcome}``
-    for every case. Workers still running when this returns or raises (or when the process gets
-    SIGTERM) are killed; on Linux they also die if this process is killed outright."""
+    for every case; ``on_done(key, outcome)``, if given, is called in this process as each case
+    ends (e.g. to tick a progress bar). Workers still running when this returns or raises (or
+    when the process gets SIGTERM) are killed; on Linux they also die if this process is killed
+    outright."""
     pending = collections.deque(cases)
     results: dict[Hashable, Outcome] = {}
     with Workers(jobs) as workers:
@@ -341,4 +344,6 @@ def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, t
                 workers.start(key, fn, args, timeout)
             for key, outcome in workers.wait():
                 results[key] = outcome
+                if on_done is not None:
+                    on_done(key, outcome)
     return results

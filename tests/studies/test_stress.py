@@ -280,6 +280,8 @@ def test_cli_stress_quick_subset(tmp_path, capsys):
     rk4 = cells[(cells.variant == "torque_free_spin_1e3") & (cells.integrator == "RK4")].iloc[0]
     assert rk4.stable_dt > 0 and math.isfinite(rk4.error_at_stable)
     assert (out / "stress" / "map.png").read_bytes()[:4] == b"\x89PNG"
+    legend = next(line for line in md.splitlines() if line.startswith("Map colours:"))
+    assert "salmon = **none stable**" in legend and "light grey = **not run**" in legend
     assert (out / "stress" / "torque_free_spin_1e3.png").is_file()
     assert not list(out.rglob(".*.tmp"))
 
@@ -295,3 +297,32 @@ def test_cli_stress_bad_input(tmp_path, capsys, args, fragment):
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("harness: error:") and fragment in lines[0], err
     assert not (tmp_path / "r").exists()
+
+
+def test_map_tells_none_stable_from_not_run():
+    """A searched cell with no stable step, an engine/integrator the variant does not list, a
+    skipped variant and a stable cell get their own state and colour."""
+    from types import SimpleNamespace
+
+    from matplotlib.colors import to_rgba
+
+    from harness.studies.stress import report
+    from harness.studies.stress.run import MapRow
+
+    def row(variant, engine, integrator, stable_dt, unstable_dt):
+        return MapRow(variant, engine, integrator, 1.0, "fixed", stable_dt, False, unstable_dt, "energy_growth",
+                      float("nan"), "", False, None, stable_dt or float("nan"), [], {})
+
+    rows = [row("a", "inhouse", "rk4", 1e-3, 2e-3), row("a", "mujoco", "RK4", None, 1e-4),
+            row("b", "inhouse", "rk4", None, 1e-5)]
+    fake = SimpleNamespace(variants=[SimpleNamespace(name=n) for n in ("a", "b", "c")], skipped={"c": "no scene"},
+                           rows=rows, rates={"a": 10.0, "b": 10.0})
+    variants, labels, states, z = report.map_cells(fake)
+    assert variants == ["a", "b", "c"] and labels == ["inhouse/rk4", "mujoco/RK4"]
+    assert states == [["stable", report.NONE_STABLE], [report.NONE_STABLE, report.NOT_RUN],
+                      [report.NOT_RUN, report.NOT_RUN]]
+    assert z[0, 0] == pytest.approx(math.log10(1e-3 * 10.0)) and np.isnan(z[0, 1])
+    colours = {k: to_rgba(c) for k, c in report.MAP_COLOURS.items()}
+    assert colours[report.NONE_STABLE] != colours[report.NOT_RUN]
+    assert report.MAP_LEGEND[report.NONE_STABLE] != report.MAP_LEGEND[report.NOT_RUN]
+    assert report.map_png(fake)[:4] == b"\x89PNG"

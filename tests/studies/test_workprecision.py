@@ -69,16 +69,6 @@ def test_bad_options_exit_2(tmp_path, capsys):
     assert not (tmp_path / "workprecision.md").exists()
 
 
-def test_progress_bar_advances_on_its_stream():
-    stream = io.StringIO()
-    bar = Progress(4, stream=stream, width=8)
-    bar.advance(1, "first")
-    bar.advance(3, "rest")
-    bar.close()
-    text = stream.getvalue()
-    assert "[##......] 1/4" in text and "[########] 4/4" in text and text.endswith("\n")
-
-
 @pytest.fixture(scope="module")
 def torque_free_short():
     scene = load_scene("torque_free")

@@ -206,3 +206,34 @@ def test_real_robot_panda(tmp_path, capsys):
     assert "panda_link8, panda_hand, panda_hand_tcp" in report and "equality constraint" in report
     code, _, err = run(["check", "--urdf", str(path), "--out-dir", str(tmp_path / "r")], capsys)  # meshes not stripped
     assert code == 2 and "missing mesh" in err and "cannot resolve package:// URIs" in err
+
+
+def test_free_motion_that_goes_to_nan_fails(tmp_path, capsys, monkeypatch):
+    """Pinocchio's free motion made to go to NaN after 20 steps without raising: the worst
+    differences are NaN, the free motion and the whole check fail (exit 1), never pass."""
+    import math
+
+    import numpy as np
+
+    from harness.tools import check
+
+    real = check.rkmk4_step
+    calls = {"n": 0}
+
+    def nan_after_20(*args, **kwargs):
+        q, v = real(*args, **kwargs)
+        calls["n"] += 1
+        return (q * np.nan, v * np.nan) if calls["n"] > 20 else (q, v)
+
+    monkeypatch.setattr(check, "rkmk4_step", nan_after_20)
+    d = MODELS_DIR / "double_pendulum"
+    res = check.run_check(d / "double_pendulum.xml", d / "double_pendulum.urdf", t_end=0.05, n_free=1)
+    (free,) = res.free
+    assert math.isnan(free.joint) and math.isnan(free.velocity) and math.isnan(free.position)
+    assert free.worst_body  # the body where it went non-finite is named
+    assert not res.free_passed and not res.passed
+    calls["n"] = 0
+    code, out, _ = run(["check", "--mjcf", str(d / "double_pendulum.xml"), "--urdf", str(d / "double_pendulum.urdf"),
+                        "--out-dir", str(tmp_path), "--t-end", "0.05", "--free-runs", "1"], capsys)
+    assert code == 1, out
+    assert "Verdict: **FAIL**" in (tmp_path / "check_double_pendulum.md").read_text()

@@ -237,3 +237,77 @@ def test_trajectory_checks_follow_the_shared_definition():
         assert c.tolerance == quantities.tolerance(scene.checks, q, "pinocchio")
     assert by_name["trajectory.position"].unit == "rel" and by_name["trajectory.orientation"].unit == "rad"
     assert by_name["trajectory.angular_velocity"].tolerance == scene.checks["trajectory"]["velocity"]
+
+
+def _spoiled(scene, k, value, field="v_WCm_W"):
+    """A sound in-house run of ``scene`` whose sample ``k`` has ``value`` in body 0's first
+    component of ``field``, still reported "ok" (an engine that missed its blow-up)."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from harness.engines.inhouse import ENGINE
+    from harness.validate.run import default_settings
+
+    settings = default_settings(scene, "inhouse")
+    traj = ENGINE.simulate(scene, settings)
+    arr = getattr(traj, field).copy()
+    arr[k, 0, 0] = value
+    return replace(traj, **{field: arr}), settings
+
+
+@pytest.mark.parametrize("value, field, what", [
+    (float("nan"), "v_WCm_W", "velocity"),   # a NaN state: NaN energy and momentum too
+    (1e200, "v_WCm_W", "kinetic"),           # a finite state whose energy overflows to inf
+    (float("inf"), "p_WCm_W", "position"),
+])
+def test_a_non_finite_sample_is_a_failed_run_check(value, field, what):
+    from harness.measure.trajectory import first_non_finite
+    from harness.validate.run import check_run
+
+    scene = short("double_pendulum")
+    traj, settings = _spoiled(scene, 7, value, field)
+    assert traj.ok  # the engine said ok
+    t_bad, found = first_non_finite(traj, scene.multibody())
+    assert t_bad == pytest.approx(traj.t[7]) and what in found
+    checks = check_run(scene, "inhouse", "inhouse", traj, None, settings)
+    run = [c for c in checks if c.check == "run"]
+    assert len(run) == 1 and not run[0].passed
+    assert run[0].detail.startswith("blowup: ") and f"t = {traj.t[7]:.6g} s" in run[0].detail
+    assert not any(c.passed for c in checks)
+
+
+def test_a_finite_run_has_no_run_check():
+    from harness.measure.trajectory import first_non_finite
+    from harness.validate.run import check_run
+
+    scene = short("double_pendulum")
+    traj, settings = _spoiled(scene, 7, 0.0)
+    assert first_non_finite(traj, scene.multibody()) is None
+    checks = check_run(scene, "inhouse", "inhouse", traj, None, settings)
+    assert checks and not any(c.check == "run" for c in checks)
+
+
+def test_validate_fails_an_engine_that_reports_ok_on_nan(monkeypatch):
+    """End to end through the worker processes: MuJoCo made to return a NaN energy sample
+    (a NaN angular velocity) with status ok fails the ``run`` check, never passes."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    real = MujocoEngine.simulate
+
+    def nan_at_5(self, scene, settings):
+        traj = real(self, scene, settings)
+        w = traj.w_WB_W.copy()
+        w[5:, 0, 1] = np.nan
+        return replace(traj, w_WB_W=w)
+
+    monkeypatch.setattr(MujocoEngine, "simulate", nan_at_5)
+    (res,) = validate([short("double_pendulum")], ["mujoco"], jobs=1)
+    run = [c for c in res.checks if c.engine == "mujoco" and c.check == "run"]
+    assert not res.passed
+    assert len(run) == 1 and not run[0].passed and run[0].detail.startswith("blowup: non-finite")
+    assert "angular velocity" in run[0].detail and "energy" in run[0].detail
+    (record,) = [r for r in res.runs if r.engine == "mujoco"]
+    assert record.status == "blowup" and "reported ok" in record.message

@@ -50,12 +50,14 @@ import numpy as np
 from harness.engines.base import RunSettings, check_settings
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.constraints import DynamicsError, project, violation
-from harness.engines.inhouse.integrators import COMPILED, FIXED_STEP, METHODS, integrate
+from harness.engines.inhouse.integrators import COMPILED, FIXED_STEP, METHODS, Result, integrate
 from harness.engines.inhouse.model import NEModel, build, from_trajectory, initial_state, split, to_trajectory
 from harness.engines.inhouse.newton_euler import Baumgarte, contact_force_series, make_rhs, reaction_series, reactions
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene
 from harness.measure.trajectory import Trajectory, failed
+
+BLOWUP_SPEED = 1e8  # m/s or rad/s: beyond this a run is a blow-up (as MuJoCo's and Pinocchio's)
 
 __all__ = [
     "ENGINE",
@@ -147,6 +149,7 @@ class InhouseEngine:
                 first_step=settings.dt,
                 post_step=post,
             )
+            res = stop_at_blowup(nem, res)
         except Exception as err:  # a numerical failure must come back as a trajectory
             return failed(self.name, settings.integrator, names, "failed", f"{type(err).__name__}: {err}")
         traj = to_trajectory(nem, res.t, res.y, self.name, settings.integrator)
@@ -188,6 +191,7 @@ class InhouseEngine:
             else:
                 res = compiled.integrate_fixed(packed, y0, t_save, FIXED_STEP[method],
                                                steps_per_save=settings.steps_per_save, proj_tol=projection_tolerance(nem))
+            res = stop_at_blowup(nem, res)
         except NotImplementedError as err:  # outside the compiled form's scope: say so, do not raise
             return failed(self.name, method, names, "failed", f"{method}: {err} (the per-state methods do)")
         except Exception as err:  # a numerical failure must come back as a trajectory
@@ -239,6 +243,35 @@ def characteristic_rate(nem: NEModel, y0: np.ndarray, gravity_W: np.ndarray, t_e
     for sp in nem.springs:  # a spring on a slide joint: sqrt(k / m_child), an upper bound
         rates.append(np.sqrt(sp.k / float(nem.mass[nem.slides[sp.slide].child])))
     return float(max(rates))
+
+
+def stop_at_blowup(nem: NEModel, res: Result) -> Result:
+    """``res`` cut before its first blown-up sample: a non-finite state, or a speed (norm of a
+    body's centre-of-mass velocity, m/s, or of its angular velocity, rad/s) beyond
+    ``BLOWUP_SPEED``, the bound MuJoCo and Pinocchio stop at. Such a run ends with status
+    "blowup" and a one-line message (time and what), keeping the samples before it; an earlier
+    failure or blow-up the integrator reported is kept when it comes first. ``res`` unchanged
+    when every sample is sound."""
+    y = np.asarray(res.y, dtype=float)
+    if y.shape[0] == 0:
+        return res
+    finite = np.all(np.isfinite(y), axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        _, _, v, w = split(nem, y)
+        speed = np.max(np.linalg.norm(v, axis=-1), axis=-1, initial=0.0)
+        spin = np.max(np.linalg.norm(w, axis=-1), axis=-1, initial=0.0)
+    bad = ~finite | (speed > BLOWUP_SPEED) | (spin > BLOWUP_SPEED)
+    if not bad.any():
+        return res
+    k = int(np.argmax(bad))
+    t = float(res.t[k])
+    if not finite[k]:
+        what = f"non-finite state at t = {t:.6g} s"
+    elif speed[k] > BLOWUP_SPEED:
+        what = f"speed {speed[k]:.3g} m/s beyond {BLOWUP_SPEED:g} at t = {t:.6g} s"
+    else:
+        what = f"angular speed {spin[k]:.3g} rad/s beyond {BLOWUP_SPEED:g} at t = {t:.6g} s"
+    return replace(res, t=res.t[:k].copy(), y=y[:k].copy(), status="blowup", message=what)
 
 
 def projection_tolerance(nem: NEModel) -> float:

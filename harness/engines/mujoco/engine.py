@@ -17,6 +17,12 @@ external Cartesian force: the joint's own passive force (spring, damper: ``qfrc_
 joint's dof along its world axis) and the prescribed point forces, which reach MuJoCo as motor
 (generalised) forces. Both are removed here (``joint_reaction``), so the reaction is the
 joint's constraint force alone, with the moment taken about the joint point (``xpos``).
+
+MuJoCo's warnings (e.g. "Nan, Inf or huge value in QACC at DOF 1. The simulation is
+unstable.") are not printed: while a run steps, ``captured_warnings`` routes MuJoCo's warning
+handler (``mujoco.set_mju_user_warning``) into a list, stored in the trajectory as
+``stats["warnings"] = {"count": n, "first": first message or ""}``. The blow-up guards are read
+from ``MjData.warning`` counters as before (MuJoCo counts a warning whoever handles its text).
 """
 
 from __future__ import annotations
@@ -41,6 +47,25 @@ BLOWUP_SPEED = 1e8  # m/s or rad/s: beyond this a run is declared a blow-up
 # MuJoCo's own blow-up guards: each resets the state (mj_resetData), so a run that trips one
 # would otherwise go on from qpos0 with finite numbers.
 _BAD_WARNINGS = ("mjWARN_BADQACC", "mjWARN_BADQVEL", "mjWARN_BADQPOS")
+
+
+class captured_warnings:
+    """Context manager: MuJoCo's warning messages (``mju_user_warning``) are appended to
+    ``messages`` (a list of str) instead of being printed; the previous handler is restored on
+    exit. The handler is process-wide: one run at a time per process (as the engines run)."""
+
+    def __enter__(self) -> "captured_warnings":
+        self.messages: list[str] = []
+        self._previous = mujoco.get_mju_user_warning()
+        mujoco.set_mju_user_warning(self.messages.append)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        mujoco.set_mju_user_warning(self._previous)
+
+    def stats(self) -> dict:
+        """``{"count": number of warnings, "first": the first message or ""}``."""
+        return {"count": len(self.messages), "first": " ".join(self.messages[0].split()) if self.messages else ""}
 
 
 class MujocoEngine:
@@ -68,6 +93,7 @@ class MujocoEngine:
         status, message, saved = "ok", "", 0
         t0 = time.perf_counter()
         mujoco.set_mjcb_control(control)
+        caught = captured_warnings().__enter__()
         try:
             for k in range(n):
                 if k > 0:
@@ -98,9 +124,10 @@ class MujocoEngine:
                     rolling.read(m, d, k)
                 saved = k + 1
         finally:
+            caught.__exit__()
             mujoco.set_mjcb_control(None)
         stats = {"steps": settings.n_saves * settings.steps_per_save, "wall_s": time.perf_counter() - t0,
-                 "settings": _describe(m)}
+                 "settings": _describe(m), "warnings": caught.stats()}
         traj = buf.trajectory(self.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
                               saved, stats, status, message)
         if rolling is not None:

@@ -11,6 +11,10 @@ Python overhead.
 Prescribed forces are not supported here: ``rollout`` applies open-loop controls held over each
 step, while the harness sets the force at every RK4 stage (``mjcb_control``);
 ``prepare`` raises ``NotImplementedError`` for a forced scene.
+
+MuJoCo's warnings during ``run`` are not printed but kept (``RolloutModel.warnings``, the
+messages of the last ``run``) and stored by ``trajectory`` as ``stats["warnings"]`` (count and
+first message), as the stepping engine does.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as _rollout
 
+from harness.engines.mujoco.engine import captured_warnings
 from harness.engines.mujoco.model import load_mjcf, set_initial_state
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene
@@ -50,6 +55,7 @@ class RolloutModel:
         self.state0 = np.empty(self.nstate)
         mujoco.mj_getState(m, self.d, self.state0, STATE_SPEC)
         self._datas: dict[int, list[mujoco.MjData]] = {}
+        self.warnings: list[str] = []  # MuJoCo's warning messages during the last ``run``
 
     def datas(self, nthread: int) -> list[mujoco.MjData]:
         """``nthread`` MjData for ``rollout`` (one per thread), made once."""
@@ -59,8 +65,11 @@ class RolloutModel:
 
     def run(self, initial_states: np.ndarray, nstep: int, nthread: int = 1) -> np.ndarray:
         """``rollout`` from ``initial_states`` (nbatch x nstate) for ``nstep`` steps with
-        ``nthread`` threads; returns the states after each step, nbatch x nstep x nstate."""
-        state, _ = _rollout.rollout(self.m, self.datas(nthread), np.atleast_2d(initial_states), nstep=int(nstep))
+        ``nthread`` threads; returns the states after each step, nbatch x nstep x nstate.
+        MuJoCo's warnings go to ``self.warnings``, not to stdout."""
+        with captured_warnings() as caught:
+            state, _ = _rollout.rollout(self.m, self.datas(nthread), np.atleast_2d(initial_states), nstep=int(nstep))
+        self.warnings = caught.messages
         return state
 
     def state_from_joints(self, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
@@ -106,7 +115,9 @@ class RolloutModel:
             saved = k + 1
         return Trajectory(engine="mujoco", integrator=integrator, body_names=tuple(b.name for b in self.model.bodies),
                           t=np.asarray(t, dtype=float)[:saved], p_WCm_W=P[:saved], quat_WB=Q[:saved],
-                          v_WCm_W=V[:saved], w_WB_W=W[:saved], status=status, message=message)
+                          v_WCm_W=V[:saved], w_WB_W=W[:saved], status=status, message=message,
+                          stats={"warnings": {"count": len(self.warnings),
+                                              "first": " ".join(self.warnings[0].split()) if self.warnings else ""}})
 
 
 def prepare(scene: Scene, dt: float, integrator: str) -> RolloutModel:

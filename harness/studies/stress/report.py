@@ -189,6 +189,9 @@ def markdown(run: StressRun, prov: dict, plots: dict[str, str], command: str | N
     lines += ["## Stability map", ""]
     if "map" in plots:
         lines += [f"![stability map]({plots['map']})", ""]
+        lines += ["Map colours: viridis = log10(largest stable step x rate) (adaptive: of the mean step); "
+                  + "; ".join(f"{MAP_COLOUR_NAMES[k]} = **{k}**: " + MAP_LEGEND[k].split(": ", 1)[1]
+                              for k in MAP_COLOURS) + ".", ""]
     labels = _labels(run)
     if labels:
         lines += ["Largest stable step (s) and the failure mode above it, per engine/integrator:", ""]
@@ -199,7 +202,7 @@ def markdown(run: StressRun, prov: dict, plots: dict[str, str], command: str | N
             cells = []
             for label in labels:
                 m = _row_of(run, v.name, label)
-                cells.append(map_cell(m) if m else "")
+                cells.append(map_cell(m) if m else NOT_RUN)
             lines.append(f"| {v.name} | " + " | ".join(cells) + " |")
         lines.append("")
     if run.skipped:
@@ -388,37 +391,85 @@ def _png(fig) -> bytes:
     return png_bytes(fig, dpi=90)
 
 
+NONE_STABLE, NOT_RUN = "none stable", "not run"
+MAP_COLOURS = {NONE_STABLE: "#f4a582", NOT_RUN: "#d9d9d9"}  # salmon, light grey (stable cells: viridis)
+MAP_COLOUR_NAMES = {NONE_STABLE: "salmon", NOT_RUN: "light grey"}
+MAP_LEGEND = {
+    NONE_STABLE: "no stable step found: every step tried failed (adaptive: its run failed)",
+    NOT_RUN: "not run: the engine/integrator is not listed for the variant, or the variant was skipped",
+}
+
+
+def cell_state(m: MapRow | None) -> str:
+    """What a map cell means: ``"not run"`` (no row: the engine/integrator does not apply to the
+    variant, or the variant was skipped), ``"none stable"`` (searched, no stable step; adaptive:
+    its one run failed), else ``"stable"``."""
+    if m is None:
+        return NOT_RUN
+    if m.kind == "adaptive":
+        return "stable" if m.nominal is not None and m.nominal.stable else NONE_STABLE
+    return "stable" if m.stable_dt is not None else NONE_STABLE
+
+
+def map_cells(run: StressRun) -> tuple[list[str], list[str], list[list[str]], np.ndarray]:
+    """The map's variants (skipped ones included), labels, cell states (``cell_state``) and
+    colour values log10(h·rate) (NaN where no stable step or no rate)."""
+    variants = [v.name for v in run.variants]
+    labels = _labels(run)
+    states = [[NOT_RUN for _ in labels] for _ in variants]
+    z = np.full((len(variants), len(labels)), np.nan)
+    for i, name in enumerate(variants):
+        for j, label in enumerate(labels):
+            m = None if name in run.skipped else _row_of(run, name, label)
+            states[i][j] = cell_state(m)
+            if states[i][j] == "stable":
+                hr = _h_rate(run, m)
+                z[i, j] = math.log10(hr) if math.isfinite(hr) and hr > 0 else np.nan
+    return variants, labels, states, z
+
+
 def map_png(run: StressRun) -> bytes | None:
     """Heat map: variant x engine/integrator, colour log10(h·rate) of the largest stable step
-    (adaptive: of the mean step), text: the map cell."""
-    variants = [v.name for v in run.variants if v.name not in run.skipped]
-    labels = _labels(run)
+    (adaptive: of the mean step), ``MAP_COLOURS`` for cells with no stable step and cells not
+    run (a legend says which), text: the map cell."""
+    variants, labels, states, z = map_cells(run)
     if not variants or not labels:
         return None
-    z = np.full((len(variants), len(labels)), np.nan)
     text = [["" for _ in labels] for _ in variants]
     for i, name in enumerate(variants):
         for j, label in enumerate(labels):
-            m = _row_of(run, name, label)
-            if m is None:
-                continue
-            hr = _h_rate(run, m)
-            z[i, j] = math.log10(hr) if math.isfinite(hr) and hr > 0 else np.nan
-            text[i][j] = map_cell(m).replace("✓", "ok").replace("✗acc", "inacc").replace("≥", ">=")
-    fig = _figure(1.25 * len(labels) + 3.5, 0.42 * len(variants) + 1.8)
+            m = None if name in run.skipped else _row_of(run, name, label)
+            if m is not None:
+                text[i][j] = map_cell(m).replace("✓", "ok").replace("✗acc", "inacc").replace("≥", ">=")
+            else:
+                text[i][j] = "skipped" if name in run.skipped else "not run"
+    fig = _figure(1.25 * len(labels) + 3.5, 0.42 * len(variants) + 2.4)
     ax = fig.subplots()
     import matplotlib
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Patch
 
-    cmap = matplotlib.colormaps["viridis"].with_extremes(bad="0.85")
-    im = ax.imshow(np.ma.masked_invalid(z), cmap=cmap, aspect="auto")
+    cmap = matplotlib.colormaps["viridis"].with_extremes(bad=(0, 0, 0, 0))
+    im = ax.imshow(np.ma.masked_invalid(z), cmap=cmap, aspect="auto", zorder=2)
+    under = np.ones((len(variants), len(labels), 4))  # white: stable but no rate to colour by
     for i in range(len(variants)):
         for j in range(len(labels)):
-            ax.text(j, i, text[i][j], ha="center", va="center", fontsize=6.5,
-                    color="white" if np.isfinite(z[i, j]) and z[i, j] < np.nanmean(z) else "black")
+            if states[i][j] in MAP_COLOURS:
+                under[i, j] = to_rgba(MAP_COLOURS[states[i][j]])
+    ax.imshow(under, aspect="auto", zorder=1)
+    finite = z[np.isfinite(z)]
+    mid = float(np.mean(finite)) if finite.size else 0.0
+    for i in range(len(variants)):
+        for j in range(len(labels)):
+            ax.text(j, i, text[i][j], ha="center", va="center", fontsize=6.5, zorder=3,
+                    color="white" if np.isfinite(z[i, j]) and z[i, j] < mid else "black")
     ax.set_xticks(range(len(labels)), labels, rotation=40, ha="right", fontsize=7)
     ax.set_yticks(range(len(variants)), variants, fontsize=7)
-    fig.colorbar(im, ax=ax, label="log10(stable step x rate)")
-    ax.set_title("Largest stable step (s) and failure mode above it (grey: none stable)", fontsize=9)
+    if finite.size:
+        fig.colorbar(im, ax=ax, label="log10(stable step x rate)")
+    ax.legend(handles=[Patch(facecolor=MAP_COLOURS[k], edgecolor="0.4", label=MAP_LEGEND[k]) for k in MAP_COLOURS],
+              loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=2, fontsize=6.5, frameon=False)
+    ax.set_title("Largest stable step (s) and failure mode above it", fontsize=9, pad=16)
     return _png(fig)
 
 

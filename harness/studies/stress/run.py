@@ -981,9 +981,11 @@ def run_dynamic(propose: Callable[[], list[tuple[Any, Callable, tuple, float, fl
 
 def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str], *, quick: bool = False,
                jobs: int | None = None, timeout: float = 60.0, models_dir: Path | None = None,
-               log: Callable[[str], None] = lambda s: None) -> StressRun:
+               log: Callable[[str], None] = lambda s: None, progress: Any = None) -> StressRun:
     """Run the variants on the engines (module docstring); every trial in its own worker, each
-    limited to ``timeout`` s (a reference run to 4 ``timeout``)."""
+    limited to ``timeout`` s (a reference run to 4 ``timeout``). ``progress``: a bar
+    (``harness.io.progress.make_bar``) whose total is set to the engine/integrator cells and
+    which ticks as each cell's step search ends (its postfix counts the runs), or None."""
     start = time.perf_counter()
     jobs = effective_jobs(jobs)  # clamped to the CPUs this process may use
     bounds = catalogue.bounds
@@ -1012,6 +1014,9 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
     searches = [StepSearch(v, e, integ, bounds, quick=quick)
                 for v in runnable for e in engines for integ in v.integrators.get(e, ())]
     by_id = {id(s): s for s in searches}
+    if progress is not None:
+        progress.total = len(searches)
+        progress.refresh()
     in_flight = {id(s): 0 for s in searches}
     left = {v.name: sum(s.variant.name == v.name for s in searches) for v in runnable}
     counts = {"trials": 0}
@@ -1036,6 +1041,8 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
                 out.append(((id(s), spec.dt), trial_case, (scenes[name], spec, refs[name], bounds), _cost(spec), timeout))
                 in_flight[id(s)] += 1
             if s.done:
+                if progress is not None:
+                    progress.update(1)
                 left[name] -= 1
                 if left[name] == 0:
                     log(f"{name}: done ({time.perf_counter() - start:.0f} s)")
@@ -1043,6 +1050,8 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
 
     def on_done(key, outcome):
         counts["trials"] += 1
+        if progress is not None:
+            progress.set_postfix_str(f"{counts['trials']} runs", refresh=False)
         spec = flying.pop(key)
         if key[0] == "reference":
             name = key[1]

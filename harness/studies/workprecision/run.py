@@ -57,7 +57,6 @@ that error range.
 from __future__ import annotations
 
 import math
-import sys
 import time
 from dataclasses import asdict, dataclass, field, replace
 from typing import Callable
@@ -90,7 +89,7 @@ class SweepOptions:
         horizon: the scene's t_end when None.
         batch: initial conditions of the batched-throughput benchmark (0: skip it).
         batch_steps: steps of each trajectory in that benchmark.
-        progress: draw the progress bar on stderr.
+        progress: draw the progress bar on stderr (only ever when stderr is a terminal).
     """
 
     repeats: int = 3
@@ -199,27 +198,24 @@ class SceneSweep:
 
 
 class Progress:
-    """A one-line text progress bar on a stream (stderr): ``[#####.....] 12/80 label``."""
+    """The sweep's progress on the shared bar (``harness.io.progress.make_bar``): drawn on
+    ``stream`` (default stderr) only when it is a terminal and ``enabled``; nothing otherwise.
+    ``advance(n, label)`` counts ``n`` more runs of ``total`` and shows ``label``."""
 
-    def __init__(self, total: int, enabled: bool = True, stream=None, width: int = 30) -> None:
-        self.total, self.done, self.enabled, self.width = max(1, total), 0, enabled, width
-        self.stream = stream if stream is not None else sys.stderr
-        self.start = time.perf_counter()
+    def __init__(self, total: int, enabled: bool = True, stream=None) -> None:
+        from harness.io.progress import make_bar
+
+        self.bar = make_bar(max(1, total), desc="workprecision", unit="run", quiet=not enabled, stream=stream)
 
     def advance(self, n: int = 1, label: str = "") -> None:
-        self.done = min(self.total, self.done + n)
-        if not self.enabled:
-            return
-        filled = int(round(self.width * self.done / self.total))
-        elapsed = time.perf_counter() - self.start
-        line = f"\r[{'#' * filled}{'.' * (self.width - filled)}] {self.done}/{self.total} {elapsed:5.0f}s {label[:60]:<60}"
-        self.stream.write(line)
-        self.stream.flush()
+        n = min(n, self.bar.total - self.bar.n)  # the total is an upper bound, never passed
+        if label:
+            self.bar.set_postfix_str(label[:60], refresh=not n)
+        if n > 0:
+            self.bar.update(n)
 
     def close(self) -> None:
-        if self.enabled:
-            self.stream.write("\n")
-            self.stream.flush()
+        self.bar.close()
 
 
 # ---------------------------------------------------------------------------------------------

@@ -25,11 +25,15 @@ failed trajectory).
 
 The first call in a fresh environment compiles the kernel it needs (``warm_up``); later
 processes load it from Numba's on-disk cache. ``Result.wall_s`` never includes compilation:
-every driver warms its kernel up before it starts the clock.
+every driver warms its kernel up before it starts the clock. Before the first compilation in a
+process (a kernel that Numba's cache does not hold for this CPU and source), one line on stderr
+says so, with the time the last compilation took on this machine (recorded in the cache folder,
+``compile_seconds.json``); ``harness.io.progress.set_quiet(True)`` (``--quiet``) silences it.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -202,14 +206,78 @@ def run_batch(model: tuple, Y0: np.ndarray, nstep: int, dt: float, tableau: Butc
 
 
 _warm: set[str] = set()
+_announced = False
+_TIMES_FILE = "compile_seconds.json"
+
+
+def is_cached(kernel: str) -> bool | None:
+    """Whether Numba's on-disk cache holds ``kernel`` compiled for this CPU from the current
+    source (its index is discarded when the source file changes); None when it cannot tell."""
+    try:
+        disp = getattr(kernels, kernel)
+        index = disp._cache._cache_file._load_index()
+        magic = disp.targetctx.codegen().magic_tuple()
+        return any(key[1] == magic for key in index)
+    except Exception:  # Numba internals moved, or no cache: do not guess
+        return None
+
+
+def _times_path(kernel: str):
+    try:
+        return os.path.join(getattr(kernels, kernel)._cache._cache_path, _TIMES_FILE)
+    except Exception:
+        return None
+
+
+def _recorded_times(kernel: str) -> dict[str, float]:
+    """``{kernel: seconds}`` the last compilations took on this machine (empty if unknown)."""
+    path = _times_path(kernel)
+    try:
+        with open(path) as f:
+            return {k: float(v) for k, v in json.load(f).items()}
+    except Exception:
+        return {}
+
+
+def _record_time(kernel: str, seconds: float) -> None:
+    path = _times_path(kernel)
+    if path is None:
+        return
+    times = _recorded_times(kernel) | {kernel: round(seconds, 1)}
+    try:
+        tmp = f"{path}.{os.getpid()}.tmp"
+        with open(tmp, "w") as f:
+            json.dump(times, f)
+        os.replace(tmp, path)
+    except OSError:  # a read-only cache folder: no estimate next time, nothing worse
+        pass
+
+
+def _announce(kernel: str) -> None:
+    """One line on stderr, once per process, before the first compilation."""
+    global _announced
+    if _announced:
+        return
+    _announced = True
+    from harness.io.progress import note
+
+    seconds = _recorded_times(kernel).get(kernel)
+    how_long = f"about {seconds:.0f} s on this machine" if seconds else "a minute or so"
+    note(f"compiling the in-house kernels (once; {how_long}, then cached)")
 
 
 def warm_up(model: tuple, y0: np.ndarray, kernel: str) -> None:
     """Compile (or load from the cache) ``kernel`` ("erk", "dop853" or "erk_rows") by running it
     for one step of ``model`` from ``y0``, so that timed runs never include compilation (once
-    per kernel and process: every packed model and table has the same types)."""
+    per kernel and process: every packed model and table has the same types). A compilation
+    (``is_cached`` false) is announced on stderr first (``_announce``) and its duration (s,
+    wall clock) recorded for the next announcement's estimate."""
     if kernel in _warm:
         return
+    compiling = is_cached(kernel) is False
+    if compiling:
+        _announce(kernel)
+    start = time.perf_counter()
     y0 = np.ascontiguousarray(y0, dtype=float)
     t = np.array([0.0, 1e-3])
     out = np.empty((2, len(y0)))
@@ -222,4 +290,6 @@ def warm_up(model: tuple, y0: np.ndarray, kernel: str) -> None:
         kernels.erk_rows(model, y0[None], 1, 1e-3, 1e-13, A, b, c, out[:1], np.zeros(1, dtype=np.int64), 0, 1)
     else:
         raise ValueError(f"unknown kernel {kernel!r}")
+    if compiling:
+        _record_time(kernel, time.perf_counter() - start)
     _warm.add(kernel)
