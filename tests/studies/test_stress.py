@@ -232,6 +232,9 @@ def test_trial_detects_mujoco_bad_acceleration_and_energy_growth():
     assert not r.stable and r.status == "blowup" and "mjWARN_BADQACC" in r.message
     assert r.mode == "energy growth" and r.t_fail < r.t_reached
     assert engine_mode(failed("mujoco", "Euler", ["body"], "blowup", r.message)) == "badqacc"
+    for message in ("velocity beyond 1e+08 at t = 0.1 s", "angular speed 2.2e+54 rad/s beyond 1e+08 at t = 0.024 s"):
+        assert engine_mode(failed("inhouse", "rk4", ["body"], "blowup", message)) == "magnitude growth"
+    assert engine_mode(failed("inhouse", "rk4", ["body"], "blowup", "non-finite state at t = 0.1 s")) == "nan"
     spec = TrialSpec(v.name, "pinocchio", "euler", 1e-4, 0.02, 1e-4, 1e-8, "search")
     r = trial_case(scene, spec, ref, cat.bounds)
     assert not r.stable and r.mode in ("energy growth", "magnitude growth")

@@ -481,7 +481,7 @@ def engine_mode(traj: Trajectory) -> str:
     msg = traj.message
     if "MuJoCo warning" in msg or "bad acceleration" in msg:
         return "badqacc"
-    if "velocity beyond" in msg:
+    if "velocity beyond" in msg or ("speed" in msg and "beyond" in msg):  # every engine's speed guard (1e8)
         return "magnitude growth"
     if traj.status == "blowup" or "non-finite" in msg:
         return "nan"
