@@ -929,54 +929,24 @@ def _cost(spec: TrialSpec) -> float:
 
 def run_dynamic(propose: Callable[[], list[tuple[Any, Callable, tuple, float, float]]],
                 on_done: Callable[[Any, Outcome], None], jobs: int) -> None:
-    """Run cases in worker processes like ``harness.validate.workers.run_cases`` (same worker body, same
-    outcomes), but work-conserving: ``propose()`` returns new ``(key, fn, args, cost, timeout)``
-    cases and is asked again whenever a case ends (``on_done(key, outcome)``), so a bisection's
-    next step starts as soon as its last one ends. Waiting cases start highest ``cost`` first;
+    """Run cases in worker processes (``harness.validate.workers.Workers``, as ``run_cases``: the
+    same isolation, outcomes and clean-up on SIGTERM), but work-conserving: ``propose()`` returns
+    new ``(key, fn, args, cost, timeout)`` cases and is asked again whenever a case ends
+    (``on_done(key, outcome)``), so a bisection's next step starts as soon as its last one ends. Waiting cases start highest ``cost`` first;
     each is limited to its own ``timeout`` (s)."""
-    from harness.validate.workers import _context, _worker
+    from harness.validate.workers import Workers
 
-    ctx = _context()
     pending: list[tuple[Any, Callable, tuple, float, float]] = sorted(propose(), key=lambda c: -c[3])
-    running: dict[Any, tuple[Any, Any, float]] = {}
-    jobs = max(1, jobs)
-    while pending or running:
-        while pending and len(running) < jobs:
-            key, fn, args, _, limit = pending.pop(0)
-            parent, child = ctx.Pipe(duplex=False)
-            proc = ctx.Process(target=_worker, args=(child, fn, args), daemon=True)
-            proc.start()
-            child.close()
-            running[key] = (proc, parent, time.perf_counter(), limit)
-        done = []
-        for key, (proc, conn, begun, limit) in running.items():
-            elapsed = time.perf_counter() - begun
-            if conn.poll():
-                try:
-                    status, value, message = conn.recv()
-                except (EOFError, OSError):
-                    proc.join(1.0)
-                    outcome = Outcome("crashed", message=f"worker died (exit code {proc.exitcode})", wall_s=elapsed)
-                else:
-                    outcome = Outcome(status, value, message, elapsed)
-                proc.join(5.0)
-            elif not proc.is_alive():
-                proc.join()
-                outcome = Outcome("crashed", message=f"worker died (exit code {proc.exitcode})", wall_s=elapsed)
-            elif elapsed > limit:
-                proc.kill()
-                proc.join()
-                outcome = Outcome("timeout", message=f"no result within {limit:g} s", wall_s=elapsed)
-            else:
-                continue
-            done.append((key, outcome))
-        for key, outcome in done:
-            running.pop(key)[1].close()
-            on_done(key, outcome)
-        if done:
-            pending = sorted(pending + propose(), key=lambda c: -c[3])
-        elif running:
-            time.sleep(0.005)
+    with Workers(jobs) as workers:
+        while pending or len(workers):
+            while pending and workers.free():
+                key, fn, args, _, limit = pending.pop(0)
+                workers.start(key, fn, args, limit)
+            done = workers.wait()
+            for key, outcome in done:
+                on_done(key, outcome)
+            if done:
+                pending = sorted(pending + propose(), key=lambda c: -c[3])
 
 
 def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str], *, quick: bool = False,
