@@ -16,6 +16,10 @@ from harness.model.scene import Scene
 from harness.measure.trajectory import Trajectory
 
 
+#: Speed (m/s, or rad/s for rotation) beyond which every engine declares its run a blow-up.
+BLOWUP_SPEED = 1e8
+
+
 @dataclass(frozen=True)
 class Integrator:
     """One integration method of one engine.

@@ -47,7 +47,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from harness.engines.base import RunSettings, check_settings
+from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.constraints import DynamicsError, project, violation
 from harness.engines.inhouse.integrators import COMPILED, FIXED_STEP, METHODS, Result, integrate
@@ -57,7 +57,6 @@ from harness.model.multibody import Multibody
 from harness.model.scene import Scene
 from harness.measure.trajectory import Trajectory, failed
 
-BLOWUP_SPEED = 1e8  # m/s or rad/s: beyond this a run is a blow-up (as MuJoCo's and Pinocchio's)
 
 __all__ = [
     "ENGINE",

@@ -33,7 +33,7 @@ from dataclasses import replace
 import mujoco
 import numpy as np
 
-from harness.engines.base import RunSettings, check_settings
+from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
 from harness.engines.mujoco.integrators import INTEGRATOR_METHODS
 from harness.engines.mujoco.model import joint_type, load_mjcf, set_initial_state
 from harness.engines.mujoco.rolling import ContactForceReader, describe_contact
@@ -43,7 +43,6 @@ from harness.model.joints import JOINTS, ROTATIONAL, TRANSLATIONAL
 from harness.model.scene import Scene
 from harness.measure.trajectory import SampleBuffer, Trajectory
 
-BLOWUP_SPEED = 1e8  # m/s or rad/s: beyond this a run is declared a blow-up
 # MuJoCo's own blow-up guards: each resets the state (mj_resetData), so a run that trips one
 # would otherwise go on from qpos0 with finite numbers.
 _BAD_WARNINGS = ("mjWARN_BADQACC", "mjWARN_BADQVEL", "mjWARN_BADQPOS")

@@ -19,13 +19,12 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from harness.engines.base import BLOWUP_SPEED
 from harness.model import rotations
 from harness.model.errors import InputError
 from harness.model.joints import JOINTS, JointType, by_pinocchio
 from harness.model.multibody import Multibody
 from harness.measure.trajectory import SampleBuffer
-
-BLOWUP_SPEED = 1e8  # m/s or rad/s: beyond this a run is declared a blow-up
 
 
 def root_joint_model(jt: JointType):
