@@ -92,3 +92,32 @@ def work_of_forces(traj: "Trajectory", model: Multibody) -> np.ndarray:
     if len(traj.t) < 3:
         return np.zeros(len(traj.t))
     return cumulative_simpson(power, x=traj.t, initial=0.0)
+
+
+def first_non_finite(traj: "Trajectory", model: Multibody) -> tuple[float, str] | None:
+    """The first sample at which the run is no longer a number: ``(t, what)`` with its time (s)
+    and what is non-finite there (among the state arrays ``p_WCm_W quat_WB v_WCm_W w_WB_W`` and
+    the invariants recomputed from them here: ``kinetic``,
+    ``potential``, ``elastic``, ``energy`` in J, linear momentum ``p`` in kg m/s, angular
+    momentum ``L`` about the world origin in kg m^2/s); None when every sample is finite.
+    A finite state whose energy overflows (e.g. a speed of 1e105 m/s) is a blow-up too."""
+    n = len(traj.t)
+    if n == 0:
+        return None
+    with np.errstate(over="ignore", invalid="ignore"):
+        series: dict[str, np.ndarray] = {
+            "t": np.asarray(traj.t, dtype=float).reshape(n, -1),
+            "position": traj.p_WCm_W.reshape(n, -1),
+            "orientation": traj.quat_WB.reshape(n, -1),
+            "velocity": traj.v_WCm_W.reshape(n, -1),
+            "angular velocity": traj.w_WB_W.reshape(n, -1),
+        }
+        series.update({k: np.reshape(v, (n, -1)) for k, v in energies(traj, model).items()})
+        series["linear momentum"] = linear_momentum(traj, model).reshape(n, -1)
+        series["angular momentum"] = angular_momentum(traj, model).reshape(n, -1)
+    bad = {k: ~np.all(np.isfinite(v), axis=1) for k, v in series.items()}
+    rows = np.logical_or.reduce(list(bad.values()))
+    if not rows.any():
+        return None
+    k = int(np.argmax(rows))
+    return float(traj.t[k]), ", ".join(name for name, b in bad.items() if b[k])

@@ -17,7 +17,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from harness.model.multibody import Multibody
 
@@ -122,34 +121,3 @@ def failed(engine: str, integrator: str, body_names, status: str, message: str) 
         status=status,
         message=message,
     )
-
-
-def first_non_finite(traj: Trajectory, model: Multibody) -> tuple[float, str] | None:
-    """The first sample at which the run is no longer a number: ``(t, what)`` with its time (s)
-    and what is non-finite there (among the state arrays ``p_WCm_W quat_WB v_WCm_W w_WB_W`` and
-    the invariants recomputed from them by ``harness.measure.invariants``: ``kinetic``,
-    ``potential``, ``elastic``, ``energy`` in J, linear momentum ``p`` in kg m/s, angular
-    momentum ``L`` about the world origin in kg m^2/s); None when every sample is finite.
-    A finite state whose energy overflows (e.g. a speed of 1e105 m/s) is a blow-up too."""
-    from harness.measure import invariants  # imports this module's type only when checking
-
-    n = len(traj.t)
-    if n == 0:
-        return None
-    with np.errstate(over="ignore", invalid="ignore"):
-        series: dict[str, np.ndarray] = {
-            "t": np.asarray(traj.t, dtype=float).reshape(n, -1),
-            "position": traj.p_WCm_W.reshape(n, -1),
-            "orientation": traj.quat_WB.reshape(n, -1),
-            "velocity": traj.v_WCm_W.reshape(n, -1),
-            "angular velocity": traj.w_WB_W.reshape(n, -1),
-        }
-        series.update({k: np.reshape(v, (n, -1)) for k, v in invariants.energies(traj, model).items()})
-        series["linear momentum"] = invariants.linear_momentum(traj, model).reshape(n, -1)
-        series["angular momentum"] = invariants.angular_momentum(traj, model).reshape(n, -1)
-    bad = {k: ~np.all(np.isfinite(v), axis=1) for k, v in series.items()}
-    rows = np.logical_or.reduce(list(bad.values()))
-    if not rows.any():
-        return None
-    k = int(np.argmax(rows))
-    return float(traj.t[k]), ", ".join(name for name, b in bad.items() if b[k])

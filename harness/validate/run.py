@@ -50,7 +50,8 @@ import numpy as np
 from harness.engines import get_engine, integrator
 from harness.engines.base import RunSettings
 from harness.measure import compare, contact_metrics, exact
-from harness.measure.trajectory import Trajectory, first_non_finite
+from harness.measure.invariants import first_non_finite
+from harness.measure.trajectory import Trajectory
 from harness.model import forces
 from harness.model.errors import InputError
 from harness.model.scene import MODELS_DIR, Scene

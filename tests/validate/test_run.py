@@ -262,7 +262,7 @@ def _spoiled(scene, k, value, field="v_WCm_W"):
     (float("inf"), "p_WCm_W", "position"),
 ])
 def test_a_non_finite_sample_is_a_failed_run_check(value, field, what):
-    from harness.measure.trajectory import first_non_finite
+    from harness.measure.invariants import first_non_finite
     from harness.validate.run import check_run
 
     scene = short("double_pendulum")
@@ -278,7 +278,7 @@ def test_a_non_finite_sample_is_a_failed_run_check(value, field, what):
 
 
 def test_a_finite_run_has_no_run_check():
-    from harness.measure.trajectory import first_non_finite
+    from harness.measure.invariants import first_non_finite
     from harness.validate.run import check_run
 
     scene = short("double_pendulum")
