@@ -1,6 +1,7 @@
 """Argument types shared by the command-line modules: a bad value becomes argparse's one-line
 error (``argument --dt: not a number: 'abc'``), which ``harness.cli.main`` turns into exit code 2.
-Also the checks several commands make before they run (``check_selection``, ``check_samples``)."""
+Also the checks several commands make before they run (``check_selection``, ``check_samples``)
+and the one rule of where a report set goes (``add_out_dir``, ``out_dir``)."""
 
 from __future__ import annotations
 
@@ -87,3 +88,24 @@ def require_scene_files_utf8(scene) -> None:
     """``require_utf8`` for a scene's MJCF and URDF."""
     require_utf8(scene.mjcf, "MJCF")
     require_utf8(scene.urdf, "URDF")
+
+
+def add_out_dir(parser, command: str, what: str, subset: tuple[str, ...]) -> None:
+    """Add ``--out-dir`` to a report-writing command: ``what`` its files, ``subset`` the
+    options (attribute names, e.g. ``("scenes", "quick")``) that make a run partial."""
+    flags = ", ".join("--" + o.replace("_", "-") for o in subset)
+    parser.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
+                        help=f"folder for {what} (default: reports for a full run; reports/partial/{command} "
+                             f"for a run with {flags}, so that only a full run refreshes the committed snapshot)")
+
+
+def out_dir(args, command: str, subset: tuple[str, ...]) -> Path:
+    """The folder a command writes its report set to: ``--out-dir`` if given, else ``reports``
+    for a full run and ``reports/partial/<command>`` when any option of ``subset`` is set
+    (``harness.io.atomic.default_out_dir``); checked writable before the run starts."""
+    from harness.io.atomic import check_writable, default_out_dir
+
+    folder = args.out_dir or default_out_dir(command, full_run=not any(getattr(args, o) for o in subset))
+    check_writable(folder)
+    return folder
+

@@ -21,9 +21,9 @@ from harness.cli import workprecision as cli_workprecision
 from harness.io.progress import set_quiet
 from harness.io.provenance import set_argv
 from harness.model.errors import InputError
-from harness.cli.arg_types import (MODELS_DIR_HELP, check_samples, check_selection, csv_list as _csv_list,
+from harness.cli.arg_types import (MODELS_DIR_HELP, add_out_dir, check_samples, check_selection, csv_list as _csv_list,
                                    float_arg as _float, int_arg as _int, models_dir_arg as _models_dir,
-                                   require_scene_files_utf8)
+                                   out_dir, require_scene_files_utf8)
 
 ENGINES_HELP = "inhouse, mujoco, pinocchio"
 
@@ -36,6 +36,9 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # noqa: D401 - argparse API
         raise InputError(message)
 
+
+#: ``validate`` options that make a run partial (its reports then go to reports/partial/validate)
+VALIDATE_SUBSET = ("scenes", "engines", "set", "tolerances", "models_dir")
 
 def _overrides(items: list[str] | None) -> dict[str, str]:
     from harness.model.scene import parse_set
@@ -86,8 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"comma-separated engines among {ENGINES_HELP} (default: all)")
     v.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a parameter, in its unit, in every selected scene that has it (repeatable)")
-    v.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
-                   help="folder for the validation reports (default: reports for a full run; reports/partial/validate for a subset, --scenes/--engines/--set/--tolerances or --models-dir run, so that only a full run refreshes the committed snapshot)")
+    add_out_dir(v, "validate", "the validation reports", VALIDATE_SUBSET)
     v.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
     v.add_argument("--tolerances", type=Path, metavar="FILE.toml",
                    help="TOML file of [<scene>.<check>] tables tightening or loosening tolerances "
@@ -188,7 +190,6 @@ def preflight(scene) -> None:
 
 def cmd_validate(args) -> int:
     from harness.engines import ENGINE_NAMES, get_engine
-    from harness.io.atomic import check_writable, default_out_dir
     from harness.io.provenance import provenance
     from harness.validate.report import write_reports
     from harness.model.scene import MODELS_DIR, available_scenes, load_scene
@@ -223,9 +224,7 @@ def cmd_validate(args) -> int:
         check_scenes_known(table, available_scenes(args.models_dir), args.tolerances)
         for i, scene in enumerate(scenes):
             scenes[i], changes[scene.name] = apply_tolerances(scene, table, args.tolerances)
-    full = not (args.scenes or args.engines or args.set or args.tolerances or args.models_dir)
-    out_dir = args.out_dir or default_out_dir("validate", full_run=full)
-    check_writable(out_dir)
+    folder = out_dir(args, "validate", VALIDATE_SUBSET)
     for scene in scenes:
         preflight(scene)
     with make_bar(len(scenes) * (1 + len(engines)), desc="validate", unit="case", quiet=args.quiet) as bar:
@@ -242,7 +241,7 @@ def cmd_validate(args) -> int:
         for c in result.checks:
             if not c.passed:
                 print(f"  FAIL {c.engine} {c.check}: {c.value:.3e} > {c.tolerance:.1e} {c.unit} {c.detail}")
-    paths = write_reports(results, provenance(), out_dir)
+    paths = write_reports(results, provenance(), folder)
     print("wrote " + ", ".join(str(p) for p in paths))
     return EXIT_OK if all(r.passed for r in results) else EXIT_FAIL
 

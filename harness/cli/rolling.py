@@ -11,13 +11,13 @@ loops).
 
 from __future__ import annotations
 
-from pathlib import Path
 
 EXIT_OK, EXIT_FAIL = 0, 1
+SUBSET = ("quick", "models_dir")  # options that make a run partial
 
 
 def add_parser(sub) -> None:
-    from harness.cli.arg_types import MODELS_DIR_HELP, models_dir_arg
+    from harness.cli.arg_types import MODELS_DIR_HELP, add_out_dir, models_dir_arg
 
     r = sub.add_parser("rolling-study", help="rolling disk: MuJoCo settings study, stability threshold vs the textbook; "
                                              "writes reports/rolling_disk.md",
@@ -25,8 +25,7 @@ def add_parser(sub) -> None:
                                    "threshold v_c (m/s) of straight rolling against the textbook's. Writes "
                                    "rolling_disk.md, rolling_disk.json and rolling_disk_*.png. Exit 0 when every "
                                    "engine agrees with the correct threshold, 1 otherwise, 2 on bad input.")
-    r.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
-                   help="folder for rolling_disk.md, rolling_disk.json, rolling_disk_*.png (default: reports for a full run; reports/partial/rolling-study for a subset, --quick or --models-dir run, so that only a full run refreshes the committed snapshot)")
+    add_out_dir(r, "rolling-study", "rolling_disk.md, rolling_disk.json, rolling_disk_*.png", SUBSET)
     r.add_argument("--quick", action="store_true", help="short horizons, few settings and speeds (a smoke run)")
     r.add_argument("--models-dir", type=models_dir_arg, metavar="DIR",
                    help=MODELS_DIR_HELP + "; it must hold rolling_disk")
@@ -35,13 +34,12 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from harness.io.atomic import check_writable, default_out_dir
+    from harness.cli.arg_types import out_dir
     from harness.io.provenance import provenance
     from harness.studies.rolling.report import write_reports
     from harness.studies.rolling.run import rolling_study
 
-    out = args.out_dir or default_out_dir("rolling-study", full_run=not (args.quick or args.models_dir))
-    check_writable(out)
+    out = out_dir(args, "rolling-study", SUBSET)
     result = rolling_study(quick=args.quick, models_dir=args.models_dir)
     pngs = write_reports(result, out, provenance(), args.quick)
     agree = all(r["fell"] != r["predicted_stable"] for r in result.threshold)

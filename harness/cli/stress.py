@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from harness.cli.arg_types import (MODELS_DIR_HELP, check_selection, csv_list as _csv_list, float_arg as _float,
-                                   int_arg as _int, models_dir_arg as _models_dir)
+from harness.cli.arg_types import (MODELS_DIR_HELP, add_out_dir, check_selection, csv_list as _csv_list, float_arg as _float,
+                                   int_arg as _int, models_dir_arg as _models_dir, out_dir)
 
 EXIT_OK = 0
+SUBSET = ("quick", "variants", "engines", "catalogue", "models_dir")  # options that make a run partial
 
 
 def add_parser(sub) -> None:
@@ -32,8 +33,7 @@ def add_parser(sub) -> None:
     s.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
     s.add_argument("--timeout", type=_float, default=120.0, metavar="S",
                    help="seconds allowed per run (> 0, default 120; references 4x)")
-    s.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
-                   help="folder for stress.md, stress.csv, stress/ (default: reports for a full run; reports/partial/stress for a subset, --quick or --models-dir run, so that only a full run refreshes the committed snapshot)")
+    add_out_dir(s, "stress", "stress.md, stress.csv, stress/", SUBSET)
     s.add_argument("--catalogue", type=Path, metavar="FILE.toml",
                    help="stress catalogue TOML (default: harness/studies/stress/catalogue.toml)")
     s.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
@@ -44,7 +44,6 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from harness.model.errors import InputError
-    from harness.io.atomic import check_writable, default_out_dir
     from harness.io.progress import bar_enabled, make_bar
     from harness.io.provenance import provenance
     from harness.studies.stress.run import load_catalogue, run_stress, select
@@ -59,16 +58,14 @@ def run(args) -> int:
             check_selection(option, chosen, [])
     catalogue = load_catalogue(args.catalogue, quick=args.quick)
     variants, engines = select(catalogue, args.variants, args.engines)
-    full = not (args.quick or args.variants or args.engines or args.catalogue or args.models_dir)
-    out_dir = args.out_dir or default_out_dir("stress", full_run=full)
-    check_writable(out_dir)
+    folder = out_dir(args, "stress", SUBSET)
     # a bar on a terminal; the per-variant lines only in a log (stderr not a terminal); neither with --quiet
     lines = not (args.quiet or bar_enabled())
     with make_bar(None, desc="stress", unit="cell", quiet=args.quiet) as bar:
         result = run_stress(catalogue, variants, engines, quick=args.quick, jobs=args.jobs or None,
                             timeout=args.timeout, models_dir=args.models_dir, progress=bar,
                             log=(lambda line: print(line, file=sys.stderr, flush=True)) if lines else (lambda line: None))
-    paths = write_stress_reports(result, provenance(), out_dir)
+    paths = write_stress_reports(result, provenance(), folder)
     stable = sum(1 for m in result.rows if m.stable_dt is not None or (m.nominal is not None and m.nominal.stable))
     print(f"stress: {len(variants)} variants ({len(result.skipped)} skipped), {len(result.rows)} engine/integrator "
           f"cells ({stable} with a stable step), {len(result.trials)} runs, {result.wall_s:.0f} s")

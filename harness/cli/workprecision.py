@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
-from pathlib import Path
 
 from harness.model.errors import InputError
-from harness.cli.arg_types import (MODELS_DIR_HELP, check_selection, csv_list as _csv_list, float_arg as _float,
-                                   int_arg as _int, models_dir_arg as _models_dir)
+from harness.cli.arg_types import (MODELS_DIR_HELP, add_out_dir, check_selection, csv_list as _csv_list, float_arg as _float,
+                                   int_arg as _int, models_dir_arg as _models_dir, out_dir)
+
+SUBSET = ("quick", "scenes", "engines", "models_dir")  # options that make a run partial
 
 
 def add_parser(sub) -> None:
@@ -40,8 +41,7 @@ def add_parser(sub) -> None:
     w.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true",
                    help="no progress bar and no compile notice on stderr (the summary and errors still print; "
                         "--no-progress is the same); the bar is drawn only when stderr is a terminal")
-    w.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
-                   help="folder for workprecision.md, workprecision.csv, workprecision/ (default: reports for a full run; reports/partial/workprecision for a subset, --quick or --models-dir run, so that only a full run refreshes the committed snapshot)")
+    add_out_dir(w, "workprecision", "workprecision.md, workprecision.csv, workprecision/", SUBSET)
     w.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
 
 
@@ -70,7 +70,6 @@ def options_from_args(args):
 def run(args) -> int:
     """Run the sweep and write the reports."""
     from harness.engines import ENGINE_NAMES, get_engine
-    from harness.io.atomic import check_writable, default_out_dir
     from harness.io.provenance import provenance
     from harness.model.scene import available_scenes, load_scene
     from harness.studies.workprecision.run import TARGETS, run_sweep, time_table
@@ -85,12 +84,10 @@ def run(args) -> int:
     names = check_selection("--scenes", args.scenes, available_scenes(args.models_dir),
                             f"under {args.models_dir or MODELS_DIR} (a scene is a folder with a scene.toml)")
     scenes = [load_scene(n, models_dir=args.models_dir) for n in names]
-    full = not (args.quick or args.scenes or args.engines or args.models_dir)
-    out_dir = args.out_dir or default_out_dir("workprecision", full_run=full)
-    check_writable(out_dir)
+    folder = out_dir(args, "workprecision", SUBSET)
     load_before = os.getloadavg()[0]
     results = run_sweep(scenes, engines, options)
-    paths = write_reports(results, provenance(), options, out_dir, (load_before, os.getloadavg()[0]))
+    paths = write_reports(results, provenance(), options, folder, (load_before, os.getloadavg()[0]))
     for sweep in results:
         rows = time_table(sweep)
         parts = []

@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 
-from harness.model.multibody import Multibody
 
 BODY_FIELDS = ("x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
 REACTION_FIELDS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")

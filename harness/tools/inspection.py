@@ -350,8 +350,8 @@ def render(res: InspectResult) -> str:
         else:
             L.append("  agrees with the scene description")
         L += [f"  note: {n}" for n in ld.notes]
-    L += ["", f"== dynamics at random states (common coordinates; M kg..kg m^2, C v and g N or N m; "
-              f"relative to the term's largest entry) =="]
+    L += ["", "== dynamics at random states (common coordinates; M kg..kg m^2, C v and g N or N m; "
+              "relative to the term's largest entry) =="]
     for b in res.dynamics:
         L.append(f"-- {b.label} [{'primary' if b.primary else 'cross-load'}]")
         L += [f"  {b.error}"] if b.error else dc.format_diffs(b.diffs)

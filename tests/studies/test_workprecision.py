@@ -3,7 +3,6 @@ as documented, failures are recorded points. No wall-clock thresholds: this is a
 
 from __future__ import annotations
 
-import io
 import math
 from dataclasses import replace
 
@@ -18,7 +17,6 @@ from harness.studies.workprecision.run import (
     ERROR_KEYS,
     QUICK,
     Curve,
-    Progress,
     SweepOptions,
     WorkPrecisionPoint,
     _runner,

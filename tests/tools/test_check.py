@@ -24,7 +24,7 @@ def urdf(joint_type="revolute", mass="1", inertia=INERTIA, extra="", second=True
     inertial frames rotated and offset, full inertia tensors."""
     more = ""
     if second:
-        more = f"""
+        more = """
   <joint name="j2" type="continuous"><parent link="l1"/><child link="l2"/>
     <origin xyz="0.1 0 -0.5" rpy="0.3 0 0.2"/><axis xyz="1 0 0"/></joint>
   <link name="l2"><inertial><origin xyz="0 0.05 -0.2" rpy="0.1 0.2 0.3"/><mass value="0.7"/>

@@ -244,7 +244,6 @@ def _spoiled(scene, k, value, field="v_WCm_W"):
     component of ``field``, still reported "ok" (an engine that missed its blow-up)."""
     from dataclasses import replace
 
-    import numpy as np
 
     from harness.engines.inhouse import ENGINE
     from harness.validate.run import default_settings

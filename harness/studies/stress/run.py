@@ -77,7 +77,6 @@ over the last two decades of the run (t from t_end/100 to t_end, 25 log-spaced p
 from __future__ import annotations
 
 import math
-import os
 import time
 from dataclasses import dataclass, field, replace
 from dataclasses import fields as dataclass_fields
