@@ -115,7 +115,7 @@ ERRATA: tuple[Erratum, ...] = (
                 "D = AC + AmR² + Cmh², v = RΩ (0.2153 m/s for R = 14 mm, h = 1 mm).",
         why="The linearised heading equation comes from the wrong Ex. 5.2.3 (C/A = 2, not 6). The printed "
             "threshold is what the printed equations give; the correct dynamics contradict it: a thin disk at "
-            "0.17 m/s falls. In scene rolling_disk all three engines (in-house, Pinocchio, MuJoCo) fall at "
+            "0.17 m/s falls. In scene rolling_disk all four engines (in-house, Pinocchio, Exudyn, MuJoCo) fall at "
             "0.15–0.21 m/s and roll on at 0.22 m/s and above (`harness rolling-study`, reports/rolling_disk.md).",
         tests=("tests/references/test_rolling_disk.py::test_printed_threshold_follows_from_the_printed_equations_and_the_dynamics_contradict_it",
                "tests/references/test_rolling_disk.py::test_critical_speed_is_the_linearisation_of_the_correct_equations"),

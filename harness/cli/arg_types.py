@@ -10,6 +10,10 @@ import math
 from pathlib import Path
 
 from harness.model.errors import InputError
+from harness.engines import ENGINE_NAMES
+
+#: The registered engines, for help texts (``harness.engines.ENGINE_NAMES``).
+ENGINES_HELP = ", ".join(ENGINE_NAMES)
 
 #: Help text of every ``--models-dir`` option.
 MODELS_DIR_HELP = "folder of scene folders <scene>/scene.toml (default: the project's models/)"

@@ -21,11 +21,9 @@ from harness.cli import workprecision as cli_workprecision
 from harness.io.progress import set_quiet
 from harness.io.provenance import set_argv
 from harness.model.errors import InputError
-from harness.cli.arg_types import (MODELS_DIR_HELP, add_out_dir, check_samples, check_selection, csv_list as _csv_list,
+from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_out_dir, check_samples, check_selection, csv_list as _csv_list,
                                    float_arg as _float, int_arg as _int, models_dir_arg as _models_dir,
                                    out_dir, require_scene_files_utf8)
-
-ENGINES_HELP = "inhouse, mujoco, pinocchio"
 
 EXIT_OK, EXIT_FAIL, EXIT_INPUT = 0, 1, 2
 
@@ -227,6 +225,10 @@ def cmd_validate(args) -> int:
     folder = out_dir(args, "validate", VALIDATE_SUBSET)
     for scene in scenes:
         preflight(scene)
+    if "inhouse" in engines:  # a compiled in-house default: its compilation announced once, here, not per worker
+        from harness.engines.inhouse import announce_compilation
+
+        announce_compilation((s.integrators.get("inhouse", ""), s.multibody()) for s in scenes)
     with make_bar(len(scenes) * (1 + len(engines)), desc="validate", unit="case", quiet=args.quiet) as bar:
         results = validate(scenes, engines, jobs=args.jobs or None, timeout=args.timeout, tolerance_changes=changes,
                            progress=bar)

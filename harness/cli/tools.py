@@ -13,7 +13,7 @@ import shlex
 import sys
 import warnings
 from pathlib import Path
-from harness.cli.arg_types import (MODELS_DIR_HELP, check_samples, csv_list as _csv_list, float_arg as _float,
+from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, check_samples, csv_list as _csv_list, float_arg as _float,
                                    int_arg as _int, models_dir_arg as _models_dir, require_scene_files_utf8,
                                    require_utf8)
 from harness.model.errors import InputError
@@ -47,7 +47,7 @@ def add_parsers(sub) -> None:
                                    "within tolerance, 1 otherwise, 2 on bad input.")
     d.add_argument("scene", help="scene name: a folder of --models-dir (list them with `harness scenes`)")
     d.add_argument("--engines", type=_csv_list, required=True, metavar="A,B",
-                   help="two of inhouse, mujoco, pinocchio, reference (the in-house DOP853 run at rtol 1e-12)")
+                   help=f"two of {ENGINES_HELP}, reference (the in-house DOP853 run at rtol 1e-12)")
     d.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a scene parameter, in its unit (`harness scenes`); a vector as a,b,c (repeatable)")
     d.add_argument("--t-end", type=_float, metavar="S", help="horizon (s, > 0; default: the scene's)")
@@ -117,8 +117,9 @@ def cmd_check(args) -> int:
     for option, path in (("--mjcf", args.mjcf), ("--urdf", args.urdf)):
         if path is not None:
             require_utf8(path, option.removeprefix("--").upper())
-    # what a diverging run prints (numpy's warnings, MuJoCo's on file descriptor 2) is held back:
-    # on divergence the one error line says it all; after a run that ends it is shown as before
+    # what a diverging run prints (numpy's warnings, the importers' output on file descriptor 2) is
+    # held back: on divergence the one error line says it all; after a run that ends it is shown as
+    # before. MuJoCo's warnings are not among it: run_check captures them into the result (report).
     failure = None
     with captured_native_stderr() as native, warnings.catch_warnings(record=True) as held:
         warnings.simplefilter("always", RuntimeWarning)

@@ -10,6 +10,7 @@ ENGINE_MODULES = {
     "inhouse": "harness.engines.inhouse",
     "mujoco": "harness.engines.mujoco.engine",
     "pinocchio": "harness.engines.pinocchio.engine",
+    "exudyn": "harness.engines.exudyn.engine",
 }
 ENGINE_NAMES = tuple(ENGINE_MODULES)
 

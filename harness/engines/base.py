@@ -108,6 +108,9 @@ class Engine(Protocol):
         """Run ``scene`` and return its trajectory in maximal coordinates.
 
         A numerical failure (non-finite state, solver failure) is returned as a trajectory with
-        ``status`` "failed" or "blowup", not raised; bad input raises ``InputError``.
+        ``status`` "failed" or "blowup", not raised; a scene the engine/integrator does not model
+        (e.g. a joint kind it has no equations for) as an empty trajectory with status
+        "unsupported" and the reason (``harness.measure.trajectory.unsupported``); bad input
+        raises ``InputError``.
         """
         ...

@@ -6,6 +6,7 @@ angular momentum in kg m^2/s about the world origin.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -121,3 +122,18 @@ def first_non_finite(traj: "Trajectory", model: Multibody) -> tuple[float, str] 
         return None
     k = int(np.argmax(rows))
     return float(traj.t[k]), ", ".join(name for name, b in bad.items() if b[k])
+
+
+def mark_non_finite(traj: "Trajectory", model: Multibody) -> "Trajectory":
+    """``traj`` as judged by the harness: a run its engine reported "ok" that holds a non-finite
+    value (``first_non_finite``: a state, or an invariant that overflowed) becomes status
+    "blowup" with the message ``non-finite <what> at t = <t> s (<engine> reported ok)``, its
+    samples kept; any other run (ok and finite, or already not ok) is returned unchanged. Readers
+    then decide on ``traj.status``, never on message text."""
+    if not traj.ok:
+        return traj
+    blown = first_non_finite(traj, model)
+    if blown is None:
+        return traj
+    t_bad, what = blown
+    return replace(traj, status="blowup", message=f"non-finite {what} at t = {t_bad:.6g} s ({traj.engine} reported ok)")

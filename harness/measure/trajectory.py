@@ -19,6 +19,9 @@ from typing import Any
 import numpy as np
 
 
+UNSUPPORTED = "unsupported"  # Trajectory.status of a run the engine/integrator cannot make (see Trajectory)
+STATUSES = ("ok", "failed", "blowup", UNSUPPORTED)
+
 BODY_FIELDS = ("x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
 REACTION_FIELDS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 
@@ -35,8 +38,12 @@ class Trajectory:
         engine_energy: energies as the engine itself reports them, ``{"kinetic": (n,),
             "potential": (n,)}`` (J), or empty where the engine gives none.
         stats: counters of the run (``steps``, ``rhs_evals``, ``wall_s``, ...).
-        status: ``"ok"``, or ``"failed"``/``"blowup"`` with ``message``; a failed run keeps
-            what was computed up to the failure.
+        status: ``"ok"``; ``"failed"`` (a numerical failure of the run) or ``"blowup"`` (its
+            state diverged), each with ``message`` saying why and keeping what was computed up to
+            the failure; or ``"unsupported"``: the engine/integrator does not model this scene
+            (e.g. the compiled in-house integrators and a rolling contact), so the run was not
+            made: ``message`` says why, there are no samples. An unsupported run is not a
+            failure of the method: the studies report it as "not run", never as unstable.
         reactions: joint reactions, only when the scene asks for them (``[checks.reaction]``),
             else empty: per jointed body B (free joints excluded) ``(force_W, moment_W)``, each
             (n, 3): the force (N) and the moment about the joint point (B's body-frame origin,
@@ -67,6 +74,11 @@ class Trajectory:
     @property
     def ok(self) -> bool:
         return self.status == "ok"
+
+    @property
+    def unsupported(self) -> bool:
+        """True when the engine/integrator does not model the scene (status ``"unsupported"``)."""
+        return self.status == UNSUPPORTED
 
     def body_index(self, name: str) -> int:
         return self.body_names.index(name)
@@ -106,7 +118,8 @@ class SampleBuffer:
 
 
 def failed(engine: str, integrator: str, body_names, status: str, message: str) -> Trajectory:
-    """An empty trajectory that records why a run produced nothing."""
+    """An empty trajectory that records why a run produced nothing (``status`` one of
+    ``STATUSES`` other than "ok")."""
     nb = len(body_names)
     return Trajectory(
         engine=engine,
@@ -120,3 +133,10 @@ def failed(engine: str, integrator: str, body_names, status: str, message: str) 
         status=status,
         message=message,
     )
+
+
+def unsupported(engine: str, integrator: str, body_names, message: str) -> Trajectory:
+    """The trajectory of a run ``engine``/``integrator`` cannot make because it does not model
+    the scene (status ``"unsupported"``, no samples); ``message`` says why in one line, e.g.
+    which element of the scene it lacks."""
+    return failed(engine, integrator, body_names, UNSUPPORTED, message)

@@ -32,7 +32,8 @@ Joint coordinates (shared by all engines: the MJCF and URDF use the same tree; M
 Pinocchio differs in two places (converted in ``harness.engines.pinocchio.model`` only):
 quaternions are ``xyzw``, and the free flyer's linear velocity is in the body frame.
 
-Adding a joint kind: a ``JointType`` here (with its motion, draw, retract and distance), the
+Adding a joint kind: a ``JointType`` here (with its motion, draw, retract and distance, and
+its ``ExudynJoint``), the
 in-house constraint rows (``harness.engines.inhouse.model`` and ``constraints``: rows are
 built per ``Condition``), and the engines' model editors where a file format or an engine's
 coordinates need it (``harness.engines.mujoco.model``, ``harness.engines.pinocchio.model``).
@@ -111,6 +112,30 @@ CONDITIONS = (POINT, ON_AXIS, ALIGNED, PARALLEL)
 
 
 @dataclass(frozen=True)
+class ExudynJoint:
+    """How Exudyn states a joint kind (``harness.engines.exudyn``): as a joint object between
+    the parent's and the child's markers, with Lagrange multipliers.
+
+    Attributes:
+        create: the ``MainSystem`` method that creates it (``CreateRevoluteJoint`` ...).
+        object_type: the type of the object it creates (``JointRevoluteZ`` ...).
+        free_axis: the column of the joint frame along which it moves (revolute: z, prismatic:
+            x), None without an axis.
+        force_output: the output that holds its constraint force on the parent: ``Force``
+            (world) or ``ForceLocal`` (the parent's joint frame J0).
+        rotation_conditions: per entry of its ``TorqueLocal`` (the multipliers of its rotation
+            conditions), ``(a, b)`` of the condition ``a0 . b1 = 0`` between column a of the
+            parent's joint frame and column b of the child's; empty without them.
+    """
+
+    create: str
+    object_type: str
+    free_axis: int | None
+    force_output: str
+    rotation_conditions: tuple[tuple[int, int], ...] = ()
+
+
+@dataclass(frozen=True)
 class JointType:
     """One kind of joint (see the module docstring for its coordinates).
 
@@ -128,6 +153,8 @@ class JointType:
         urdf: the URDF joint types of this kind (none for free and ball: a URDF cannot state
             them; Pinocchio adds them as the root joint).
         urdf_root: the scene's ``urdf_root_joint`` that makes Pinocchio add this kind.
+        exudyn: how Exudyn states it (``ExudynJoint``), None for a joint Exudyn needs no object
+            for (free: an unconnected body).
         quat_at: index in q of a ``wxyz`` quaternion, None without one.
         world_linear_velocity: v starts with the world-frame velocity of the body-frame origin.
         motion: ``(body, q, v) -> (p, R, v_rel, w_rel)``: B's frame origin in the parent frame
@@ -161,6 +188,7 @@ class JointType:
     draw: Callable
     retract: Callable
     distance: Callable
+    exudyn: ExudynJoint | None = None
 
     @property
     def rows(self) -> int:
@@ -283,6 +311,7 @@ BALL = JointType(
     mujoco="mjJNT_BALL", pinocchio=r"Spherical", pinocchio_root="Spherical", urdf=(), urdf_root="spherical",
     quat_at=0, world_linear_velocity=False,
     motion=_ball_motion, coordinate=None, draw=_draw_ball, retract=_retract_ball, distance=_distance_ball,
+    exudyn=ExudynJoint("CreateSphericalJoint", "JointSpherical", None, "Force"),
 )
 HINGE = JointType(
     name="hinge", nq=1, nv=1, axis=ROTATIONAL, root_only=False, conditions=(POINT, ALIGNED),
@@ -291,6 +320,7 @@ HINGE = JointType(
     quat_at=None, world_linear_velocity=False,
     motion=_hinge_motion, coordinate=None, draw=_draw_along_axis(np.pi, 1.0), retract=_retract_along_axis,
     distance=_distance_hinge,
+    exudyn=ExudynJoint("CreateRevoluteJoint", "JointRevoluteZ", 2, "ForceLocal", ((2, 0), (2, 1))),
 )
 SLIDE = JointType(
     name="slide", nq=1, nv=1, axis=TRANSLATIONAL, root_only=False, conditions=(ON_AXIS, PARALLEL),
@@ -298,6 +328,7 @@ SLIDE = JointType(
     urdf_root=None, quat_at=None, world_linear_velocity=False,
     motion=_slide_motion, coordinate=_slide_coordinate, draw=_draw_along_axis(0.5, 0.5), retract=_retract_along_axis,
     distance=_distance_slide,
+    exudyn=ExudynJoint("CreatePrismaticJoint", "JointPrismaticX", 0, "ForceLocal", ((2, 1), (2, 0), (0, 1))),
 )
 
 JOINTS: dict[str, JointType] = {jt.name: jt for jt in (FREE, BALL, HINGE, SLIDE)}
@@ -309,6 +340,11 @@ JOINTS: dict[str, JointType] = {jt.name: jt for jt in (FREE, BALL, HINGE, SLIDE)
 def by_mujoco(member: str) -> JointType | None:
     """The kind whose ``mujoco.mjtJoint`` member is named ``member`` (e.g. ``mjJNT_HINGE``)."""
     return next((jt for jt in JOINTS.values() if jt.mujoco == member), None)
+
+
+def by_exudyn(object_type: str) -> JointType | None:
+    """The kind whose Exudyn joint object has type ``object_type`` (e.g. ``JointRevoluteZ``)."""
+    return next((jt for jt in JOINTS.values() if jt.exudyn and jt.exudyn.object_type == object_type), None)
 
 
 def by_pinocchio(shortname: str) -> JointType | None:

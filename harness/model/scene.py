@@ -36,7 +36,7 @@ ParamValue = float | tuple[float, ...]
 
 #: The engines a scene gives a default integrator and tolerances for: ``harness.engines.ENGINE_NAMES``
 #: (spelt out here: the model layer imports no engine; tests/model/test_scene.py keeps them equal).
-ENGINE_NAMES = ("inhouse", "mujoco", "pinocchio")
+ENGINE_NAMES = ("inhouse", "mujoco", "pinocchio", "exudyn")
 
 #: Conserved momentum components a ``[checks.momentum_drift]`` may list:
 #: ``harness.measure.compare.MOMENTUM_COMPONENTS`` (kept equal by tests/model/test_scene.py).

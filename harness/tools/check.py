@@ -20,6 +20,11 @@ contacts, constraints and passive forces off; Pinocchio ``aba`` with
 ``lie_group_integrators.rkmk4_step``), comparing joint trajectories and every moving body's world
 pose. The report ``check_<model>.md`` is written atomically after everything has loaded.
 
+MuJoCo's warnings while the dynamics terms and the free motions run (e.g. "Nan, Inf or huge value
+in QACC ... The simulation is unstable.") are captured into the result (``CheckResult.warnings``,
+``harness.engines.mujoco.warning_capture``: count and first message) and shown in the report and
+the summary, never printed on stderr.
+
 Bad input (missing or malformed file, missing mesh, a joint type that cannot be mapped,
 non-positive mass, an inertia that is not positive definite or violates the triangle inequality)
 raises ``InputError`` naming the file, before anything is written.
@@ -41,6 +46,7 @@ import pinocchio as pin
 
 from harness.io import atomic
 from harness.tools import dynamics_terms as dc
+from harness.engines.mujoco.warning_capture import captured_warnings
 from harness.engines.pinocchio.lie_group_integrators import rkmk4_step
 from harness.engines.pinocchio.model import from_pinocchio, root_joint_model
 from harness.engines.pinocchio.model import joint_type as pin_joint_type
@@ -269,6 +275,7 @@ class CheckResult:
     dynamics: list[dc.TermDiff] = field(default_factory=list)
     free: list[FreeMotion] = field(default_factory=list)
     settings: dict = field(default_factory=dict)
+    warnings: dict = field(default_factory=dict)  # MuJoCo's warnings during the comparison: {"count", "first"}
 
     @property
     def free_passed(self) -> bool:
@@ -343,13 +350,17 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
     res.notes += importer_notes(m, pmodel, jmap, mj_file, pin_file)
     states = dc.random_states(jmap, n_states, seed)
     d, data = mujoco.MjData(m), pmodel.createData()
-    terms = dc.evaluate({"MuJoCo": lambda q, v: dc.mujoco_terms(m, jmap, q, v, d),
-                         "Pinocchio": lambda q, v: dc.pinocchio_terms(pmodel, jmap, q, v, data)}, states)
-    res.dynamics = dc.compare_terms(terms, rtol=max(dc.DEFAULT_RTOL, rtol))
     res.settings = {"seed": seed, "states": n_states, "free_runs": n_free, "t_end": t_end, "dt": dt,
                     "save_every": save_every, "rtol_model": rtol, "rtol_dynamics": max(dc.DEFAULT_RTOL, rtol)}
-    for k, (q, v) in enumerate(dc.random_states(jmap, n_free, seed + 1)):
-        res.free.append(free_motion(m, pmodel, jmap, q, v, k, t_end=t_end, dt=dt, save_every=save_every))
+    with captured_warnings() as caught:  # MuJoCo's warnings go into the result, not onto stderr
+        try:
+            terms = dc.evaluate({"MuJoCo": lambda q, v: dc.mujoco_terms(m, jmap, q, v, d),
+                                 "Pinocchio": lambda q, v: dc.pinocchio_terms(pmodel, jmap, q, v, data)}, states)
+            res.dynamics = dc.compare_terms(terms, rtol=max(dc.DEFAULT_RTOL, rtol))
+            for k, (q, v) in enumerate(dc.random_states(jmap, n_free, seed + 1)):
+                res.free.append(free_motion(m, pmodel, jmap, q, v, k, t_end=t_end, dt=dt, save_every=save_every))
+        finally:
+            res.warnings = caught.stats()
     return res
 
 
@@ -533,6 +544,8 @@ def render_report(res: CheckResult, command: str) -> str:
     L += [f"- {p}" for p in res.model_problems] or ["- none"]
     L += ["", "Importer differences (informational, not counted):", ""]
     L += [f"- {n}" for n in res.notes] or ["- none"]
+    L += ["", "## Engine warnings", ""]
+    L += warning_lines(res) or ["- none"]
     L += ["", "## Dynamics terms at random states", "",
           f"{res.settings.get('states')} seeded random states (hinge angles within MuJoCo's limits where limited, rates "
           "~N(0, 1)); M(q), C(q,v)v and g(q) from `mj_fullM`/`qfrc_bias` and `crba`/`nonLinearEffects`/"
@@ -557,10 +570,20 @@ def render_report(res: CheckResult, command: str) -> str:
     return "\n".join(L) + "\n"
 
 
+def warning_lines(res: CheckResult) -> list[str]:
+    """MuJoCo's captured warnings as report lines (none when it gave none)."""
+    count = int(res.warnings.get("count", 0) or 0)
+    if not count:
+        return []
+    return [(f"- MuJoCo: {count} warning{'s' if count != 1 else ''} during the dynamics terms and free motions; "
+             f"first: {res.warnings.get('first', '')}")]
+
+
 def summary_lines(res: CheckResult) -> list[str]:
     """What ``harness check`` prints."""
     lines = [f"{res.name}: {'PASS' if res.passed else 'FAIL'} ({res.mode}, {res.base} base)"]
     lines += [f"  MODEL {p}" for p in res.model_problems]
+    lines += [f"  warnings {line[2:]}" for line in warning_lines(res)]
     for d in res.dynamics:
         lines.append(f"  dynamics {d.term:<8} {d.a} vs {d.b}: max abs {d.max_abs:.3e}, max rel {d.max_rel:.3e}"
                      + ("" if d.passed else f"  DIFFERS (> {d.rtol:.0e})"))

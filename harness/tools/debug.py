@@ -3,8 +3,9 @@
 Both engines run at the scene's default settings (``harness.validate.run.default_settings``; the
 engine name ``reference`` is the in-house DOP853 reference run of ``validate``). At every saved
 time both have reached, the difference of each quantity, maximised over bodies, judged exactly as
-``harness validate`` judges its ``trajectory.*`` checks (one definition of quantity, scale, unit
-and tolerance: ``harness.validate.quantities``):
+``harness validate`` judges its ``trajectory.*`` checks (one definition of quantity, scale and
+unit: ``harness.measure.quantities``, which the stress and work-precision studies share; one of
+tolerance: ``harness.validate.quantities``):
 
 * ``position``: centre-of-mass position difference (m) over the ``length`` scale (rel);
 * ``orientation``: geodesic angle on SO(3) (rad, absolute);
@@ -33,7 +34,7 @@ import numpy as np
 
 from harness.io import atomic
 from harness.measure import compare
-from harness.measure import invariants
+from harness.measure import invariants, quantities
 from harness.model import rotations
 from harness.engines import ENGINE_NAMES, get_engine
 from harness.model.errors import InputError
@@ -103,29 +104,16 @@ def judge_index(engines: tuple[str, str]) -> int:
     return 1 if engines[1] == vq.REFERENCE_LABEL and engines[0] != vq.REFERENCE_LABEL else 0
 
 
-def raw_series(a: Trajectory, b: Trajectory) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """Saved times both runs reached and the per-time difference of each trajectory quantity,
-    maximised over bodies, before scaling (``RAW_UNITS``: m, rad, m/s, rad/s; world frame)."""
-    n = min(len(a.t), len(b.t))
-    raw = {
-        "position": np.linalg.norm(a.p_WCm_W[:n] - b.p_WCm_W[:n], axis=-1).max(axis=1, initial=0.0),
-        "orientation": rotations.geodesic_angle(a.quat_WB[:n], b.quat_WB[:n]).max(axis=1, initial=0.0),
-        "velocity": np.linalg.norm(a.v_WCm_W[:n] - b.v_WCm_W[:n], axis=-1).max(axis=1, initial=0.0),
-        "angular_velocity": np.linalg.norm(a.w_WB_W[:n] - b.w_WB_W[:n], axis=-1).max(axis=1, initial=0.0),
-    }
-    return a.t[:n], raw
-
-
 def error_series(a: Trajectory, b: Trajectory, model, scales: dict[str, float] | None = None
                  ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Saved times both runs reached and the per-time judged value of each quantity (``UNITS``):
     the trajectory quantities over ``scales`` (default: ``compare.motion_scales`` of ``a``) as
-    ``harness.validate.quantities`` defines them, and the energy difference."""
+    ``harness.measure.quantities`` defines them (``judged_series``), and the energy difference."""
     if scales is None:
         scales = compare.motion_scales(a, model)
-    t, raw = raw_series(a, b)
-    n = len(t)
-    errors = {q.name: q.judged(raw[q.name], scales) for q in vq.TRAJECTORY}
+    n = min(len(a.t), len(b.t))
+    t = a.t[:n]
+    errors = quantities.judged_series(a, b, scales, n)
     if n:
         ea = invariants.energies(_head(a, n), model)["energy"]
         eb = invariants.energies(_head(b, n), model)["energy"]

@@ -48,6 +48,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
+from harness.engines.mujoco.model import body_joint
 from harness.engines.mujoco.model import joint_kind as mujoco_joint_kind
 from harness.engines.pinocchio.model import joint_kind as pin_joint_kind
 from harness.engines.pinocchio.model import to_pinocchio, velocity_transform
@@ -149,12 +150,10 @@ def scene_joint_map(model: Multibody, m: mujoco.MjModel | None = None, pmodel: p
     for body in model.bodies:
         e = {"name": body.name, "kind": body.joint}
         if m is not None:
-            bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body.name)
-            if bid < 0:
-                raise MappingError(f"MuJoCo model has no body {body.name!r}")
-            if m.body_jntnum[bid] != 1:
-                raise MappingError(f"MuJoCo body {body.name!r} has {m.body_jntnum[bid]} joints, the scene says one {body.joint}")
-            jid = m.body_jntadr[bid]
+            try:
+                jid = body_joint(m, body.name)
+            except LookupError as err:
+                raise MappingError(f"MuJoCo model: {err} (the scene gives {body.name!r} one {body.joint} joint)") from None
             kind = mujoco_joint_kind(m, jid, "?")
             if kind != body.joint:
                 raise MappingError(f"MuJoCo body {body.name!r} has a {kind} joint, the scene says {body.joint}")

@@ -44,6 +44,8 @@ from harness.tools.loaded_models import (
     body_discrepancies,
     check_joint_bodies_physical,
     compare_bodies,
+    exudyn_bodies,
+    exudyn_gravity,
     gravity_discrepancy,
     gravity_problem,
     mujoco_bodies,
@@ -56,15 +58,18 @@ from harness.model.scene import Scene, load_scene
 AS_WRITTEN_RTOL = 1e-6   # the files carry rounded decimals (e.g. 0.083358333333333)
 APPLIED_RTOL = 1e-9
 MODEL_FILE_ENGINES = ("mujoco", "pinocchio")  # the engines that read a scene's model file (MJCF, URDF)
+MODEL_ENGINES = MODEL_FILE_ENGINES + ("exudyn",)  # ... and those whose model as built is checked (Exudyn: from the description)
 
 
 @dataclass
 class AsWritten:
     """One engine's load of its model file as written, against the scene at its defaults.
 
-    ``engine``: ``mujoco`` (the MJCF, ``read_spec().compile()``) or ``pinocchio`` (the URDF,
-    ``read_urdf`` with the scene's root joint); ``path``: the file; ``model``: the compiled
-    ``MjModel`` or ``pin.Model``; ``discrepancies``: every quantity of every body
+    ``engine``: ``mujoco`` (the MJCF, ``read_spec().compile()``), ``pinocchio`` (the URDF,
+    ``read_urdf`` with the scene's root joint) or ``exudyn`` (no file: the system built from
+    the scene's description, ``harness.engines.exudyn.model``); ``path``: the file
+    (``scene.toml`` for Exudyn); ``model``: the compiled ``MjModel``, ``pin.Model`` or the
+    ``ExudynSystem``; ``discrepancies``: every quantity of every body
     (``harness.tools.loaded_models.body_discrepancies`` at ``AS_WRITTEN_RTOL``) and, for the
     MJCF, its gravity (at ``APPLIED_RTOL``; a URDF cannot state gravity).
     """
@@ -100,7 +105,15 @@ def as_written(scene: Scene, engine: str, model0: Multibody | None = None) -> As
         p = read_urdf(scene.urdf, scene.urdf_root_joint)
         check_joint_bodies_physical(pinocchio_joint_bodies(p), str(scene.urdf))
         return AsWritten(engine, scene.urdf, p, body_discrepancies(pinocchio_bodies(p, model0), model0, rtol=AS_WRITTEN_RTOL))
-    raise ValueError(f"engine {engine!r} reads no model file (those that do: {', '.join(MODEL_FILE_ENGINES)})")
+    if engine == "exudyn":  # built from the description (Exudyn reads no model file): what it holds
+        from harness.engines.exudyn.integrators import NODE_TYPE
+        from harness.engines.exudyn.model import build
+
+        system = build(model0, NODE_TYPE[scene.integrators["exudyn"]])
+        found = body_discrepancies(exudyn_bodies(system, model0), model0, rtol=AS_WRITTEN_RTOL)
+        found.append(gravity_discrepancy(exudyn_gravity(system), model0.gravity_W, APPLIED_RTOL))
+        return AsWritten(engine, scene.directory / "scene.toml", system, found)
+    raise ValueError(f"engine {engine!r} builds no model to check (those that do: {', '.join(MODEL_ENGINES)})")
 
 
 @dataclass
@@ -208,6 +221,7 @@ def inspect_scene(scene: Scene, *, n_states: int = dc.DEFAULT_STATES, seed: int 
     loads.append(lp)
     blocks.append(_dynamics("scene parameters applied: MuJoCo, Pinocchio, in-house", True, model, m, pmodel,
                             n_states, seed))
+    loads.append(_exudyn_load(scene, model))
 
     # Primary, files as written, against the defaults.
     mw = as_written(scene, "mujoco", model0)
@@ -231,6 +245,29 @@ def inspect_scene(scene: Scene, *, n_states: int = dc.DEFAULT_STATES, seed: int 
     loads.append(_mjcf_into_pinocchio(scene, model0, blocks, n_states, seed))
     loads += _urdf_into_mujoco(scene, model0, blocks, n_states, seed)
     return InspectResult(scene, describe_multibody(model), loads, blocks)
+
+
+def _exudyn_load(scene: Scene, model: Multibody) -> Load:
+    """What Exudyn holds when built from the description with the scene's parameters
+    (``harness.engines.exudyn.model``; Exudyn reads no model file): its bodies, joint objects,
+    rolling-disc joints and gravity, against the description."""
+    from harness.engines.exudyn.integrators import NODE_TYPE
+    from harness.engines.exudyn.model import build
+
+    node_type = NODE_TYPE[scene.integrators["exudyn"]]
+    system = build(model, node_type)
+    label = f"Exudyn <- the scene's description (no model file; {node_type} nodes for {scene.integrators['exudyn']})"
+    ld = Load(label, True)
+    bodies = exudyn_bodies(system, model)
+    gravity = exudyn_gravity(system)
+    ld.details = [f"  gravity {_v(gravity)} m/s^2"] + _loaded_lines(bodies)
+    for name, (joint, body, edge) in system.contacts.items():
+        obj = system.mbs.GetObject(joint)
+        marker = system.mbs.GetMarker(obj["markerNumbers"][1])
+        ld.details.append(f"  {name}: {obj['objectType']} on {body}, disc radius {obj['discRadius']:.6g} m, "
+                          f"centre at body {_v(marker['localPosition'])} m (the lower rim edge), axis {_v(obj['discAxis'])}")
+    ld.problems = compare_bodies(bodies, model, rtol=APPLIED_RTOL) + _gravity(gravity, model)
+    return ld
 
 
 def _gravity(g, model: Multibody, rtol: float = APPLIED_RTOL) -> list[str]:

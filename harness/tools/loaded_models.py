@@ -1,6 +1,6 @@
 """What each engine sees after loading a scene's model, compared with the scene description.
 
-``mujoco_bodies`` / ``pinocchio_bodies`` read back, per scene body: mass (kg), centre of mass in
+``mujoco_bodies`` / ``pinocchio_bodies`` / ``exudyn_bodies`` read back, per scene body: mass (kg), centre of mass in
 the body frame (m), inertia about the centre of mass in the body frame (kg m^2), the body
 frame's position in its parent (m), joint type and hinge axis (body frame).
 ``body_discrepancies`` measures every quantity against the ``Multibody`` (``Discrepancy``: value,
@@ -25,7 +25,7 @@ from harness.engines.pinocchio.model import joint_kind as pin_joint_kind
 from harness.engines.pinocchio.model import joint_type as pin_joint_type
 from harness.model import rotations
 from harness.model.forces import JOINT_SPRINGS
-from harness.model.joints import JOINTS, ROTATIONAL
+from harness.model.joints import FREE, JOINTS, ROTATIONAL, TRANSLATIONAL, by_exudyn
 from harness.model.multibody import Multibody
 
 
@@ -75,6 +75,54 @@ def pinocchio_bodies(pmodel: pin.Model, model: Multibody) -> list[LoadedBody]:
         out.append(LoadedBody(body.name, float(inertia.mass), np.array(inertia.lever), np.array(inertia.inertia),
                               np.array(pmodel.jointPlacements[jid].translation), joint, axis))
     return out
+
+
+def exudyn_bodies(system, model: Multibody) -> list[LoadedBody]:
+    """Read back the scene's bodies from an Exudyn system (``harness.engines.exudyn.model.build``):
+    each rigid body's ``mass``, ``centerOfMass`` and ``inertia`` (Exudyn's six components about
+    the node, the body frame origin, shifted to the centre of mass), and its joint's object
+    type, the parent's joint marker position (the joint point in the parent frame at the
+    initial state, less ``q0 axis`` for a slide) and the free axis of the joint frame."""
+    from harness.engines.exudyn.engine import joint_frame
+
+    mbs = system.mbs
+    out = []
+    for body in model.bodies:
+        if body.name not in system.bodies:
+            continue
+        obj = mbs.GetObject(system.bodies[body.name])
+        m = float(obj["mass"])
+        c = np.asarray(obj["centerOfMass"], dtype=float)
+        xx, yy, zz, yz, xz, xy = np.asarray(obj["inertia"], dtype=float)
+        I_ref = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        I_C = I_ref - m * (float(c @ c) * np.eye(3) - np.outer(c, c))
+        joint, axis, p_PB_P = FREE.name, np.zeros(3), np.zeros(3)
+        if body.name in system.joints:
+            jobj = system.joints[body.name][0]
+            jd = mbs.GetObject(jobj)
+            jt = by_exudyn(jd["objectType"])
+            joint = jt.name if jt else jd["objectType"]
+            p_PB_P = np.asarray(mbs.GetMarker(jd["markerNumbers"][0])["localPosition"], dtype=float)
+            if jt and jt.exudyn.free_axis is not None:
+                axis = joint_frame(mbs, jobj, 1)[:, jt.exudyn.free_axis]
+            if jt and jt.axis == TRANSLATIONAL:  # the marker sits at the initial slide position
+                p_PB_P = p_PB_P - float(np.asarray(model.q0[body.name]).ravel()[0]) * axis
+        out.append(LoadedBody(body.name, m, c, I_C, p_PB_P, joint, axis))
+    return out
+
+
+def exudyn_gravity(system) -> np.ndarray:
+    """The gravitational acceleration (m/s^2, world) of the Exudyn system's mass-proportional
+    loads (all equal; NaN when they differ; zero when there is none: a body created with zero
+    gravity gets no load)."""
+    mbs = system.mbs
+    loads = [np.asarray(mbs.GetLoad(i)["loadVector"], dtype=float) for i in range(mbs.systemData.NumberOfLoads())
+             if mbs.GetLoad(i)["loadType"] == "MassProportional"]
+    if not loads:  # Exudyn adds no load for zero gravity
+        return np.zeros(3)
+    if any(np.any(g != loads[0]) for g in loads):
+        return np.full(3, np.nan)
+    return loads[0]
 
 
 def mujoco_spring_problems(m: mujoco.MjModel, model: Multibody, rtol: float = 1e-9) -> list[str]:

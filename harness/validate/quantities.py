@@ -1,81 +1,31 @@
-"""The one definition of each trajectory quantity and its tolerance, shared by ``harness validate``
+"""The tolerance of each trajectory quantity, shared by ``harness validate``
 (``harness.validate.run.check_run``) and ``harness debug`` (``harness.tools.debug``).
 
-A trajectory quantity is a difference between two runs, maximised over bodies (and, for a check,
-over the saved samples), in the world frame:
+The quantities themselves (name, unit, relative or absolute, scale, how computed) are defined
+once in ``harness.measure.quantities`` (``Quantity``, ``TRAJECTORY``, ``BY_NAME``, re-exported
+here), where the stress and work-precision studies take them too.
 
-========================  ==============  =====================  ===============  ======================
-quantity                  raw unit        scale (motion_scales)  judged as        tolerance key
-========================  ==============  =====================  ===============  ======================
-``position``              m               ``length`` (m)         rel              ``position``
-``orientation``           rad             none                   rad (absolute)   ``orientation``
-``velocity``              m/s             ``velocity`` (m/s)     rel              ``velocity``
-``angular_velocity``      rad/s           ``angular_velocity``   rel              ``velocity``
-========================  ==============  =====================  ===============  ======================
+Each quantity's tolerance is the entry ``Quantity.tolerance_key`` of the scene's
+``[checks.trajectory]`` table: ``position``, ``orientation``, ``velocity``, and ``velocity`` again
+for ``angular_velocity``; it bounds the judged value (rel, or rad for the orientation).
 
 The scales are ``harness.measure.compare.motion_scales`` of the run that judges (in ``validate``
-the in-house DOP853 reference). The tolerance is ``[checks.trajectory]`` of the scene: one number
-for every engine or a table per engine (``tolerance``). The engine name ``reference`` takes the
+the in-house DOP853 reference). The table's entries are one number for every engine or a table
+per engine (``tolerance``). The engine name ``reference`` takes the
 in-house engine's tolerances (it is an in-house run).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any, Mapping
+
+from harness.measure.quantities import BY_NAME, TRAJECTORY, Quantity
+
+__all__ = ["BY_NAME", "REFERENCE_ENGINE", "REFERENCE_LABEL", "TRAJECTORY", "Quantity", "check_table", "per_engine",
+           "regression_only", "tolerance", "tolerance_engine"]
 
 REFERENCE_LABEL = "reference"   # the in-house DOP853 run that judges trajectories
 REFERENCE_ENGINE = "inhouse"    # the engine it runs on, whose tolerances it takes
-
-
-@dataclass(frozen=True)
-class Quantity:
-    """One trajectory quantity (see the module's table).
-
-    Attributes:
-        name: ``position``, ``orientation``, ``velocity`` or ``angular_velocity``; the check is
-            ``trajectory.<name>`` and ``compare.trajectory_error`` gives ``<name>_max``.
-        unit: unit of the raw difference.
-        scale: key of ``compare.motion_scales`` the difference is divided by, None for absolute.
-        tolerance_key: key of the scene's ``[checks.trajectory]`` table.
-        what: what is measured, for the report.
-    """
-
-    name: str
-    unit: str
-    scale: str | None
-    tolerance_key: str
-    what: str
-
-    @property
-    def check(self) -> str:
-        """The check's name in validate's reports."""
-        return f"trajectory.{self.name}"
-
-    @property
-    def judged_unit(self) -> str:
-        """Unit of the judged value: ``rel`` when scaled, else the raw unit."""
-        return "rel" if self.scale else self.unit
-
-    def judged(self, raw: Any, scales: Mapping[str, float]) -> Any:
-        """The judged value(s) of a raw difference (a number or an array): raw / scale, or raw."""
-        return raw / scales[self.scale] if self.scale else raw
-
-    def detail(self, raw_max: float, scales: Mapping[str, float]) -> str:
-        """The note of a check with largest raw difference ``raw_max``."""
-        if self.scale is None:
-            return f"max over bodies and samples; {self.what}"
-        s = scales[self.scale]
-        return f"{raw_max:.2e} {self.unit} over {self.scale} scale {s:.3g} {self.unit}; {self.what}"
-
-
-TRAJECTORY = (
-    Quantity("position", "m", "length", "position", "centre of mass"),
-    Quantity("orientation", "rad", None, "orientation", "geodesic angle on SO(3)"),
-    Quantity("velocity", "m/s", "velocity", "velocity", "centre-of-mass velocity"),
-    Quantity("angular_velocity", "rad/s", "angular_velocity", "velocity", "world frame"),
-)
-BY_NAME = {q.name: q for q in TRAJECTORY}
 
 
 def tolerance_engine(engine: str) -> str:

@@ -8,8 +8,9 @@ set or the new one.
 tolerance; 1 = at the tolerance) with the check that sets it (the worst failing check when one
 fails). Then, per scene: the parameters (those set away from their ``scene.toml`` defaults
 marked), the runs, the model files as written (``model.*`` checks, summarised when they agree),
-every other check with its value, tolerance and unit each in its own column, and the engines
-against each other. A check whose tolerance is a regression bound (what the engine reaches, with
+every other check with its value, tolerance and unit each in its own column, an "Engine
+warnings" list when an engine reported warnings during its run (``RunRecord.warnings``: MuJoCo's
+captured C warnings, count and first message), and the engines against each other. A check whose tolerance is a regression bound (what the engine reaches, with
 a margin, not what the physics demands: ``harness.validate.quantities.regression_only``) is
 marked, in the matrix and in its row.
 """
@@ -215,6 +216,18 @@ def _model_lines(v: SceneValidation) -> list[str]:
     return out
 
 
+def warning_lines(v: SceneValidation) -> list[str]:
+    """The scene's "Engine warnings" section: per run whose engine reported warnings
+    (``RunRecord.warnings``, ``{"count", "first"}``), how many and the first; empty when none did."""
+    out = []
+    for r in v.runs:
+        count = int((r.warnings or {}).get("count", 0) or 0)
+        if count:
+            out.append(f"- {r.engine} ({r.integrator}): {count} warning{'s' if count != 1 else ''}; "
+                       f"first: {_cell(r.warnings.get('first', ''))}")
+    return ["Engine warnings (captured during the run, not printed):", ""] + out + [""] if out else []
+
+
 def markdown(results: list[SceneValidation], prov: dict) -> str:
     """The human-readable report."""
     total = sum(len(v.checks) for v in results)
@@ -252,6 +265,7 @@ def markdown(results: list[SceneValidation], prov: dict) -> str:
             lines.append(f"| {r.engine} | {r.integrator} | {dt} | {rtol} | {r.status}{': ' + r.message if r.message else ''} | "
                          f"{steps} | {r.wall_s:.2f} | {_cell(r.settings)} |")
         lines.append("")
+        lines += warning_lines(v)
         lines += _model_lines(v)
         lines += ["| engine | check | value | tolerance | unit | margin | result | bound | note |",
                   "|---|---|---|---|---|---|---|---|---|"]

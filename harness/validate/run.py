@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -50,7 +50,7 @@ import numpy as np
 from harness.engines import get_engine, integrator
 from harness.engines.base import RunSettings
 from harness.measure import compare, contact_metrics, exact
-from harness.measure.invariants import first_non_finite
+from harness.measure.invariants import mark_non_finite
 from harness.measure.trajectory import Trajectory
 from harness.model import forces
 from harness.model.errors import InputError
@@ -106,6 +106,7 @@ class RunRecord:
     wall_s: float
     steps: float
     settings: str = ""
+    warnings: dict = field(default_factory=dict)  # the engine's own warnings (stats["warnings"]: count, first)
 
 
 @dataclass
@@ -147,29 +148,20 @@ def reference_case(scene: Scene) -> tuple[Trajectory, RunRecord, list[CheckResul
     """Worker body: the reference run and its own checks."""
     settings = reference_settings(scene)
     t0 = time.perf_counter()
-    traj = get_engine(REFERENCE_ENGINE).simulate(scene, settings)
+    traj = mark_non_finite(get_engine(REFERENCE_ENGINE).simulate(scene, settings), scene.multibody())
     record = _record(scene, "reference", settings, traj, time.perf_counter() - t0)
     checks = check_run(scene, "reference", REFERENCE_ENGINE, traj, None, settings)
-    return traj, _with_verdict(record, checks), checks
+    return traj, record, checks
 
 
 def engine_case(scene: Scene, engine: str, ref: Trajectory | None) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
     """Worker body: one engine's run at the scene's defaults and its checks."""
     settings = default_settings(scene, engine)
     t0 = time.perf_counter()
-    traj = get_engine(engine).simulate(scene, settings)
+    traj = mark_non_finite(get_engine(engine).simulate(scene, settings), scene.multibody())  # NaN "ok" -> blowup
     record = _record(scene, engine, settings, traj, time.perf_counter() - t0)
     checks = check_run(scene, engine, engine, traj, ref, settings)
-    return traj, _with_verdict(record, checks), checks
-
-
-def _with_verdict(record: RunRecord, checks: list[CheckResult]) -> RunRecord:
-    """The run record, its status "blowup" when ``check_run`` found a non-finite sample in a run
-    the engine reported as ok (the record then agrees with the failed ``run`` check)."""
-    blown = [c for c in checks if c.check == "run" and c.detail.startswith("blowup:")]
-    if record.status == "ok" and blown:
-        return replace(record, status="blowup", message=blown[0].detail[len("blowup: "):])
-    return record
+    return traj, record, checks
 
 
 def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None,
@@ -245,7 +237,7 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
     ``harness.tools.loaded_models.body_discrepancies``, engine = the loader. A file that does not
     load or holds a non-physical body raises InputError; any other failure to read it back is
     a failed ``model.load`` check."""
-    from harness.tools.inspection import MODEL_FILE_ENGINES, as_written
+    from harness.tools.inspection import MODEL_ENGINES, as_written
 
     model0 = (defaults if defaults is not None else _defaults(scene)).multibody()
     hint = f"harness inspect {scene.name}"
@@ -253,20 +245,21 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
         hint += f" --models-dir {scene.directory.parent}"
     out: list[CheckResult] = []
     for engine in engines:
-        if engine not in MODEL_FILE_ENGINES:
+        if engine not in MODEL_ENGINES:
             continue
         try:
             loaded = as_written(scene, engine, model0)
         except InputError:
             raise
         except Exception as err:  # noqa: BLE001 - a model that cannot be read back is a failed check
-            path = scene.mjcf if engine == "mujoco" else scene.urdf
+            path = {"mujoco": scene.mjcf, "pinocchio": scene.urdf}.get(engine, scene.directory / "scene.toml")
             out.append(CheckResult(scene.name, engine, "model.load", float("nan"), 0.0, "", False,
                                    f"{path.name} as written: {type(err).__name__}: {' '.join(str(err).split())}; {hint} shows more"))
             continue
         for d in loaded.discrepancies:
             name = f"model.{d.body}.{d.quantity}" if d.body else f"model.{d.quantity}"
-            detail = f"{loaded.path.name} as written vs scene.toml defaults: {d.message}"
+            source = "Exudyn's system as built from scene.toml" if engine == "exudyn" else f"{loaded.path.name} as written"
+            detail = f"{source} vs scene.toml defaults: {d.message}"
             if not d.passed:
                 detail += f"; {hint} shows more"
             out.append(CheckResult(scene.name, engine, name, float(d.value), float(d.tolerance), d.unit, d.passed, detail))
@@ -303,14 +296,10 @@ def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Traj
         out.append(CheckResult(scene.name, label, check, float(value), float(tol), unit, ok, detail,
                                quantities.regression_only(scene.name, checks, check, engine)))
 
-    if not traj.ok:
-        out.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False, f"{traj.status}: {traj.message}"))
-        return out
-    blown = first_non_finite(traj, model)  # any engine: a state or invariant that overflowed is never "ok"
-    if blown is not None:
-        t_bad, what = blown
-        out.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False,
-                               f"blowup: non-finite {what} at t = {t_bad:.6g} s ({traj.engine} reported ok)"))
+    traj = mark_non_finite(traj, model)  # any engine: a state or invariant that overflowed is never "ok"
+    if not traj.ok:  # "unsupported": the scene's own integrator for this engine cannot run it, a configuration error
+        why = " (bad configuration: see [integrators] in scene.toml)" if traj.unsupported else ""
+        out.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False, f"{traj.status}: {traj.message}{why}"))
         return out
     if "energy_drift" in checks:
         tol = checks["energy_drift"][engine]
@@ -389,7 +378,8 @@ def _record(scene, engine, settings, traj, wall) -> RunRecord:
     adaptive = integrator(REFERENCE_ENGINE if engine == "reference" else engine, settings.integrator).adaptive
     return RunRecord(scene.name, engine, settings.integrator, settings.dt,
                      settings.rtol if adaptive else None, settings.t_end, traj.status, traj.message, wall,
-                     float(traj.stats.get("steps", float("nan"))), str(traj.stats.get("settings", "")))
+                     float(traj.stats.get("steps", float("nan"))), str(traj.stats.get("settings", "")),
+                     dict(traj.stats.get("warnings") or {}))
 
 
 def _jsonable(value):

@@ -111,3 +111,80 @@ def test_the_kernel_compilation_is_announced_once(monkeypatch, capsys):
         err = capsys.readouterr().err
         assert err.count("compiling the in-house kernels (once;") == expected
         assert "then cached)" in err or expected == 0
+
+
+def _cold_cache(monkeypatch):
+    """Numba's cache made to look cold in this process and the workers it forks (nothing is
+    recompiled: the kernels still load from the real cache); the real compile-time record kept."""
+    from harness.engines.inhouse.compiled import solver
+
+    monkeypatch.setattr(solver, "is_cached", lambda kernel: False)
+    monkeypatch.setattr(solver, "_record_time", lambda kernel, seconds: None)
+    monkeypatch.setattr(solver, "_warm", set())
+    monkeypatch.setattr(solver, "_announced", False)
+    progress.set_quiet(False)
+    return solver
+
+
+STRESS_COMPILED = """
+[defaults]
+bisect_iters = 1
+search_steps = 1
+band = { exact = 1e-4, position = 1e-3, orientation = 1e-3, velocity = 1e-3, angular_velocity = 1e-3, energy = 1e-3 }
+max_steps = { inhouse = 10000 }
+integrators = { inhouse = ["rk4_compiled", "dop853_compiled"] }
+
+[variants.spin]
+scene = "torque_free"
+t_end = 0.02
+save_every = 1e-3
+dt = 1e-3
+dt_max = 4e-3
+references = []
+
+[variants.disk]
+scene = "rolling_disk"
+t_end = 0.02
+save_every = 1e-3
+dt = 1e-3
+dt_max = 4e-3
+references = []
+"""
+
+
+@pytest.mark.slow  # worker processes
+def test_a_cold_compile_is_announced_once_per_stress_run_not_per_worker(monkeypatch, capfd, tmp_path):
+    """Every trial of a compiled method runs in its own worker, and each would compile (and
+    announce) on a cold cache: the parent announces once before starting them, the workers stay
+    silent. Without a compiled method (or only on a scene the compiled form does not model),
+    nothing is announced."""
+    from harness.studies.stress.run import load_catalogue, run_stress
+
+    _cold_cache(monkeypatch)
+    path = tmp_path / "c.toml"
+    path.write_text(STRESS_COMPILED)
+    cat = load_catalogue(path)
+    res = run_stress(cat, list(cat.variants), ["inhouse"], jobs=2, timeout=120)
+    assert sum(len(m.trials) for m in res.rows) >= 4  # several workers ran compiled methods
+    err = capfd.readouterr().err
+    assert err.count("compiling the in-house kernels (once;") == 1, err
+
+    _cold_cache(monkeypatch)
+    run_stress(cat, [cat.variant("disk")], ["inhouse"], jobs=2, timeout=120)  # unsupported: nothing compiles
+    assert "compiling the in-house kernels" not in capfd.readouterr().err
+
+
+def test_the_parent_announces_a_cold_kernel_once_and_its_workers_inherit_it(monkeypatch, capfd):
+    from harness.engines.inhouse import COMPILED_KERNEL, announce_compilation
+    from harness.engines.inhouse.integrators import COMPILED
+    from harness.model.scene import load_scene
+
+    assert set(COMPILED_KERNEL) == set(COMPILED)
+    solver = _cold_cache(monkeypatch)
+    top, disk = load_scene("torque_free").multibody(), load_scene("rolling_disk").multibody()
+    assert not announce_compilation([("rk4", top), ("DOP853", top)])  # no compiled method: Numba not needed
+    assert not announce_compilation([("rk4_compiled", disk)])  # the compiled form does not model it
+    assert "compiling" not in capfd.readouterr().err and not solver._announced
+    assert announce_compilation([("rk4_compiled", top), ("dop853_compiled", top)])
+    assert announce_compilation([("rk4_compiled", top)])  # still cold, but said already
+    assert capfd.readouterr().err.count("compiling the in-house kernels (once;") == 1 and solver._announced

@@ -64,6 +64,9 @@ import shutil  # noqa: E402
 from harness.model.scene import CHECKS, MAX_SAMPLES, check_description, read_toml  # noqa: E402
 
 ENERGY = "[checks.energy_drift]\ninhouse = 1e-8\nmujoco = 1e-8\npinocchio = 1e-8\n"
+# heavy_top's trajectory position line (a tolerance per engine), as written
+TRAJ_POSITION = next(line for line in (MODELS_DIR / "heavy_top" / "scene.toml").read_text().splitlines(True)
+                     if line.startswith("position = "))
 
 
 @pytest.mark.parametrize("name", available_scenes())
@@ -129,8 +132,8 @@ MISTAKES = {
                            "[checks.energy_drift] mujoco must be positive and finite"),
     "tolerance as a string": (ENERGY, ENERGY.replace("mujoco = 1e-8", 'mujoco = "1e-8"'),
                               "[checks.energy_drift] mujoco must be a number"),
-    "trajectory tolerance missing": ("position = 1e-6\n", "", "[checks.trajectory] lacks position"),
-    "trajectory table missing an engine": ("position = 1e-6", "position = { inhouse = 1e-6, mujoco = 1e-6 }",
+    "trajectory tolerance missing": (TRAJ_POSITION, "", "[checks.trajectory] lacks position"),
+    "trajectory table missing an engine": (TRAJ_POSITION, "position = { inhouse = 1e-6, mujoco = 1e-6 }\n",
                                            "[checks.trajectory] position lacks a tolerance for pinocchio"),
     "unknown momentum component": ('components = ["Lz", "L3"]', 'components = ["Lz", "L4"]',
                                    "[checks.momentum_drift] components must be a non-empty list"),

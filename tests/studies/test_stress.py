@@ -329,3 +329,100 @@ def test_map_tells_none_stable_from_not_run():
     assert colours[report.NONE_STABLE] != colours[report.NOT_RUN]
     assert report.MAP_LEGEND[report.NONE_STABLE] != report.MAP_LEGEND[report.NOT_RUN]
     assert report.map_png(fake)[:4] == b"\x89PNG"
+
+
+COMPILED_ON_DISK = """
+[defaults]
+bisect_iters = 1
+search_steps = 2
+band = { exact = 1e-4, position = 1e-3, orientation = 1e-3, velocity = 1e-3, angular_velocity = 1e-3, energy = 1e-3 }
+max_steps = { inhouse = 10000, pinocchio = 10000, mujoco = 100000 }
+integrators = { inhouse = ["rk4", "rk4_compiled", "dop853_compiled"] }
+
+[variants.disk]
+scene = "rolling_disk"
+t_end = 0.02
+save_every = 1e-3
+dt = 1e-3
+dt_max = 4e-3
+references = []
+"""
+
+
+@pytest.mark.slow  # worker processes
+def test_an_unsupported_integrator_is_not_run_never_none_stable(tmp_path):
+    """The compiled in-house integrators do not model rolling contacts: their trials come back
+    "unsupported", the search stops after the first, and the cell is "not run: <reason>" in the
+    map, the colours and the report, never "none stable"; the per-state rk4 is searched as usual."""
+    from harness.studies.stress import report
+
+    path = tmp_path / "c.toml"
+    path.write_text(COMPILED_ON_DISK)
+    cat = load_catalogue(path)
+    res = run_stress(cat, list(cat.variants), ["inhouse"], jobs=2, timeout=120)
+    rows = {m.integrator: m for m in res.rows}
+    for method in ("rk4_compiled", "dop853_compiled"):
+        m = rows[method]
+        assert "rolling contacts" in m.unsupported and m.stable_dt is None
+        assert all(r.status == "unsupported" for r in m.trials.values())
+        assert len(m.trials) <= 2  # the first trials only: no step search on a scene it cannot run
+        assert report.cell_state(m) == report.NOT_RUN and report.map_cell(m) == report.NOT_RUN
+        assert f"not run: {m.unsupported}" in m.notes
+    assert not rows["rk4"].unsupported and report.cell_state(rows["rk4"]) != report.NOT_RUN
+    _, labels, states, _ = report.map_cells(res)
+    assert [s for label, s in zip(labels, states[0]) if "compiled" in label] == [report.NOT_RUN] * 2
+    md = report.markdown(res, {"machine": "test"}, {}, command="harness stress")
+    assert "none stable" not in md.split("## Stability map")[1].split("## Closing note")[0]
+    assert "`disk` inhouse/rk4_compiled: rk4_compiled: the compiled in-house solver does not model rolling contacts" in md
+    frame = report.map_frame(res).set_index("integrator")
+    assert "rolling contacts" in frame.loc["dop853_compiled", "not_run"] and frame.loc["rk4", "not_run"] == ""
+
+
+def test_an_unsupported_trial_stops_the_search():
+    cat = load_catalogue_text(SMALL)
+    v = cat.variants[0]
+    s = StepSearch(v, "inhouse", "rk4", cat.bounds)
+    (spec,) = s.next_specs()
+    traj = failed("inhouse", "rk4", ["body"], "unsupported", "rk4: no equations for this joint")
+    s.record(trial_case_result(traj, spec, v))
+    assert s.next_specs() == [] and s.done
+    row = s.summary()
+    assert row.unsupported == "rk4: no equations for this joint" and row.mode == "" and row.stable_dt is None
+
+
+def load_catalogue_text(text):
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "c.toml")
+        with open(path, "w") as f:
+            f.write(text)
+        return load_catalogue(path)
+
+
+def trial_case_result(traj, spec, variant):
+    from harness.studies.stress.run import Bounds, evaluate
+
+    return evaluate(traj, variant_scene(variant), spec, Reference(None, False, dict(variant.band)), Bounds())
+
+
+def test_the_engine_mode_family_follows_the_status_not_the_text():
+    """The status decides blow-up against failure; the message only refines within it: a failed
+    run that mentions a non-finite value is a solver failure, a blow-up that mentions a
+    projection is "nan"; an unsupported run is not a failure mode at all."""
+    def mode(status, message):
+        return engine_mode(failed("inhouse", "rk4", ["body"], status, message))
+
+    assert mode("failed", "ArithmeticError: non-finite value in the dynamics") == "solver failure"
+    assert mode("failed", "DynamicsError: constraint matrix J M^-1 J^T is singular") == "singular constraint"
+    assert mode("failed", "position projection did not converge (t = 1 s)") == "constraint drift"
+    assert mode("blowup", "non-finite state after projection at t = 1 s") == "nan"
+    assert mode("blowup", "non-finite DOP853 error estimate (a stage overflowed)") == "nan"
+    assert mode("unsupported", "rk4_compiled: the compiled in-house solver does not model rolling contacts") == "unsupported"
+    assert "unsupported" not in FAILURE_MODES
+
+
+def test_a_non_finite_compiled_error_estimate_is_a_blowup():
+    from harness.engines.inhouse.compiled import kernels, solver
+
+    assert solver.STATUS[kernels.BAD_ERROR][0] == "blowup" and solver.STATUS[kernels.NONFINITE][0] == "blowup"

@@ -53,8 +53,8 @@ def test_quick_sweep_writes_the_reports(tmp_path, capsys):
     labels = set(table["label"])
     expected = {"mujoco RK4 (rollout)", "mujoco RK4 (loop)", "mujoco implicitfast (rollout)", "pinocchio rkmk4",
                 "inhouse rk4 (per-state)", "inhouse DOP853 (per-state)", "inhouse rk4_compiled (compiled)",
-                "inhouse dop853_compiled (compiled)"}
-    assert expected <= labels and labels == {c.label for c in curves(["mujoco", "pinocchio", "inhouse"])}
+                "inhouse dop853_compiled (compiled)", "exudyn GeneralizedAlpha", "exudyn RK44"}
+    assert expected <= labels and labels == {c.label for c in curves(["mujoco", "pinocchio", "inhouse", "exudyn"])}
     assert "rhs_calls" not in table.columns
     ok = table[table["status"] == "ok"]
     assert (ok["time_s"] > 0).all() and (ok["time_min_s"] <= ok["time_s"] + 1e-12).all()
@@ -115,7 +115,8 @@ def test_a_failing_run_is_a_recorded_point():
     ref, _ = reference(scene, 0.5, 0.25)
     settings = RunSettings(0.5, 0.01, 0.25, "RK4")
     p = measure(scene, Curve("mujoco", "RK4", "rollout"), settings, ref, scene.multibody(), QUICK)
-    assert p.status == "failed" and "NotImplementedError" in p.message and math.isnan(p.state_max)
+    assert p.status == "unsupported" and "prescribed forces" in p.message and math.isnan(p.state_max)
+    assert not p.ok
     top = load_scene("heavy_top")
     ref = reference(top, 0.5, 0.25)[0]
     coarse = measure(top, Curve("inhouse", "rk4_compiled", "compiled"), RunSettings(0.5, 0.25, 0.25, "rk4_compiled"),
@@ -125,8 +126,28 @@ def test_a_failing_run_is_a_recorded_point():
     disk = load_scene("rolling_disk")
     outside = measure(disk, Curve("inhouse", "dop853_compiled", "compiled"),
                       RunSettings(0.5, 0.25, 0.25, "dop853_compiled", rtol=1e-6, atol=1e-6), ref, disk.multibody(), QUICK)
-    assert outside.status == "failed" and "does not model rolling contacts" in outside.message
+    assert outside.status == "unsupported" and "does not model rolling contacts" in outside.message
     assert math.isnan(outside.state_max)
+
+
+def test_a_method_that_does_not_model_the_scene_is_skipped_and_reported():
+    """The compiled integrators on the rolling disk: one unsupported run, then the curve is
+    skipped on that scene (no points, no "failed" rows) and the report says why."""
+    from harness.studies.workprecision.report import markdown
+
+    disk = load_scene("rolling_disk")
+    options = replace(QUICK, dt_levels=3, tolerances=(1e-4, 1e-6), horizon=0.2, saves=2)
+    curves_ = [Curve("inhouse", "rk4_compiled", "compiled"), Curve("inhouse", "dop853_compiled", "compiled"),
+               Curve("inhouse", "rk4", "per-state")]
+    sweep = sweep_scene(disk, ["inhouse"], options, curve_list=curves_)
+    assert set(sweep.skipped) == {"inhouse rk4_compiled (compiled)", "inhouse dop853_compiled (compiled)"}
+    assert all("does not model rolling contacts" in why for why in sweep.skipped.values())
+    assert {p.label for p in sweep.points} == {"inhouse rk4 (per-state)"}
+    md = markdown([sweep], {"machine": "test"}, options, command="harness workprecision")
+    section = md.split("## rolling_disk")[1]
+    assert "Not run on this scene" in section
+    assert "- inhouse dop853_compiled (compiled): dop853_compiled: the compiled in-house solver does not model" in section
+    assert "Failed or blown-up runs" not in section
 
 
 def test_every_curve_but_rollout_runs_through_its_engine(monkeypatch):
@@ -199,3 +220,39 @@ def test_default_options_describe_a_full_sweep():
     o = SweepOptions()
     assert o.repeats >= 1 and o.batch == 1000 and min(o.tolerances) <= 1e-12
     assert np.isclose(0.5 / 2 ** (o.dt_levels - 1), 0.5 / 2**15)
+
+
+def mujoco_point(variant, param, err, t, integrator="RK4"):
+    return replace(point(param, err, t), engine="mujoco", integrator=integrator, variant=variant)
+
+
+def test_coinciding_curves_are_drawn_distinguishable():
+    """MuJoCo's rollout and loop variants of one integrator have the same errors at times ~1.1x
+    apart: the later one is flagged as coinciding, drawn dotted with open markers under the other,
+    and its legend says so; curves with other errors or far apart in time are left alone."""
+    from harness.studies.workprecision.report import (
+        coinciding,
+        curve_styles,
+        plot_scene,
+    )
+    from harness.studies.workprecision.run import SceneSweep, by_curve
+
+    dts = (0.1, 0.05, 0.025)
+    pts = ([mujoco_point("rollout", dt, 10 * dt**4, 1e-3 / dt) for dt in dts]
+           + [mujoco_point("loop", dt, 10 * dt**4, 1.1e-3 / dt) for dt in dts]
+           + [mujoco_point("rollout", dt, 3 * dt, 1e-3 / dt, integrator="Euler") for dt in dts]
+           + [point(dt, 10 * dt**4, 0.05 / dt, integrator="rk4") for dt in dts])  # same errors, 50x slower
+    groups = by_curve(pts)
+    assert coinciding(groups) == {"mujoco RK4 (loop)": "mujoco RK4 (rollout)"}
+    styles = curve_styles(groups)
+    legend, loop = styles["mujoco RK4 (loop)"]
+    _, rollout = styles["mujoco RK4 (rollout)"]
+    assert legend == "mujoco RK4 (loop) (same errors as mujoco RK4 (rollout))"
+    assert loop["markerfacecolor"] == "none" and loop["markersize"] > rollout["markersize"]
+    assert loop["linestyle"] != rollout["linestyle"] and loop["zorder"] < rollout["zorder"]
+    assert styles["inhouse rk4 (compiled)"][0] == "inhouse rk4 (compiled)"
+    sweep = SceneSweep("s", 1.0, 0.1, "ref", points=pts)
+    assert plot_scene(sweep, {})[:4] == b"\x89PNG"
+    # different errors at a common step: not the same curve
+    pts[4] = replace(pts[4], state_max=2 * pts[4].state_max)
+    assert coinciding(by_curve(pts)) == {}

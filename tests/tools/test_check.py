@@ -237,3 +237,27 @@ def test_free_motion_that_goes_to_nan_fails(tmp_path, capsys, monkeypatch):
                         "--out-dir", str(tmp_path), "--t-end", "0.05", "--free-runs", "1"], capsys)
     assert code == 1, out
     assert "Verdict: **FAIL**" in (tmp_path / "check_double_pendulum.md").read_text()
+
+
+def test_mujoco_warnings_are_captured_into_the_result_not_printed(tmp_path, capfd):
+    """A free motion at a huge step trips MuJoCo's instability warnings: they are counted in the
+    result (with the first message), listed in the report and the summary, and nothing of them
+    reaches stderr (before, they were replayed there after the run). A calm check has none."""
+    import mujoco
+
+    d = MODELS_DIR / "double_pendulum"
+    before = mujoco.get_mju_user_warning()
+    code = main(["check", "--mjcf", str(d / "double_pendulum.xml"), "--urdf", str(d / "double_pendulum.urdf"),
+                 "--out-dir", str(tmp_path), "--t-end", "20", "--dt", "0.5", "--free-runs", "1"])
+    out, err = capfd.readouterr()
+    assert code == 1  # the free motion went to NaN
+    assert "unstable" not in err and "WARNING" not in err, err
+    assert "warnings MuJoCo:" in out and "The simulation is unstable" in out
+    report = (tmp_path / "check_double_pendulum.md").read_text()
+    section = report.split("## Engine warnings")[1].split("##")[0]
+    assert "- MuJoCo:" in section and "huge value" in section
+    assert mujoco.get_mju_user_warning() is before  # the handler is restored
+    from harness.tools.check import run_check
+
+    calm = run_check(d / "double_pendulum.xml", d / "double_pendulum.urdf", t_end=0.05, n_free=1)
+    assert calm.warnings == {"count": 0, "first": ""}

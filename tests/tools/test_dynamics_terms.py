@@ -121,3 +121,39 @@ def test_joint_type_mismatch_is_a_mapping_error():
     pmodel, _ = load_urdf(scene.urdf, "free", replace(model, bodies=(replace(model.bodies[0], joint="free"),)))
     with pytest.raises(dc.MappingError, match="free"):
         dc.scene_joint_map(model, None, pmodel)
+
+
+def test_one_body_to_joint_lookup_for_the_engine_and_the_tools(monkeypatch):
+    """``body_joint`` is the one MuJoCo body -> joint lookup: the engine's initial state and the
+    tools' joint map both go through it and report the same problem their own way."""
+    from harness.engines.mujoco import model as mj_model
+    from harness.model.errors import InputError
+
+    model, m, _ = loaded("double_pendulum")
+    for body in model.bodies:
+        jid = mj_model.body_joint(m, body.name)
+        assert m.jnt_bodyid[jid] == mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body.name)
+    two = mujoco.MjModel.from_xml_string('<mujoco><worldbody><body name="b"><joint type="hinge"/>'
+                                         '<joint type="slide"/><geom size=".1"/></body></worldbody></mujoco>')
+    with pytest.raises(LookupError, match="no body named 'x'"):
+        mj_model.body_joint(two, "x")
+    with pytest.raises(LookupError, match="body 'b' has 2 joints, not one"):
+        mj_model.body_joint(two, "b")
+    calls = []
+    real = mj_model.body_joint
+
+    def counted(m_, name):
+        calls.append(name)
+        return real(m_, name)
+
+    with monkeypatch.context() as mp:
+        mp.setattr(mj_model, "body_joint", counted)
+        mp.setattr(dc, "body_joint", counted)
+        dc.scene_joint_map(model, m, None)
+        mj_model.set_initial_state(m, mujoco.MjData(m), model, "double_pendulum.xml")
+    assert calls == [b.name for b in model.bodies] * 2
+    bad = replace(model, bodies=(replace(model.bodies[0], name="b"),))
+    with pytest.raises(dc.MappingError, match="MuJoCo model: body 'b' has 2 joints, not one"):
+        dc.scene_joint_map(bad, two, None)
+    with pytest.raises(InputError, match="x.xml: MJCF: body 'b' has 2 joints, not one"):
+        mj_model.set_initial_state(two, mujoco.MjData(two), bad, "x.xml")

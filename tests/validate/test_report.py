@@ -120,3 +120,39 @@ def test_files_keep_old_columns_and_fields(tmp_path):
     assert failed == [("beta.pinocchio", "model.bar2.inertia", "model"), ("beta.pinocchio", "run", "run")]
     assert (tmp_path / "validation_matrix.png").read_bytes().startswith(PNG)
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary or staging files left
+
+
+def test_engine_warnings_get_their_own_section_when_present():
+    a, b = results()
+    a.runs[1] = RunRecord("alpha", "mujoco", "RK4", 0.001, None, 1.0, "ok", "", 0.1, 1000.0,
+                          warnings={"count": 3, "first": "Nan, Inf or huge value in QACC at DOF 1. The simulation is unstable."})
+    md = markdown([a, b], PROV)
+    alpha = md.split("## alpha")[1].split("## beta")[0]
+    assert "Engine warnings" in alpha
+    assert "- mujoco (RK4): 3 warnings; first: Nan, Inf or huge value in QACC at DOF 1" in alpha
+    assert "Engine warnings" not in md.split("## beta")[1]  # none reported: no section
+    assert "Engine warnings" not in markdown(results(), PROV)
+
+
+def test_validate_carries_the_engine_warnings_into_the_report(monkeypatch):
+    """End to end through the worker: MuJoCo's ``stats["warnings"]`` reach the run record and the
+    report."""
+    from dataclasses import replace
+
+    from harness.engines.mujoco.engine import MujocoEngine
+    from harness.model.scene import load_scene
+    from harness.validate.run import validate
+
+    real = MujocoEngine.simulate
+
+    def warned(self, scene, settings):
+        traj = real(self, scene, settings)
+        return replace(traj, stats={**traj.stats, "warnings": {"count": 2, "first": "Too many contacts | (test)"}})
+
+    monkeypatch.setattr(MujocoEngine, "simulate", warned)
+    (res,) = validate([replace(load_scene("torque_free"), t_end=0.5)], ["mujoco"], jobs=1)
+    (record,) = [r for r in res.runs if r.engine == "mujoco"]
+    assert record.warnings == {"count": 2, "first": "Too many contacts | (test)"}
+    assert [r.warnings for r in res.runs if r.engine == "reference"] == [{}]  # the in-house engine reports none
+    md = markdown([res], PROV)
+    assert "- mujoco (RK4): 2 warnings; first: Too many contacts \\| (test)" in md

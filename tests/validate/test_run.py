@@ -236,7 +236,8 @@ def test_trajectory_checks_follow_the_shared_definition():
         assert c.unit == q.judged_unit
         assert c.tolerance == quantities.tolerance(scene.checks, q, "pinocchio")
     assert by_name["trajectory.position"].unit == "rel" and by_name["trajectory.orientation"].unit == "rad"
-    assert by_name["trajectory.angular_velocity"].tolerance == scene.checks["trajectory"]["velocity"]
+    velocity = scene.checks["trajectory"]["velocity"]
+    assert by_name["trajectory.angular_velocity"].tolerance == (velocity["pinocchio"] if isinstance(velocity, dict) else velocity)
 
 
 def _spoiled(scene, k, value, field="v_WCm_W"):
@@ -310,3 +311,40 @@ def test_validate_fails_an_engine_that_reports_ok_on_nan(monkeypatch):
     assert "angular velocity" in run[0].detail and "energy" in run[0].detail
     (record,) = [r for r in res.runs if r.engine == "mujoco"]
     assert record.status == "blowup" and "reported ok" in record.message
+
+
+def test_an_unsupported_configured_integrator_is_a_failed_check_naming_the_reason():
+    """A scene whose own in-house integrator cannot run it (compiled form, rolling contact): the
+    run comes back "unsupported"; validate records a failed ``run`` check and a run record that
+    name the reason and call it bad configuration, and does not crash."""
+    from dataclasses import replace
+
+    scene = short("rolling_disk")
+    scene = replace(scene, integrators={**scene.integrators, "inhouse": "rk4_compiled"})
+    (res,) = validate([scene], ["inhouse"], jobs=1)
+    run = [c for c in res.checks if c.engine == "inhouse" and not c.check.startswith("model.")]
+    assert len(run) == 1 and run[0].check == "run" and not run[0].passed and not res.passed
+    assert run[0].detail.startswith("unsupported: rk4_compiled: the compiled in-house solver does not model rolling contacts")
+    assert "bad configuration" in run[0].detail and "[integrators]" in run[0].detail
+    (record,) = [r for r in res.runs if r.engine == "inhouse"]
+    assert record.status == "unsupported" and "rolling contacts" in record.message
+    ref = [c for c in res.checks if c.engine == "reference"]
+    assert ref and all(c.passed for c in ref)  # the reference (per-state DOP853) is unaffected
+
+
+def test_a_non_finite_run_is_judged_by_its_status():
+    """``mark_non_finite`` turns an engine's "ok" with a NaN sample into status "blowup" (the run
+    record and the ``run`` check follow the status, not the message text); a finite run and a run
+    already not ok are unchanged."""
+    from harness.measure.invariants import mark_non_finite
+    from harness.measure.trajectory import failed
+
+    scene = short("double_pendulum")
+    traj, _ = _spoiled(scene, 7, float("nan"), "v_WCm_W")
+    marked = mark_non_finite(traj, scene.multibody())
+    assert marked.status == "blowup" and marked.message.startswith("non-finite velocity")
+    assert "(inhouse reported ok)" in marked.message and len(marked.t) == len(traj.t)
+    fine, _ = _spoiled(scene, 7, 0.0)
+    assert mark_non_finite(fine, scene.multibody()) is fine
+    gone = failed("inhouse", "rk4", fine.body_names, "failed", "solver failure")
+    assert mark_non_finite(gone, scene.multibody()) is gone

@@ -50,11 +50,11 @@ def test_tolerances_merge_and_are_reported(tmp_path):
     scene = load_scene("rolling_disk")
     new, changes = apply_tolerances(scene, read_tolerances(path), path)
     traj = new.checks["trajectory"]
-    assert traj["position"] == {"inhouse": 1e-9, "mujoco": 3e-3, "pinocchio": 1e-9}
+    assert traj["position"] == {"inhouse": 1e-9, "mujoco": 3e-3, "pinocchio": 1e-9, "exudyn": 2e-5}
     assert traj["orientation"] == 1e-2 and new.checks["energy_drift"]["mujoco"] == 1e-3
     assert scene.checks["trajectory"]["position"]["mujoco"] == 2.5e-3  # the loaded scene is unchanged
-    assert "trajectory.position: inhouse 1e-09, mujoco 0.0025, pinocchio 1e-09 -> inhouse 1e-09, mujoco 0.003, " \
-           "pinocchio 1e-09" in changes
+    assert "trajectory.position: inhouse 1e-09, mujoco 0.0025, pinocchio 1e-09, exudyn 2e-05 -> inhouse 1e-09, " \
+           "mujoco 0.003, pinocchio 1e-09, exudyn 2e-05" in changes
     assert "energy_drift.mujoco: 0.002 -> 0.001" in changes
 
 

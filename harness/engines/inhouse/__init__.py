@@ -12,8 +12,9 @@ integrator's name; ``integrators.METHODS`` lists every method):
 * compiled (``compiled``: the same equations as Numba kernels, ``rk4_compiled`` and
   ``dop853_compiled``; ``compiled.solver.run_batch`` for many initial states): free, ball, hinge
   and slide joints, slide springs and gravity, no prescribed forces or rolling contacts (a run
-  of such a scene is a "failed" trajectory saying so). Tested against the per-state form
-  (``tests/engines/inhouse/compiled``). Numba is imported only when a compiled method runs.
+  of such a scene is an "unsupported" trajectory saying so: not run, not failed). Tested against
+  the per-state form (``tests/engines/inhouse/compiled``). Numba is imported only when a
+  compiled method runs.
 
 Drift control (documented choice, with the measurements that decided it):
 
@@ -55,15 +56,17 @@ from harness.engines.inhouse.model import NEModel, build, from_trajectory, initi
 from harness.engines.inhouse.newton_euler import Baumgarte, contact_force_series, make_rhs, reaction_series, reactions
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene
-from harness.measure.trajectory import Trajectory, failed
+from harness.measure.trajectory import Trajectory, failed, unsupported
 
 
 __all__ = [
+    "COMPILED_KERNEL",
     "ENGINE",
     "Baumgarte",
     "DynamicsError",
     "InhouseEngine",
     "NEModel",
+    "announce_compilation",
     "build",
     "characteristic_rate",
     "from_trajectory",
@@ -115,10 +118,11 @@ class InhouseEngine:
         body -> world quaternions ``wxyz``, velocities of the centres of mass in m/s, WORLD-frame
         angular velocities in rad/s) with ``stats = {"steps", "rhs_evals", "wall_s",
         "settings"}`` (``wall_s``: the whole run here; for the compiled methods the integration
-        alone, compilation done before the clock starts). A numerical failure, or a model the
-        compiled form does not cover, gives status "failed" or "blowup" with a one-line message
-        and the samples before it; it never raises, except InputError from ``check_settings``
-        for bad settings. With ``reactions`` the trajectory carries the joint reactions at every
+        alone, compilation done before the clock starts). A numerical failure gives status
+        "failed" or "blowup" with a one-line message and the samples before it; a model the
+        compiled form (or the engine) does not cover gives status "unsupported" with the reason
+        and no samples (``harness.measure.trajectory.unsupported``); it never raises, except
+        InputError from ``check_settings`` for bad settings. With ``reactions`` the trajectory carries the joint reactions at every
         sample (the constraint multipliers, ``reaction_series``).
         """
         check_settings(settings, self.integrators, self.name)
@@ -149,6 +153,8 @@ class InhouseEngine:
                 post_step=post,
             )
             res = stop_at_blowup(nem, res)
+        except NotImplementedError as err:  # a joint or force kind the engine has no equations for
+            return unsupported(self.name, settings.integrator, names, str(err))
         except Exception as err:  # a numerical failure must come back as a trajectory
             return failed(self.name, settings.integrator, names, "failed", f"{type(err).__name__}: {err}")
         traj = to_trajectory(nem, res.t, res.y, self.name, settings.integrator)
@@ -191,8 +197,8 @@ class InhouseEngine:
                 res = compiled.integrate_fixed(packed, y0, t_save, FIXED_STEP[method],
                                                steps_per_save=settings.steps_per_save, proj_tol=projection_tolerance(nem))
             res = stop_at_blowup(nem, res)
-        except NotImplementedError as err:  # outside the compiled form's scope: say so, do not raise
-            return failed(self.name, method, names, "failed", f"{method}: {err} (the per-state methods do)")
+        except NotImplementedError as err:  # outside the compiled form's scope: not run, not failed
+            return unsupported(self.name, method, names, f"{method}: {err} (the per-state methods do)")
         except Exception as err:  # a numerical failure must come back as a trajectory
             return failed(self.name, method, names, "failed", f"{type(err).__name__}: {err}")
         traj = to_trajectory(nem, res.t, res.y, self.name, method)
@@ -222,6 +228,31 @@ class InhouseEngine:
         if gains.omega > 0.0:
             text += f", Baumgarte omega={gains.omega:.4g} rad/s zeta={gains.zeta:g}"
         return text
+
+
+COMPILED_KERNEL = {"rk4_compiled": "erk", "dop853_compiled": "dop853"}  # the Numba kernel each method runs
+
+
+def announce_compilation(runs) -> bool:
+    """Before starting worker processes that make the in-house ``runs`` (``(integrator name,
+    Multibody)`` pairs; other methods are ignored): when a compiled method among them needs a
+    kernel Numba's cache does not hold, say so once, here in the parent
+    (``compiled.solver.announce_cold``), instead of once per worker. A model the compiled form
+    does not cover (its run is "unsupported") compiles nothing and is ignored. Numba is imported
+    only when a compiled method is among the runs. Returns whether a kernel will be compiled."""
+    runs = [(m, model) for m, model in runs if m in COMPILED_KERNEL]
+    if not runs:
+        return False
+    from harness.engines.inhouse.compiled import solver as compiled
+
+    kernels = set()
+    for method, model in runs:
+        try:
+            compiled.pack(build(model))
+        except NotImplementedError:  # not run: nothing to compile for it
+            continue
+        kernels.add(COMPILED_KERNEL[method])
+    return compiled.announce_cold(sorted(kernels))
 
 
 def characteristic_rate(nem: NEModel, y0: np.ndarray, gravity_W: np.ndarray, t_end: float) -> float:

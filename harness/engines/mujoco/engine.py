@@ -19,9 +19,9 @@ joint's dof along its world axis) and the prescribed point forces, which reach M
 joint's constraint force alone, with the moment taken about the joint point (``xpos``).
 
 MuJoCo's warnings (e.g. "Nan, Inf or huge value in QACC at DOF 1. The simulation is
-unstable.") are not printed: while a run steps, ``captured_warnings`` routes MuJoCo's warning
-handler (``mujoco.set_mju_user_warning``) into a list, stored in the trajectory as
-``stats["warnings"] = {"count": n, "first": first message or ""}``. The blow-up guards are read
+unstable.") are not printed: while a run steps, ``warning_capture.captured_warnings`` routes
+MuJoCo's warning handler (``mujoco.set_mju_user_warning``) into a list, stored in the trajectory
+as ``stats["warnings"] = {"count": n, "first": first message or ""}``. The blow-up guards are read
 from ``MjData.warning`` counters as before (MuJoCo counts a warning whoever handles its text).
 """
 
@@ -37,6 +37,7 @@ from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
 from harness.engines.mujoco.integrators import INTEGRATOR_METHODS
 from harness.engines.mujoco.model import joint_type, load_mjcf, set_initial_state
 from harness.engines.mujoco.rolling import ContactForceReader, describe_contact
+from harness.engines.mujoco.warning_capture import captured_warnings
 from harness.model.errors import InputError
 from harness.model.forces import POINT_FORCES
 from harness.model.joints import JOINTS, ROTATIONAL, TRANSLATIONAL
@@ -46,25 +47,6 @@ from harness.measure.trajectory import SampleBuffer, Trajectory
 # MuJoCo's own blow-up guards: each resets the state (mj_resetData), so a run that trips one
 # would otherwise go on from qpos0 with finite numbers.
 _BAD_WARNINGS = ("mjWARN_BADQACC", "mjWARN_BADQVEL", "mjWARN_BADQPOS")
-
-
-class captured_warnings:
-    """Context manager: MuJoCo's warning messages (``mju_user_warning``) are appended to
-    ``messages`` (a list of str) instead of being printed; the previous handler is restored on
-    exit. The handler is process-wide: one run at a time per process (as the engines run)."""
-
-    def __enter__(self) -> "captured_warnings":
-        self.messages: list[str] = []
-        self._previous = mujoco.get_mju_user_warning()
-        mujoco.set_mju_user_warning(self.messages.append)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        mujoco.set_mju_user_warning(self._previous)
-
-    def stats(self) -> dict:
-        """``{"count": number of warnings, "first": the first message or ""}``."""
-        return {"count": len(self.messages), "first": " ".join(self.messages[0].split()) if self.messages else ""}
 
 
 class MujocoEngine:

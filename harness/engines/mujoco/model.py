@@ -36,6 +36,20 @@ def joint_type(m: mujoco.MjModel, jid: int) -> JointType | None:
     return MJ_JOINTS.get(mujoco.mjtJoint(m.jnt_type[jid]))
 
 
+def body_joint(m: mujoco.MjModel, body: str) -> int:
+    """The id of the one joint that moves body ``body`` of a compiled model (a scene gives every
+    body exactly one joint: ``Body.joint``). The one lookup of the harness from a scene's body to
+    MuJoCo's joint (``set_initial_state``, ``harness.tools.dynamics_terms.scene_joint_map``).
+    Raises LookupError saying what is wrong: "no body named 'b'", or "body 'b' has 2 joints, not
+    one"."""
+    bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body)
+    if bid < 0:
+        raise LookupError(f"no body named {body!r}")
+    if m.body_jntnum[bid] != 1:
+        raise LookupError(f"body {body!r} has {m.body_jntnum[bid]} joints, not one")
+    return int(m.body_jntadr[bid])
+
+
 def joint_kind(m: mujoco.MjModel, jid: int, unknown: str | None = None) -> str:
     """The harness name of joint ``jid``'s kind, or ``unknown`` (default: MuJoCo's own name)."""
     jt = joint_type(m, jid)
@@ -133,12 +147,10 @@ def set_initial_state(m: mujoco.MjModel, d: mujoco.MjData, model: Multibody, sou
     ``wxyz``, free-joint linear velocity in world, angular velocities in the body frame.
     """
     for body in model.bodies:
-        bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body.name)
-        if bid < 0:
-            raise InputError(f"{source}: MJCF has no body named {body.name!r}")
-        if m.body_jntnum[bid] != 1:
-            raise InputError(f"{source}: body {body.name!r} must have exactly one joint, has {m.body_jntnum[bid]}")
-        jid = m.body_jntadr[bid]
+        try:
+            jid = body_joint(m, body.name)
+        except LookupError as err:
+            raise InputError(f"{source}: MJCF: {err}") from None
         qadr, vadr = m.jnt_qposadr[jid], m.jnt_dofadr[jid]
         q, v = np.asarray(model.q0[body.name]), np.asarray(model.v0[body.name])
         d.qpos[qadr : qadr + len(q)] = q

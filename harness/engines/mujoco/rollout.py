@@ -25,7 +25,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as _rollout
 
-from harness.engines.mujoco.engine import captured_warnings
+from harness.engines.mujoco.warning_capture import captured_warnings, warning_stats
 from harness.engines.mujoco.model import load_mjcf, set_initial_state
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene
@@ -116,8 +116,7 @@ class RolloutModel:
         return Trajectory(engine="mujoco", integrator=integrator, body_names=tuple(b.name for b in self.model.bodies),
                           t=np.asarray(t, dtype=float)[:saved], p_WCm_W=P[:saved], quat_WB=Q[:saved],
                           v_WCm_W=V[:saved], w_WB_W=W[:saved], status=status, message=message,
-                          stats={"warnings": {"count": len(self.warnings),
-                                              "first": " ".join(self.warnings[0].split()) if self.warnings else ""}})
+                          stats={"warnings": warning_stats(self.warnings)})
 
 
 def prepare(scene: Scene, dt: float, integrator: str) -> RolloutModel:

@@ -13,6 +13,7 @@ import math
 from pathlib import Path
 
 from harness.io import atomic
+from harness.studies.rolling.run import threshold_agrees
 
 
 def write_reports(result, out: Path, prov: dict, quick: bool, command: str | None = None) -> list[Path]:
@@ -152,25 +153,8 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool, command: str | N
         f"Runs: straight rolling from θ* − {th['delta']:g} rad, {th['t_end']:g} s; 'falls' when the lean deviation "
         f"exceeds 0.1 rad or the disk lies flat. Predicted: from the linearisation (ω² of the lean).",
         "",
-        "| speed (m/s) | v / v_c | printed says | correct says | " + " | ".join(
-            f"{e} (max lean dev, rad)" for e in dict.fromkeys(r["engine"] for r in result.threshold)) + " |",
-        "|---|---|---|---|" + "---|" * len(dict.fromkeys(r["engine"] for r in result.threshold)),
     ]
-    for v in dict.fromkeys(r["speed"] for r in result.threshold):
-        rows = [r for r in result.threshold if r["speed"] == v]
-        cells = " | ".join(f"{'falls' if r['fell'] else 'rolls on'} ({r['max_lean']:.2g})" for r in rows)
-        lines.append(f"| {v:.3f} | {v / th['correct']:.3f} | {'stable' if rows[0]['printed_stable'] else 'unstable'} | "
-                     f"{'stable' if rows[0]['predicted_stable'] else 'unstable'} | {cells} |")
-    agree = all(r["fell"] != r["predicted_stable"] for r in result.threshold)
-    between = [r for r in result.threshold if r["printed_stable"] and not r["predicted_stable"]]
-    lines += [
-        "",
-        f"Every engine agrees with the correct threshold on every speed: **{agree}**. "
-        + (f"Between the printed and the correct threshold ({len(between)} runs) the printed one predicts stable "
-           f"rolling; {'every engine shows the disk falling' if all(r['fell'] for r in between) else 'not every engine shows a fall'}."
-           if between else ""),
-        "",
-    ]
+    lines += threshold_lines(result)
     for path in pngs:
         lines += [f"![{path.stem}]({path.name})", ""]
     lines += [
@@ -189,6 +173,35 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool, command: str | N
     ]
     return "\n".join(lines)
 
+
+
+def threshold_lines(result) -> list[str]:
+    """The threshold table (per speed and engine: falls or rolls on, with the largest lean
+    deviation in rad; "not run" for an engine whose run was "unsupported") and whether every
+    engine that ran agrees with the correct threshold."""
+    th = result.thresholds
+    engines = list(dict.fromkeys(r["engine"] for r in result.threshold))
+    lines = ["| speed (m/s) | v / v_c | printed says | correct says | "
+             + " | ".join(f"{e} (max lean dev, rad)" for e in engines) + " |",
+             "|---|---|---|---|" + "---|" * len(engines)]
+    for v in dict.fromkeys(r["speed"] for r in result.threshold):
+        rows = [r for r in result.threshold if r["speed"] == v]
+        cells = " | ".join("not run" if r["fell"] is None else f"{'falls' if r['fell'] else 'rolls on'} ({r['max_lean']:.2g})"
+                           for r in rows)
+        lines.append(f"| {v:.3f} | {v / th['correct']:.3f} | {'stable' if rows[0]['printed_stable'] else 'unstable'} | "
+                     f"{'stable' if rows[0]['predicted_stable'] else 'unstable'} | {cells} |")
+    ran = [r for r in result.threshold if r["fell"] is not None]  # "not run": the engine does not model the scene
+    agree = threshold_agrees(result.threshold)
+    between = [r for r in ran if r["printed_stable"] and not r["predicted_stable"]]
+    lines += [
+        "",
+        f"Every engine agrees with the correct threshold on every speed: **{agree}**. "
+        + (f"Between the printed and the correct threshold ({len(between)} runs) the printed one predicts stable "
+           f"rolling; {'every engine shows the disk falling' if all(r['fell'] for r in between) else 'not every engine shows a fall'}."
+           if between else ""),
+        "",
+    ]
+    return lines
 
 def plots(result, out: Path) -> list[Path]:
     """Write the PNG figures of the study into ``out`` as one set; returns their paths."""

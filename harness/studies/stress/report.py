@@ -71,7 +71,7 @@ def map_frame(run: StressRun) -> pd.DataFrame:
             "accurate_at_stable": m.accurate, "mean_step": m.step if m.kind == "adaptive" else np.nan,
             "nominal_dt": n.spec.dt if n else np.nan, "nominal_mode": n.mode if n else "",
             "nominal_error": n.error if n else np.nan, "nominal_drift": n.drift_class if n else "",
-            "nominal_drift_p": n.drift_p if n else np.nan,
+            "nominal_drift_p": n.drift_p if n else np.nan, "not_run": m.unsupported,
         }
         for q in QUANTITIES:
             row[f"nominal_diverge_{q}"] = (n.divergence.get(q) if n and q in n.divergence else np.nan)
@@ -88,7 +88,10 @@ def _h_rate(run: StressRun, m: MapRow) -> float:
 
 
 def map_cell(m: MapRow) -> str:
-    """Compact cell of the map: largest stable step and the failure mode just above it."""
+    """Compact cell of the map: largest stable step and the failure mode just above it; ``not
+    run`` when the engine/integrator does not model the variant's scene (``MapRow.unsupported``)."""
+    if m.unsupported:
+        return NOT_RUN
     code = FAILURE_MODES.get(m.mode, "")
     if m.kind == "adaptive":
         n = m.nominal
@@ -205,6 +208,11 @@ def markdown(run: StressRun, prov: dict, plots: dict[str, str], command: str | N
                 cells.append(map_cell(m) if m else NOT_RUN)
             lines.append(f"| {v.name} | " + " | ".join(cells) + " |")
         lines.append("")
+    not_run = [m for m in run.rows if m.unsupported and m.variant not in run.skipped]
+    if not_run:
+        lines += ["Not run (the engine/integrator does not model the variant's scene; no step was searched):", ""]
+        lines += [f"* `{m.variant}` {m.label}: {m.unsupported}" for m in not_run]
+        lines.append("")
     if run.skipped:
         lines += ["Skipped (listed in the catalogue, cannot run with the scenes at hand):", ""]
         lines += [f"* `{name}`: {reason}" for name, reason in run.skipped.items()]
@@ -245,6 +253,8 @@ def _extreme(run: StressRun, tag: str) -> list[Variant]:
 
 
 def _step_phrase(run: StressRun, m: MapRow) -> str:
+    if m.unsupported:
+        return f"not run: {m.unsupported}"
     if m.kind == "adaptive":
         n = m.nominal
         if n is None or not n.stable:
@@ -283,7 +293,7 @@ def closing_note(run: StressRun) -> list[str]:
 
     def drift(m: MapRow) -> str:
         n = m.nominal
-        if n is None:
+        if n is None or m.unsupported:
             return ""
         if not n.stable:
             return f"; at the nominal step {_fmt(n.spec.dt)} s: {n.mode}"
@@ -307,6 +317,9 @@ def closing_note(run: StressRun) -> list[str]:
         for m in _rows_of(run, v.name):
             n = m.nominal
             if n is None:
+                continue
+            if m.unsupported:
+                out.append(f"* {m.label}: not run: {m.unsupported}")
                 continue
             d = n.divergence
             step = f"adaptive, rtol {n.spec.rtol:g}" if n.spec.role == "adaptive" else f"{_fmt(n.spec.dt)} s"
@@ -344,6 +357,9 @@ def _variant_section(run: StressRun, v: Variant, plots: dict[str, str]) -> list[
     if ref is not None:
         out.append(_section_row("reference DOP853 1e-12", "—", "—", "—", "—", ref, cols, "", drift))
     for m in _rows_of(run, v.name):
+        if m.unsupported:  # the reason is in the notes
+            out.append(_section_row(m.label, NOT_RUN, "—", "—", "—", None, cols, "; ".join(m.notes), drift))
+            continue
         if m.kind == "adaptive":
             step = f"adaptive, mean {_fmt(m.step)}"
             hr, above, err = _fmt(_h_rate(run, m)), "—", "—"
@@ -396,15 +412,17 @@ MAP_COLOURS = {NONE_STABLE: "#f4a582", NOT_RUN: "#d9d9d9"}  # salmon, light grey
 MAP_COLOUR_NAMES = {NONE_STABLE: "salmon", NOT_RUN: "light grey"}
 MAP_LEGEND = {
     NONE_STABLE: "no stable step found: every step tried failed (adaptive: its run failed)",
-    NOT_RUN: "not run: the engine/integrator is not listed for the variant, or the variant was skipped",
+    NOT_RUN: "not run: the engine/integrator is not listed for the variant or does not model its scene, or the "
+             "variant was skipped",
 }
 
 
 def cell_state(m: MapRow | None) -> str:
-    """What a map cell means: ``"not run"`` (no row: the engine/integrator does not apply to the
-    variant, or the variant was skipped), ``"none stable"`` (searched, no stable step; adaptive:
-    its one run failed), else ``"stable"``."""
-    if m is None:
+    """What a map cell means: ``"not run"`` (no row: the engine/integrator is not listed for the
+    variant, or the variant was skipped; or a row whose runs came back "unsupported": the
+    engine/integrator does not model the scene), ``"none stable"`` (searched, no stable step;
+    adaptive: its one run failed), else ``"stable"``."""
+    if m is None or m.unsupported:
         return NOT_RUN
     if m.kind == "adaptive":
         return "stable" if m.nominal is not None and m.nominal.stable else NONE_STABLE

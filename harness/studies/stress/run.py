@@ -27,6 +27,10 @@ sample after its last one):
   (m), or ``constraint_bound`` rad for a hinge axis (also an in-house projection that fails);
   ``singular constraint``: the engine reports a singular constraint (e.g. a rolling disk flat).
 
+A run the engine/integrator cannot make at all (trajectory status ``"unsupported"``, e.g. a
+compiled in-house integrator on the rolling disk) is neither stable nor unstable: its step search
+stops at once and its cell is *not run*, with the engine's reason (``MapRow.unsupported``).
+
 Scales, from the run's initial state: the length ``l`` is the largest of the bodies' distances
 from the world origin and radii of gyration (m); ``E_scale = T(0) + M |g| l`` (J).
 
@@ -38,13 +42,16 @@ Accuracy, per quantity (``QUANTITIES``), as error series over the saved samples:
   scene's parameters); a variant checks it when its ``references`` list ``"exact"``;
 * ``position`` / ``velocity`` / ``angular_velocity``: distance to the in-house DOP853 reference
   (rtol = atol = 1e-12) over the reference's motion scales (``compare.motion_scales``);
-  ``orientation``: geodesic angle to the reference (rad);
+  ``orientation``: geodesic angle to the reference (rad); each maximised over bodies, per sample:
+  the trajectory quantities of ``harness.measure.quantities``, the very definitions validate's
+  ``trajectory.*`` checks and the work-precision study's state error use;
 * ``energy``: |E(t) - E(0)| / E_scale (exact conservation; no reference needed).
 
 A run is *accurate* when it is stable and every quantity stays within its band. The *first
 divergence time* of a quantity is the first saved time at which it leaves its band. The
 run's ``error`` is its largest ``exact`` error when the variant has a closed form, else its
-largest trajectory error against DOP853, else its energy error.
+largest trajectory error against DOP853 (the state error, ``quantities.state_error``), else its
+energy error.
 
 Largest stable step (``StepSearch``)
 ------------------------------------
@@ -94,19 +101,19 @@ import numpy as np
 from harness.measure import compare
 from harness.measure import exact
 from harness.measure import invariants
-from harness.model import rotations
+from harness.measure import quantities
 from harness.engines import ENGINE_NAMES, get_engine
 from harness.engines.base import RunSettings
 from harness.model.errors import InputError
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene, available_scenes, load_scene
-from harness.measure.trajectory import Trajectory
+from harness.measure.trajectory import UNSUPPORTED, Trajectory
 from harness.model.sanity import check_multibody
 from harness.validate.workers import Outcome, effective_jobs
 
 DEFAULT_CATALOGUE = Path(__file__).resolve().with_name("catalogue.toml")
 QUANTITIES = ("exact", "position", "orientation", "velocity", "angular_velocity", "energy")
-TRAJECTORY_QUANTITIES = ("position", "orientation", "velocity", "angular_velocity")
+TRAJECTORY_QUANTITIES = quantities.NAMES  # position, orientation, velocity, angular_velocity
 REFERENCE_KINDS = ("exact", "dop853")
 ADAPTIVE = ("RK45", "DOP853", "Radau", "BDF", "LSODA")  # the in-house engine's SciPy methods
 REFERENCE_TOL = 1e-12
@@ -474,15 +481,30 @@ def failed_trial(spec: TrialSpec, outcome: Outcome) -> TrialResult:
 
 
 def engine_mode(traj: Trajectory) -> str:
-    """Failure mode of a run the engine itself stopped ("" when it reached its horizon)."""
+    """Failure mode of a run the engine itself stopped ("" when it reached its horizon), decided
+    by the trajectory's ``status``:
+
+    * "ok": ""; "unsupported": "unsupported" (not a failure: the cell is not run);
+    * "blowup" (the state diverged): "badqacc" when MuJoCo's own guard tripped (it resets the
+      state; the message names the ``mjWARN_BADQ*`` warning), "magnitude growth" when an engine's
+      speed guard (``BLOWUP_SPEED``) tripped, else "nan" (a non-finite state);
+    * "failed" (a numerical failure): "singular constraint" (a singular constraint matrix, a
+      rolling disk lying flat), "constraint drift" (a projection that did not converge), else
+      "solver failure".
+
+    Within a status the message only tells these apart; which family a run is in never depends
+    on its text.
+    """
     if traj.ok:
         return ""
+    if traj.unsupported:
+        return UNSUPPORTED
     msg = traj.message
-    if "MuJoCo warning" in msg or "bad acceleration" in msg:
-        return "badqacc"
-    if "velocity beyond" in msg or ("speed" in msg and "beyond" in msg):  # every engine's speed guard (1e8)
-        return "magnitude growth"
-    if traj.status == "blowup" or "non-finite" in msg:
+    if traj.status == "blowup":
+        if "MuJoCo warning" in msg or "bad acceleration" in msg:
+            return "badqacc"
+        if "beyond" in msg:  # every engine's speed guard: "<speed> ... beyond <BLOWUP_SPEED>"
+            return "magnitude growth"
         return "nan"
     if "Flat" in msg or "singular" in msg:
         return "singular constraint"
@@ -505,27 +527,26 @@ def scales(traj: Trajectory, model: Multibody) -> dict[str, float]:
 
 
 def _head(traj: Trajectory, n: int) -> Trajectory:
-    return replace(traj, t=traj.t[:n], p_WCm_W=traj.p_WCm_W[:n], quat_WB=traj.quat_WB[:n],
-                   v_WCm_W=traj.v_WCm_W[:n], w_WB_W=traj.w_WB_W[:n], engine_energy={})
+    return _take(traj, slice(0, n))
+
+
+def _take(traj: Trajectory, idx) -> Trajectory:
+    """The samples ``idx`` (a slice or indices) of ``traj``'s state (engine energies dropped)."""
+    return replace(traj, t=traj.t[idx], p_WCm_W=traj.p_WCm_W[idx], quat_WB=traj.quat_WB[idx],
+                   v_WCm_W=traj.v_WCm_W[idx], w_WB_W=traj.w_WB_W[idx], engine_energy={})
 
 
 def _reference_series(traj: Trajectory, ref: Trajectory, model: Multibody) -> dict[str, np.ndarray]:
-    """Relative trajectory errors against the reference on the samples both have (the
-    reference is saved at least as often; it is subsampled onto the run's times)."""
+    """The trajectory quantities against the reference on the samples both have
+    (``quantities.judged_series`` over the reference's ``compare.motion_scales``; the reference is
+    saved at least as often and is subsampled onto the run's times)."""
     stride = 1
     if len(traj.t) > 1 and len(ref.t) > 1:
         stride = max(1, int(round((traj.t[1] - traj.t[0]) / (ref.t[1] - ref.t[0]))))
-    r = _head(ref, len(ref.t))
     idx = np.arange(0, len(ref.t), stride)
     n = min(len(traj.t), len(idx))
-    idx = idx[:n]
-    s = compare.motion_scales(ref, model)
-    return {
-        "position": np.linalg.norm(traj.p_WCm_W[:n] - r.p_WCm_W[idx], axis=-1).max(axis=1) / s["length"],
-        "orientation": rotations.geodesic_angle(traj.quat_WB[:n], r.quat_WB[idx]).max(axis=1),
-        "velocity": np.linalg.norm(traj.v_WCm_W[:n] - r.v_WCm_W[idx], axis=-1).max(axis=1) / s["velocity"],
-        "angular_velocity": np.linalg.norm(traj.w_WB_W[:n] - r.w_WB_W[idx], axis=-1).max(axis=1) / s["angular_velocity"],
-    }
+    r = _take(ref, idx[:n])
+    return quantities.judged_series(traj, r, compare.motion_scales(ref, model), n)
 
 
 def evaluate(traj: Trajectory, scene: Scene, spec: TrialSpec, ref: Reference, bounds: Bounds,
@@ -536,6 +557,9 @@ def evaluate(traj: Trajectory, scene: Scene, spec: TrialSpec, ref: Reference, bo
     steps = float(traj.stats.get("steps", nan))
     rhs = float(traj.stats.get("rhs_evals", nan))
     n = len(traj.t)
+    if traj.unsupported:  # not a failure of the method: the cell is "not run" (StepSearch.summary)
+        return TrialResult(spec, traj.status, UNSUPPORTED, False, False, nan, "", {}, {}, nan, nan, 0.0, None, "",
+                           nan, steps, rhs, wall_s, traj.message)
     mode = engine_mode(traj)
     if n == 0:
         return TrialResult(spec, traj.status, mode or "solver failure", False, False, nan, "", {}, {}, nan, nan, 0.0,
@@ -590,8 +614,8 @@ def evaluate(traj: Trajectory, scene: Scene, spec: TrialSpec, ref: Reference, bo
     else:
         kind = "energy"
     if kind == "trajectory":
-        error = max(max_errors[q] for q in TRAJECTORY_QUANTITIES)
-        err_series = np.max([series[q] for q in TRAJECTORY_QUANTITIES], axis=0)
+        error = quantities.state_error(max_errors)
+        err_series = quantities.state_error(series)
     else:
         error = max_errors[kind]
         err_series = series[kind]
@@ -742,8 +766,12 @@ class StepSearch:
         return TrialSpec(self.variant.name, self.engine, self.integrator, dt, t_end, save, self.variant.rtol, role)
 
     def next_specs(self) -> list[TrialSpec]:
-        """The trials to run next (none once the search is done)."""
+        """The trials to run next (none once the search is done, or as soon as a trial shows
+        that the engine/integrator does not model the variant's scene)."""
         if self.done:
+            return []
+        if self.unsupported_reason():
+            self.done = True
             return []
         if self.adaptive:
             if self.trials:
@@ -817,10 +845,20 @@ class StepSearch:
     def record(self, result: TrialResult) -> None:
         self.trials[self._key(result.spec.dt)] = result
 
+    def unsupported_reason(self) -> str:
+        """The engine's reason when a trial came back "unsupported" (the engine/integrator does
+        not model the scene, whatever the step), else ""."""
+        return next((r.message or "unsupported" for r in self.trials.values() if r.status == UNSUPPORTED), "")
+
     def summary(self) -> "MapRow":
         """The search's outcome as one row of the stability map."""
         v = self.variant
         nominal = next((r for r in self.trials.values() if r.spec.role in ("nominal", "adaptive")), None)
+        reason = self.unsupported_reason()
+        if reason:  # not run: no step was searched, no failure mode applies
+            return MapRow(v.name, self.engine, self.integrator, self.t_end, "adaptive" if self.adaptive else "fixed",
+                          None, False, None, "", float("nan"), "", False, nominal, float("nan"),
+                          list(self.notes) + [f"not run: {reason}"], dict(self.trials), unsupported=reason)
         if self.adaptive:
             r = nominal
             mean_h = (self.t_end / r.steps) if r is not None and r.steps and np.isfinite(r.steps) else float("nan")
@@ -862,7 +900,8 @@ class MapRow:
     largest step tried; ``unstable_dt`` and ``mode``: the smallest unstable step above it and
     its failure mode; ``error``: error at ``stable_dt``; ``nominal``: the run at the nominal
     step (adaptive methods: their one run); ``step``: the stable step, or the mean step of an
-    adaptive run (s).
+    adaptive run (s); ``unsupported``: the engine's reason when the engine/integrator does not
+    model the variant's scene (its trials came back "unsupported": the cell is not run), else "".
     """
 
     variant: str
@@ -881,6 +920,7 @@ class MapRow:
     step: float
     notes: list[str]
     trials: dict[float, TrialResult]
+    unsupported: str = ""
 
     @property
     def label(self) -> str:
@@ -986,6 +1026,11 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
     if progress is not None:
         progress.total = len(searches)
         progress.refresh()
+    from harness.engines.inhouse import COMPILED_KERNEL, announce_compilation
+
+    # a compiled in-house method with a cold Numba cache: the parent says so once, not each worker
+    announce_compilation((s.integrator, scenes[s.variant.name].multibody()) for s in searches
+                         if s.engine == "inhouse" and s.integrator in COMPILED_KERNEL)
     in_flight = {id(s): 0 for s in searches}
     left = {v.name: sum(s.variant.name == v.name for s in searches) for v in runnable}
     counts = {"trials": 0}

@@ -14,6 +14,8 @@ from harness.io.figures import new_figure, png_bytes
 
 ENGINE_COLORS = {"mujoco": "tab:blue", "pinocchio": "tab:green", "inhouse": "tab:red"}
 _MARKERS = "os^vDP*Xhp<>"
+SAME_ERROR_RTOL = 1e-6   # two curves with errors this close at every common parameter ...
+SAME_TIME_FACTOR = 2.0   # ... and median run times within this factor lie on top of each other
 
 
 def _fmt(x: float, spec: str = ".3g") -> str:
@@ -36,21 +38,70 @@ def _style(label: str, index: int) -> dict:
             "markersize": 4, "linewidth": 1.4}
 
 
+def coinciding(groups: dict[str, list], key: str = "state_max") -> dict[str, str]:
+    """Curves that would hide one another in the plot: ``{label: earlier label}`` for each curve
+    whose errors (``key``) equal an earlier curve's at every parameter (dt or tolerance) both ran
+    (at least two; relative difference <= ``SAME_ERROR_RTOL``) and whose median run times there
+    are within ``SAME_TIME_FACTOR`` of the earlier's, e.g. MuJoCo's ``rollout`` and ``loop``
+    variants of one integrator (the same steps: the same errors, times ~1.1x apart), or two
+    integrators that happen to coincide on a scene (MuJoCo's Euler and implicitfast without
+    velocity-dependent forces)."""
+    labels = list(groups)
+    out: dict[str, str] = {}
+    for j, label in enumerate(labels):
+        mine = {p.param: p for p in groups[label] if p.ok and math.isfinite(getattr(p, key))}
+        for other in labels[:j]:
+            if other in out:
+                continue  # match against the curve drawn in full
+            theirs = {p.param: p for p in groups[other] if p.ok and math.isfinite(getattr(p, key))}
+            common = sorted(set(mine) & set(theirs))
+            if len(common) < 2:
+                continue
+            same_error = all(abs(getattr(mine[c], key) - getattr(theirs[c], key))
+                             <= SAME_ERROR_RTOL * max(abs(getattr(theirs[c], key)), 1e-300) for c in common)
+            ratios = sorted(mine[c].time_s / theirs[c].time_s for c in common if theirs[c].time_s > 0)
+            close_in_time = bool(ratios) and 1.0 / SAME_TIME_FACTOR <= ratios[len(ratios) // 2] <= SAME_TIME_FACTOR
+            if same_error and close_in_time:
+                out[label] = other
+                break
+    return out
+
+
+def curve_styles(groups: dict[str, list]) -> dict[str, tuple[str, dict]]:
+    """Legend label and line style of each curve (``_style``); a curve that coincides with an
+    earlier one (``coinciding``) is drawn under it, dotted, with larger open markers, and its
+    legend says "same errors as <earlier>", so that neither hides the other."""
+    same = coinciding(groups)
+    out = {}
+    for i, label in enumerate(groups):
+        style = _style(label, i)
+        legend = label
+        if label in same:
+            style.update(linestyle=":", markerfacecolor="none", markersize=8, markeredgewidth=1.2, zorder=1.5)
+            legend = f"{label} (same errors as {same[label]})"
+        else:
+            style.setdefault("zorder", 2.5)
+        out[label] = (legend, style)
+    return out
+
+
 def plot_scene(sweep: SceneSweep, provenance: dict) -> bytes:
     """The scene's figure as PNG bytes: state error (max over saved steps) and energy error
-    against run time, log-log, one curve per engine/integrator(/variant)."""
+    against run time, log-log, one curve per engine/integrator(/variant); curves that lie on top
+    of each other are told apart (``curve_styles``)."""
     groups = by_curve(sweep.points)
+    styles = curve_styles(groups)
     fig = new_figure(15, 7.5)
     axes = fig.subplots(1, 2)
     for ax, key, title in ((axes[0], "state_max", "state error (max over saved steps)"),
                            (axes[1], "energy_max", "energy error (max over saved steps)")):
-        for i, (label, pts) in enumerate(groups.items()):
+        for label, pts in groups.items():
             good = sorted((p for p in pts if p.ok and math.isfinite(getattr(p, key)) and getattr(p, key) > 0),
                           key=lambda p: p.param, reverse=True)
             if not good:
                 continue
-            ax.plot([p.time_s for p in good], [max(getattr(p, key), 1e-16) for p in good], label=label,
-                    **_style(label, i))
+            legend, style = styles[label]
+            ax.plot([p.time_s for p in good], [max(getattr(p, key), 1e-16) for p in good], label=legend, **style)
         for target in TARGETS:
             ax.axhline(target, color="grey", linewidth=0.8, linestyle=":")
         ax.set_xscale("log")
@@ -122,8 +173,17 @@ def markdown(results: list[SceneSweep], provenance: dict, options: SweepOptions,
                  f"Reference: {sweep.reference}."]
         for what, value in sweep.reference_checks.items():
             body.append(f"Reference against the closed form — {what}: {_fmt(value, '.2e')}.")
-        body += ["", f"![{sweep.scene}](workprecision/{sweep.scene}.png)", "",
-                 "Time to reach a state error, interpolated on each curve (ratio: to the fastest curve; "
+        if sweep.skipped:
+            body += ["", "Not run on this scene (the method does not model it; no points, not a failure):", ""]
+            body += [f"- {label}: {why}" for label, why in sweep.skipped.items()]
+        same = coinciding(by_curve(sweep.points))
+        body += ["", f"![{sweep.scene}](workprecision/{sweep.scene}.png)", ""]
+        if same:
+            body += ["In the figure, " + "; ".join(f"{a} has the same errors as {b}" for a, b in same.items())
+                     + f" (equal to {SAME_ERROR_RTOL:g} relative at every step or tolerance both ran, times within "
+                     f"{SAME_TIME_FACTOR:g}x): each is drawn dotted with open markers under the curve it coincides with.",
+                     ""]
+        body += ["Time to reach a state error, interpolated on each curve (ratio: to the fastest curve; "
                  "— never reached in the sweep):", "",
                  "| curve | " + " | ".join(f"t @ {t:g} (s) | ratio" for t in TARGETS) + " |",
                  "|---|" + "---|---|" * len(TARGETS)]

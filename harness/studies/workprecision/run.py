@@ -13,6 +13,9 @@ What is swept, per scene (``curves``):
   ``MujocoEngine.simulate`` (variant ``loop``: the loop's own time, which includes reading every
   saved sample back; ``time_total_s`` includes compiling the model).
 * Pinocchio: each harness integrator (rkmk4, euler) over timesteps (loop time).
+* Exudyn: GeneralizedAlpha and TrapezoidalIndex2 (implicit, every scene) and RK44, RK67
+  (explicit, free bodies only) over timesteps, through ``ExudynEngine.simulate`` (the engine's
+  whole run: building the Exudyn system, solving, reading the sensors).
 * In-house, all through ``InhouseEngine.simulate``: the per-state methods (variant
   ``per-state``; the engine's whole run): rk4, euler over timesteps and SciPy's RK45, DOP853
   over tolerances; and the compiled ones (variant ``compiled``; the integration alone, the
@@ -25,7 +28,10 @@ engine's ``Integrator`` records (``harness.engines.integrator``).
 
 Timesteps are ``dt = save / 2^k``; tolerances ``rtol = atol`` per decade. A curve is refined
 until a run takes longer than ``max_run_s``, or its state error is below ``error_floor``
-(the reference's own accuracy), or the ladder ends.
+(the reference's own accuracy), or the ladder ends. A method that does not model the scene (its
+run comes back with status ``"unsupported"``, e.g. the compiled in-house integrators on the
+rolling disk, or ``mujoco.rollout`` with a prescribed force) is skipped on that scene after its
+first run: no points, its reason in ``SceneSweep.skipped``, and the report says so.
 
 Error measures (one definition, used everywhere; ``errors``)
 ------------------------------------------------------------
@@ -34,7 +40,9 @@ Against the reference trajectory at the saved times, with the reference's scales
 E; ``compare.momentum_scales`` p and Lm):
 
 * state error at a sample = max over bodies of max( |dp_WCm_W| / L, geodesic angle of
-  quat_WB^-1 quat_ref (rad), |dv_WCm_W| / V, |dw_WB_W| / Omega ) (``compare.trajectory_error``);
+  quat_WB^-1 quat_ref (rad), |dv_WCm_W| / V, |dw_WB_W| / Omega ): the largest of the trajectory
+  quantities of ``harness.measure.quantities`` (``state_error``), as validate judges its
+  ``trajectory.*`` checks and the stress study its bands;
 * energy error = |E - E_ref| / E (the harness's energy recomputed from the common state);
 * momentum error = max( |p_W - p_ref| / p, |L_W - L_ref| / Lm ) (linear and angular momentum
   about the world origin, world frame);
@@ -65,10 +73,11 @@ import numpy as np
 
 from harness.measure import compare
 from harness.measure import invariants
+from harness.measure import quantities
 from harness.engines import get_engine, integrator
 from harness.engines.base import RunSettings
 from harness.model.scene import Scene
-from harness.measure.trajectory import Trajectory
+from harness.measure.trajectory import UNSUPPORTED, Trajectory
 
 TARGETS = (1e-6, 1e-10)
 ERROR_KEYS = ("state_final", "state_max", "energy_final", "energy_max", "momentum_final", "momentum_max")
@@ -137,7 +146,8 @@ class WorkPrecisionPoint:
     Attributes:
         scene, engine, integrator, variant: what ran (``label`` joins them).
         param: the timestep dt (s) of a fixed-step method, or rtol (= atol) of an adaptive one.
-        status, message: "ok", "failed" or "blowup" and why.
+        status, message: "ok", "failed", "blowup" or "unsupported" (the method does not model
+            the scene) and why.
         time_s, time_min_s: median and minimum run time (s) over the timed repeats (see the
             module docstring for what each variant's time covers).
         time_total_s: median time including model loading and conversion (s).
@@ -189,6 +199,7 @@ class SceneSweep:
     reference: str
     reference_checks: dict[str, float] = field(default_factory=dict)
     points: list[WorkPrecisionPoint] = field(default_factory=list)
+    skipped: dict[str, str] = field(default_factory=dict)  # curve label -> why it does not run on this scene
     batch: dict | None = None
     head_to_head: list[dict] = field(default_factory=list)
 
@@ -228,8 +239,9 @@ def _take(traj: Trajectory, idx) -> Trajectory:
 
 
 def _state_error(err: dict, scales: dict) -> float:
-    return max(err["position_max"] / scales["length"], err["orientation_max"],
-               err["velocity_max"] / scales["velocity"], err["angular_velocity_max"] / scales["angular_velocity"])
+    """The state error (``quantities.state_error``) of ``compare.trajectory_error``'s maxima over
+    ``scales`` (``compare.motion_scales``)."""
+    return quantities.state_error(quantities.judged_max(err, scales))
 
 
 def errors(traj: Trajectory, ref: Trajectory, model) -> dict[str, float]:
@@ -377,6 +389,10 @@ def measure(scene: Scene, curve: Curve, settings: RunSettings, ref: Trajectory, 
                                   time_s=float(np.median(times)), time_min_s=float(np.min(times)),
                                   time_total_s=float(np.median(totals)), repeats=repeats, steps=steps,
                                   rhs_evals=evals, **errs)
+    except NotImplementedError as err:  # the method does not model the scene (mujoco.rollout and a force)
+        return WorkPrecisionPoint(**base, status=UNSUPPORTED, message=f"{curve.label}: {err}", time_s=nan,
+                                  time_min_s=nan, time_total_s=nan, repeats=0, steps=nan, rhs_evals=nan,
+                                  **{k: nan for k in ERROR_KEYS})
     except Exception as err:  # a failed run is a point with its reason
         return WorkPrecisionPoint(**base, status="failed", message=f"{type(err).__name__}: {err}", time_s=nan,
                                   time_min_s=nan, time_total_s=nan, repeats=0, steps=nan, rhs_evals=nan,
@@ -391,6 +407,8 @@ def curves(engines) -> list[Curve]:
             out += [Curve("mujoco", method, "rollout"), Curve("mujoco", method, "loop")]
     if "pinocchio" in engines:
         out += [Curve("pinocchio", "rkmk4", ""), Curve("pinocchio", "euler", "")]
+    if "exudyn" in engines:  # implicit on every scene; explicit ones on free bodies only (else unsupported)
+        out += [Curve("exudyn", m, "") for m in ("GeneralizedAlpha", "TrapezoidalIndex2", "RK44", "RK67")]
     if "inhouse" in engines:
         from harness.engines.inhouse.integrators import COMPILED
 
@@ -416,6 +434,11 @@ def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), p
         ladder = _ladder(curve, save, options)
         for i, param in enumerate(ladder):
             point = measure(scene, curve, _settings(curve, t_end, save, param), ref, model, options)
+            if point.status == UNSUPPORTED:  # not this method's scene: no points, say why
+                result.skipped[curve.label] = point.message
+                if progress is not None:
+                    progress.advance(len(ladder) - i, f"{scene.name}: {curve.label} not run")
+                break
             result.points.append(point)
             if progress is not None:
                 progress.advance(1, f"{scene.name}: {curve.label} {param:.1e}")

@@ -20,8 +20,8 @@ are the per-state engine's (``harness.engines.inhouse.model``: ``[p_WCm_W | quat
 v_WCm_W | w_WB_B]``, SI units, body-frame angular velocity); times in s.
 
 Scope: free, ball, hinge and slide joints, springs on slide joints and gravity; ``pack`` raises
-NotImplementedError for rolling contacts and prescribed forces (the engine turns that into a
-failed trajectory).
+NotImplementedError for rolling contacts and prescribed forces (the engine turns that into an
+"unsupported" trajectory: not run, rather than failed).
 
 The first call in a fresh environment compiles the kernel it needs (``warm_up``); later
 processes load it from Numba's on-disk cache. ``Result.wall_s`` never includes compilation:
@@ -29,6 +29,9 @@ every driver warms its kernel up before it starts the clock. Before the first co
 process (a kernel that Numba's cache does not hold for this CPU and source), one line on stderr
 says so, with the time the last compilation took on this machine (recorded in the cache folder,
 ``compile_seconds.json``); ``harness.io.progress.set_quiet(True)`` (``--quiet``) silences it.
+A command that runs the kernels in worker processes (``harness stress``, ``harness validate``)
+calls ``announce_cold(kernels)`` in the parent before it starts them: the parent prints the line
+once for the whole run and its forked workers inherit the mark, so none of them prints it again.
 """
 
 from __future__ import annotations
@@ -45,8 +48,8 @@ from harness.engines.inhouse.compiled import kernels
 from harness.engines.inhouse.integrators import RK4, ButcherTableau, Result
 from harness.engines.inhouse.model import NEModel
 
-__all__ = ["MAX_ADAPTIVE_STEPS", "STATUS", "default_threads", "integrate_dop853", "integrate_fixed", "pack",
-           "run_batch", "tableau_arrays", "warm_up"]
+__all__ = ["KERNELS", "MAX_ADAPTIVE_STEPS", "STATUS", "announce_cold", "default_threads", "integrate_dop853",
+           "integrate_fixed", "pack", "run_batch", "tableau_arrays", "warm_up"]
 
 MAX_ADAPTIVE_STEPS = 200_000  # accepted + rejected steps before an adaptive run is declared failed
 
@@ -57,7 +60,7 @@ STATUS = {
     kernels.NO_PROJECTION: ("failed", "position projection did not converge"),
     kernels.UNDERFLOW: ("failed", "DOP853 step size underflow"),
     kernels.TOO_MANY_STEPS: ("failed", f"more than {MAX_ADAPTIVE_STEPS} steps: step size collapsed"),
-    kernels.BAD_ERROR: ("failed", "non-finite DOP853 error estimate"),
+    kernels.BAD_ERROR: ("blowup", "non-finite DOP853 error estimate (a stage overflowed)"),
 }
 
 _DOP853 = tuple(np.ascontiguousarray(a, dtype=float) for a in (_dop.A, _dop.B, _dop.C, _dop.E3, _dop.E5, _dop.D))
@@ -206,7 +209,8 @@ def run_batch(model: tuple, Y0: np.ndarray, nstep: int, dt: float, tableau: Butc
 
 
 _warm: set[str] = set()
-_announced = False
+_announced = False  # the compile notice was printed by this process or by the parent that forked it
+KERNELS = ("erk", "dop853", "erk_rows")  # what warm_up compiles
 _TIMES_FILE = "compile_seconds.json"
 
 
@@ -253,8 +257,21 @@ def _record_time(kernel: str, seconds: float) -> None:
         pass
 
 
+def announce_cold(kernels_needed=KERNELS) -> bool:
+    """In a parent process, before it starts workers that run ``kernels_needed`` (names of
+    ``KERNELS``): when Numba's cache lacks one of them (``is_cached`` false), print the compile
+    notice now (``_announce``, once per process) and mark it printed, so that the workers forked
+    afterwards, which inherit the mark, do not print it once each. Returns whether a kernel is
+    cold. Nothing is compiled here."""
+    cold = [k for k in kernels_needed if k not in _warm and is_cached(k) is False]
+    if cold:
+        _announce(cold[0])
+    return bool(cold)
+
+
 def _announce(kernel: str) -> None:
-    """One line on stderr, once per process, before the first compilation."""
+    """One line on stderr, once per process (and its forked workers, ``announce_cold``), before
+    the first compilation."""
     global _announced
     if _announced:
         return

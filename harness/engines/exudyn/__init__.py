@@ -1,0 +1,1 @@
+"""Exudyn engine: bodies in redundant coordinates, joints as algebraic constraints (``engine``)."""

@@ -1,0 +1,279 @@
+"""Exudyn engine: the scene's bodies in redundant coordinates, joints as algebraic constraints.
+
+A different formulation from the other engines (MuJoCo and Pinocchio: reduced coordinates and
+articulated-body dynamics; in-house: maximal coordinates with Baumgarte-stabilised or projected
+index-1 constraints): Exudyn integrates every body's absolute coordinates and enforces joints
+and the rolling contact as algebraic equations with Lagrange multipliers, solved with the time
+step (index 3 or index 2; ``harness.engines.exudyn.integrators``). The system is built from the
+scene's description (``harness.engines.exudyn.model``); Exudyn reads no model file.
+
+Maximal coordinates come from Exudyn's sensors at every saved sample: the centre of mass
+position and velocity (m, m/s, world), the rotation matrix and the world angular velocity
+(rad/s). Exudyn reports no system energy: the harness computes it from these.
+
+Joint reactions (``[checks.reaction]``): Exudyn's constraint force of each joint. For a
+spherical joint, ``Force`` in world; for a generic joint (hinge, slide), ``ForceLocal`` and
+``TorqueLocal`` in the joint frame of the parent's marker (the parent's body frame times the
+joint's ``rotationMarker0``, after the marker's own rotation: ``joint_frame``), rotated to world. Exudyn reports the force the joint applies to
+its first body (the parent); the force on the child (the harness's convention: what the
+parent exerts on the child, about the joint point) is its negative. For the rolling contact,
+the rolling-disc joint's ``ForceLocal`` (the force on the disc in Exudyn's contact frame J1:
+lateral, longitudinal, normal) is turned to world with the joint's ``RotationMatrix`` output
+(J1 -> world); the moment about the contact point is zero (an ideal point contact).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
+from harness.engines.exudyn.integrators import IMPLICIT, METHODS, NODE_TYPE
+from harness.engines.exudyn.model import build
+from harness.measure.trajectory import Trajectory, unsupported
+from harness.model import rotations
+from harness.model.joints import JOINTS
+from harness.model.scene import Scene
+
+#: Newton iteration of the implicit methods: full Newton (Jacobian every iteration), converged
+#: when the residual falls below these (relative to the first residual of the step; absolute).
+NEWTON_RTOL = 1e-8
+NEWTON_ATOL = 1e-12
+
+#: Spectral radius at infinity of generalized-alpha (Exudyn's default). At 1 (no numerical
+#: damping) the index-3 multipliers are undamped: on the spring pendulum the joint-force error
+#: after 0.5 s grows from 5e-4 N (step 1e-3 s) to 0.13 N (1e-4 s); on the rolling disk the
+#: contact force stays 6 % off the reference at every step from 5e-4 to 6.25e-5 s (the motion
+#: converges); on the double pendulum the energy error after 10 s grows from 2.2e-3 (1e-3 s) to
+#: 3.8e-2 (2.5e-4 s). At 0.9 all three converge: spring pendulum force 3.2e-5 N at 2.5e-4 s
+#: (1.3e-3 N at 1e-4 s, where the index-3 conditioning ~ 1/h^2 shows), rolling-disk force
+#: 1.4e-2, 1.8e-3, 2.6e-5, 7.2e-7 of the force scale from 5e-4 to 6.25e-5 s, double pendulum
+#: energy 1.5e-5, 3.7e-6, 9.3e-7 (tests/engines/exudyn/test_engine.py).
+SPECTRAL_RADIUS = 0.9
+
+
+class ExudynEngine:
+    """Runs a scene in Exudyn, built from the scene's description."""
+
+    name = "exudyn"
+    integrators = METHODS
+
+    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
+        check_settings(settings, self.integrators, self.name)
+        return self.simulate_model(scene.multibody(), settings, reactions="reaction" in scene.checks)
+
+    def simulate_model(self, model, settings: RunSettings, *, reactions: bool = False) -> Trajectory:
+        """Integrate ``model`` from its initial state; samples at ``t = k * save_every``.
+
+        Returns the trajectory in maximal coordinates; a solver failure (Newton not converged),
+        a non-finite state or a speed beyond ``BLOWUP_SPEED`` gives status "failed"/"blowup"
+        with the samples before it; an explicit method on a model with joints or contacts
+        gives status "unsupported". Never raises for a numerical failure."""
+        check_settings(settings, self.integrators, self.name)
+        import exudyn as exu
+
+        names = tuple(model.body_names)
+        method = settings.integrator
+        constrained = [b.name for b in model.bodies if JOINTS[b.joint].constrained]
+        if method not in IMPLICIT and (constrained or model.contacts):
+            what = "joints" if constrained else "a rolling contact"
+            return unsupported(self.name, method, names,
+                               f"{method}: Exudyn's explicit solvers take no algebraic equations and this scene has {what} "
+                          f"(implicit: {', '.join(IMPLICIT)})")
+        start = time.perf_counter()
+        try:
+            system = build(model, NODE_TYPE[method], reactions=reactions)
+        except NotImplementedError as err:
+            return unsupported(self.name, method, names, f"{method}: {err}")
+        n_steps = settings.n_saves * settings.steps_per_save
+        ss = _solver_settings(exu, settings, n_steps)
+        printing = exu.config.printToConsole
+        exu.config.printToConsole = False  # Exudyn's own failure banner; the run record says it
+        status, message = "ok", ""
+        t0 = time.perf_counter()
+        try:
+            system.mbs.SolveDynamic(ss, solverType=getattr(exu.DynamicSolverType, method))
+        except Exception as err:  # noqa: BLE001 - Exudyn raises SolverError (and RuntimeError) on failure
+            status, message = "failed", f"{method}: Exudyn solver stopped ({type(err).__name__}: {' '.join(str(err).split())})"
+        finally:
+            exu.config.printToConsole = printing
+        wall_solve = time.perf_counter() - t0
+        traj = _read(system, model, settings, self.name, method)
+        saved = len(traj.t)
+        if status == "failed" and saved:
+            message += f"; last sample t = {traj.t[-1]:.6g} s"
+        reason, saved = _blowup(traj)
+        if reason and status == "ok":
+            status, message = "blowup", reason
+        out = _truncate(traj, saved)
+        if status == "ok" and len(out.t) != settings.n_saves + 1:
+            status, message = "failed", (f"Exudyn stored {len(out.t)} samples, expected {settings.n_saves + 1} "
+                                          f"(t = k * {settings.save_every:g} s)")
+        edge_flip = _edge_flip(system, out, model)
+        if edge_flip and status == "ok":
+            status, message = "failed", edge_flip
+        out.stats.update({
+            # a failed run: the steps up to its last stored sample (a lower bound)
+            "steps": n_steps if status == "ok" else max(len(out.t) - 1, 0) * settings.steps_per_save,
+            "wall_s": time.perf_counter() - start,
+            "wall_solve_s": wall_solve,
+            "settings": _describe(method, settings, model),
+        })
+        if status != "ok":
+            return _with(out, status=status, message=message)
+        if reactions or model.contacts:
+            out = _with(out, reactions=reaction_series(system, model, out, reactions=reactions))
+        return out
+
+
+def _solver_settings(exu, settings: RunSettings, n_steps: int):
+    """Exudyn ``SimulationSettings`` for a fixed-step run of ``n_steps`` steps to ``t_end`` with
+    sensors stored every save interval, nothing written to files or the console."""
+    ss = exu.SimulationSettings()
+    ti = ss.timeIntegration
+    ti.numberOfSteps = n_steps
+    ti.endTime = settings.t_end
+    ti.verboseMode = 0
+    ti.adaptiveStep = False  # a fixed step: a Newton failure stops the run instead of halving the step
+    ti.automaticStepSize = False
+    ti.generalizedAlpha.spectralRadius = SPECTRAL_RADIUS
+    ti.newton.useModifiedNewton = False
+    ti.newton.relativeTolerance = NEWTON_RTOL
+    ti.newton.absoluteTolerance = NEWTON_ATOL
+    ss.solution.file.write = False
+    ss.solution.sensors.writePeriod = settings.save_every * (1.0 - 1e-9)  # every save interval, robust to rounding
+    ss.show.statistics = False
+    ss.show.computationTime = False
+    ss.show.globalTimers = False
+    return ss
+
+
+def _describe(method: str, settings: RunSettings, model) -> str:
+    node = NODE_TYPE[method]
+    text = f"Exudyn {method} on {node} nodes, step {settings.dt:g} s"
+    if method in IMPLICIT:
+        text += f", full Newton (rtol {NEWTON_RTOL:g}, atol {NEWTON_ATOL:g})"
+        if method == "GeneralizedAlpha":
+            text += f", spectral radius {SPECTRAL_RADIUS:g}, index-3 constraints"
+        else:
+            text += ", index-2 constraints"
+    if model.contacts:
+        text += ", rolling contact: ObjectJointRollingDisc at the lower rim edge"
+    return text
+
+
+def _stored(system, sensor) -> np.ndarray:
+    data = np.asarray(system.mbs.GetSensorStoredData(sensor), dtype=float)
+    return data.reshape(len(data), -1) if data.size else np.zeros((0, 2))
+
+
+def _read(system, model, settings: RunSettings, engine: str, method: str) -> Trajectory:
+    """The stored sensor samples as a Trajectory (the samples every sensor has)."""
+    names = tuple(model.body_names)
+    series = {b: [_stored(system, s) for s in system.body_sensors[b]] for b in names}
+    n = min(len(x) for parts in series.values() for x in parts)
+    t = series[names[0]][0][:n, 0] if n else np.zeros(0)
+    nb = len(names)
+    p = np.zeros((n, nb, 3))
+    quat = np.zeros((n, nb, 4))
+    v = np.zeros((n, nb, 3))
+    w = np.zeros((n, nb, 3))
+    for i, b in enumerate(names):
+        pos, rot, vel, omega = (x[:n, 1:] for x in series[b])
+        p[:, i], v[:, i], w[:, i] = pos, vel, omega
+        for k in range(n):
+            R = rot[k].reshape(3, 3)
+            quat[k, i] = rotations.from_matrix(R) if np.all(np.isfinite(R)) else np.nan
+    return Trajectory(engine, method, names, t, p, quat, v, w, stats={})
+
+
+def _blowup(traj: Trajectory) -> tuple[str, int]:
+    """``(reason, samples kept)``: the first sample with a non-finite state or a speed beyond
+    ``BLOWUP_SPEED`` ends the trajectory (reason "" when there is none)."""
+    for k in range(len(traj.t)):
+        state = np.concatenate([traj.p_WCm_W[k].ravel(), traj.quat_WB[k].ravel(), traj.v_WCm_W[k].ravel(), traj.w_WB_W[k].ravel()])
+        if not np.all(np.isfinite(state)):
+            return f"non-finite state at t = {traj.t[k]:.6g} s", k
+        speed = max(np.abs(traj.v_WCm_W[k]).max(initial=0.0), np.abs(traj.w_WB_W[k]).max(initial=0.0))
+        if speed > BLOWUP_SPEED:
+            return f"speed {speed:.3g} beyond {BLOWUP_SPEED:g} at t = {traj.t[k]:.6g} s", k
+    return "", len(traj.t)
+
+
+def _truncate(traj: Trajectory, n: int) -> Trajectory:
+    return Trajectory(traj.engine, traj.integrator, traj.body_names, traj.t[:n], traj.p_WCm_W[:n], traj.quat_WB[:n],
+                      traj.v_WCm_W[:n], traj.w_WB_W[:n], stats=dict(traj.stats))
+
+
+def _with(traj: Trajectory, **changes) -> Trajectory:
+    from dataclasses import replace
+
+    return replace(traj, **changes)
+
+
+def _edge_flip(system, traj: Trajectory, model) -> str:
+    """Why the run is not the scene's motion when a rolling body's axis crossed the horizontal
+    (the other rim edge would touch the plane; Exudyn's joint stays on the initial one), else ""."""
+    for name, (_, body, edge) in system.contacts.items():
+        if edge == 0.0 or not len(traj.t):
+            continue
+        i = traj.body_index(body)
+        n_z = rotations.matrix(traj.quat_WB[:, i])[:, 2, 2]
+        flipped = np.nonzero(np.sign(n_z) == -edge)[0]
+        if len(flipped):
+            return (f"rolling contact {name!r}: the axis crossed the horizontal at t = {traj.t[flipped[0]]:.6g} s; "
+                    f"the other rim edge touches the plane there, Exudyn's rolling-disc joint stays on the first")
+    return ""
+
+
+def moment_of_conditions(pairs, J0, J1, lam):
+    """Moment (N m, world) on a joint's child from the multipliers ``lam`` (n, k) (Exudyn's
+    ``TorqueLocal``) of rotation conditions a0 . b1 = 0, one per ``(a, b)`` in ``pairs``
+    (``ExudynJoint.rotation_conditions``: columns of the parent's joint frame J0 and the
+    child's J1, world, (n, 3, 3)): a rotation dtheta of the child changes a0 . b1 by
+    dtheta . (b1 x a0), so condition i acts on the child with the moment -lam_i (b1 x a0)
+    (the sign that makes the forces, also reported on the parent, agree)."""
+    out = np.zeros((len(lam), 3))
+    for i, (a, b) in enumerate(pairs):
+        out -= lam[:, i:i + 1] * np.cross(J1[:, :, b], J0[:, :, a])
+    return out
+
+
+def joint_frame(mbs, joint, side: int) -> np.ndarray:
+    """Rotation (3x3) from the frame of joint object ``joint`` on its body ``side`` (0: the
+    first body, the parent; 1: the child) to that body's frame: the marker's own rotation
+    (``localHT``, where the marker has one) times the joint's ``rotationMarker<side>``."""
+    obj = mbs.GetObject(joint)
+    marker = mbs.GetMarker(obj["markerNumbers"][side])
+    R_marker = np.asarray(marker["localHT"], dtype=float)[:3, :3] if "localHT" in marker else np.eye(3)
+    return R_marker @ np.asarray(obj.get(f"rotationMarker{side}", np.eye(3)), dtype=float)
+
+
+def reaction_series(system, model, traj: Trajectory, *, reactions: bool) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Joint reactions (when ``reactions``) and contact forces at the trajectory's samples:
+    name -> (force_W (n, 3) N, moment_W (n, 3) N m); see the module docstring."""
+    n = len(traj.t)
+    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    if reactions:
+        for body, sensors in system.joint_sensors.items():
+            joint, kind, parent = system.joints[body]
+            spec = JOINTS[kind].exudyn
+            force = _stored(system, sensors[0])[:n, 1:4]
+            R_P = np.broadcast_to(np.eye(3), (n, 3, 3)) if parent is None else rotations.matrix(traj.quat_WB[:, traj.body_index(parent)])
+            J0 = R_P @ joint_frame(system.mbs, joint, 0)
+            force_W = force if spec.force_output == "Force" else np.einsum("nij,nj->ni", J0, force)
+            moment_W = np.zeros((n, 3))
+            if sensors[1] is not None:
+                lam = _stored(system, sensors[1])[:n, 1:1 + len(spec.rotation_conditions)]
+                J1 = rotations.matrix(traj.quat_WB[:, traj.body_index(body)]) @ joint_frame(system.mbs, joint, 1)
+                moment_W = moment_of_conditions(spec.rotation_conditions, J0, J1, lam)
+            out[body] = (-force_W, moment_W)  # Exudyn reports the force on the parent
+    for name, (force, frame) in system.contact_sensors.items():
+        f_J1 = _stored(system, force)[:n, 1:4]
+        A = _stored(system, frame)[:n, 1:10].reshape(-1, 3, 3)  # J1 (lateral, longitudinal, normal) -> world
+        out[name] = (np.einsum("nij,nj->ni", A, f_J1), np.zeros((n, 3)))
+    return out
+
+
+ENGINE = ExudynEngine()

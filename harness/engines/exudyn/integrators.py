@@ -1,0 +1,40 @@
+"""The Exudyn time integrators the harness runs, and the rotation parameters each needs.
+
+Exudyn solves the equations of motion of bodies in redundant (absolute) coordinates: six
+coordinates per rigid body (position of its reference point and a rotation parameterisation),
+joints as algebraic constraints with Lagrange multipliers. Which solver handles which
+constraints, and on which rotation nodes (measured here: generalized-alpha on Euler-parameter
+nodes stops with a Newton failure on the spinning heavy top; on rotation-vector nodes, Exudyn's
+Lie-group form, it runs):
+
+* ``GeneralizedAlpha``: Lie-group generalized-alpha on rotation-vector nodes, spectral radius
+  0.9 (``harness.engines.exudyn.engine.SPECTRAL_RADIUS``: at 1 the undamped index-3 multipliers
+  wander), constraints at position level (index 3), full Newton iteration per step. Order 2.
+* ``TrapezoidalIndex2``: the implicit trapezoidal rule on Euler-parameter nodes (their unit-norm
+  condition one more algebraic equation), constraints at velocity level (index 2: the position
+  constraints drift slowly). Order 2.
+* ``RK44``, ``RK67``: explicit Runge-Kutta of order 4 and 6 with Lie-group updates of
+  rotation-vector nodes. Exudyn's explicit solvers take no algebraic equations, hence no joint
+  and no rolling contact: they run only scenes whose bodies are all free (else the run is
+  "unsupported").
+"""
+
+from __future__ import annotations
+
+from harness.engines.base import Integrator, integrator_table
+
+METHODS = integrator_table(
+    Integrator("GeneralizedAlpha", "fixed", 2, None,
+               "Lie-group generalized-alpha, spectral radius 0.9, index-3 constraints, rotation-vector nodes"),
+    Integrator("TrapezoidalIndex2", "fixed", 2, None,
+               "implicit trapezoidal rule, index-2 (velocity-level) constraints, Euler-parameter nodes"),
+    Integrator("RK44", "fixed", 4, 4, "classical Runge-Kutta, Lie-group rotation-vector nodes; free bodies only"),
+    Integrator("RK67", "fixed", 6, 7, "explicit Runge-Kutta of order 6, Lie-group rotation-vector nodes; free bodies only"),
+)
+
+#: Methods that solve algebraic equations (joints, rolling contacts); the others run free bodies only.
+IMPLICIT = ("GeneralizedAlpha", "TrapezoidalIndex2")
+
+#: Exudyn node type (rotation parameterisation) per method (see the module docstring).
+NODE_TYPE = {"GeneralizedAlpha": "RotationRotationVector", "TrapezoidalIndex2": "RotationEulerParameters",
+             "RK44": "RotationRotationVector", "RK67": "RotationRotationVector"}
