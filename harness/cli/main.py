@@ -146,6 +146,8 @@ def cmd_simulate(args) -> int:
     model = scene.multibody()
     check_samples(settings.t_end, settings.save_every, len(model.bodies))
     traj = engine.simulate(scene, settings)
+    if traj.unsupported:  # the engine/integrator does not model this scene: bad input, nothing written
+        raise InputError(f"{args.engine} cannot run {scene.name} with {settings.integrator}: {traj.message}")
     with np.errstate(over="ignore", invalid="ignore"):  # a blow-up is reported below, not warned about
         frame = to_frame(traj, model)
     status, message = traj.status, traj.message

@@ -63,6 +63,7 @@ def command_line(argv: list[str] | None = None) -> str:
 def provenance() -> dict[str, str]:
     """Versions of the engines and numerical libraries, the machine (OS, architecture, CPU
     model), the CPUs this process may use, and the UTC time now."""
+    import exudyn
     import mujoco
     import numba
     import numpy
@@ -74,6 +75,7 @@ def provenance() -> dict[str, str]:
         "harness": __import__("harness").__version__,
         "mujoco": mujoco.__version__,
         "pinocchio": pinocchio.__version__,
+        "exudyn": exudyn.__version__,
         "numpy": numpy.__version__,
         "scipy": scipy.__version__,
         "numba": numba.__version__,
@@ -81,3 +83,15 @@ def provenance() -> dict[str, str]:
         "machine": f"{platform.system()} {platform.machine()} ({cpu_model()})",
         "cpus": cores(),
     }
+
+
+#: How the reports name the libraries of ``provenance()`` (in this order).
+LIBRARY_NAMES = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "exudyn": "Exudyn", "numpy": "NumPy", "scipy": "SciPy",
+                 "python": "Python"}
+
+
+def made_with(prov: dict[str, str]) -> str:
+    """``"MuJoCo 4.0.0, Pinocchio 4.1.0, Exudyn ..., NumPy ..., SciPy ..., Python ... on <machine>"``:
+    the versions of ``provenance()`` every report's header states (missing keys are left out)."""
+    parts = [f"{label} {prov[key]}" for key, label in LIBRARY_NAMES.items() if key in prov]
+    return ", ".join(parts) + (f" on {prov['machine']}" if "machine" in prov else "")

@@ -27,7 +27,7 @@ import pandas as pd
 
 from harness.io import atomic
 from harness.io.figures import new_figure, png_bytes
-from harness.io.provenance import command_line
+from harness.io.provenance import command_line, made_with
 from harness.validate.run import CheckResult, SceneValidation, as_dict
 
 CSV_COLUMNS = ["scene", "engine", "check", "value", "tolerance", "unit", "passed", "detail", "regression_only", "margin"]
@@ -235,8 +235,7 @@ def markdown(results: list[SceneValidation], prov: dict) -> str:
     lines = [
         "# Validation report",
         "",
-        f"Made {prov['date_utc']} with MuJoCo {prov['mujoco']}, Pinocchio {prov['pinocchio']}, "
-        f"NumPy {prov['numpy']}, SciPy {prov['scipy']}, Python {prov['python']} on {prov['machine']}.",
+        f"Made {prov['date_utc']} with {made_with(prov)}.",
         "",
         f"**{total - failed} of {total} checks hold; {failed} fail.** Reproduce with `{command_line()}`.",
         "",

@@ -225,6 +225,9 @@ def test_bad_tolerance_file_is_exit_2(tmp_path, capsys, text, fragment):
     (["simulate", "torque_free", "--engine", "mujoco", "--t-end", "inf"], "argument --t-end: not a finite number"),
     (["simulate", "torque_free", "--engine", "inhouse", "--integrator", "DOP853", "--rtol", "0"], "--rtol must be positive"),
     (["simulate", "torque_free", "--engine", "mujoco", "--models-dir", "/nonexistent/models"], "no such folder"),
+    (["simulate", "heavy_top", "--engine", "exudyn", "--integrator", "RK44"],
+     "exudyn cannot run heavy_top with RK44: RK44: Exudyn's explicit solvers take no algebraic equations"),
+    (["simulate", "rolling_disk", "--engine", "inhouse", "--integrator", "rk4_compiled"], "inhouse cannot run rolling_disk"),
 ])
 def test_simulate_out_of_range_is_exit_2(tmp_path, capsys, args, fragment):
     out_file = tmp_path / "x.csv"

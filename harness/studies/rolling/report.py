@@ -13,6 +13,7 @@ import math
 from pathlib import Path
 
 from harness.io import atomic
+from harness.io.provenance import made_with
 from harness.studies.rolling.run import threshold_agrees
 
 
@@ -65,8 +66,7 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool, command: str | N
     lines = [
         "# Rolling disk: how close each engine comes to ideal rolling",
         "",
-        f"Made {prov['date_utc']} with MuJoCo {prov['mujoco']}, Pinocchio {prov['pinocchio']}, NumPy {prov['numpy']}, "
-        f"SciPy {prov['scipy']}, Python {prov['python']} on {prov['machine']}. Reproduce with `{command}`"
+        f"Made {prov['date_utc']} with {made_with(prov)}. Reproduce with `{command}`"
         + (" (this is a `--quick` smoke run: short horizons, few rows)." if quick else "."),
         "",
         f"Scene `rolling_disk` (`models/rolling_disk/`): a uniform coin, m = {p['mass']:g} kg, R = {p['R'] * 1e3:g} mm, "

@@ -115,6 +115,7 @@ def plot_scene(sweep: SceneSweep, provenance: dict) -> bytes:
     fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=9, frameon=False)
     fig.suptitle(f"{sweep.scene}: work-precision, t_end = {sweep.t_end:g} s, errors at {len(_saves(sweep))} saved "
                  f"times — MuJoCo {provenance.get('mujoco', '?')}, Pinocchio {provenance.get('pinocchio', '?')}, "
+                 f"Exudyn {provenance.get('exudyn', '?')}, "
                  f"{provenance.get('date_utc', '')}", fontsize=11)
     fig.tight_layout(rect=(0, 0.14, 1, 0.95))
     return png_bytes(fig, dpi=110)
