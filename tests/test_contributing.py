@@ -47,8 +47,9 @@ def test_engine_follows_the_recipe(engine):
     assert ENGINE_MODULES[engine].startswith(f"harness.engines.{engine}")
     module = importlib.import_module(ENGINE_MODULES[engine])
     assert module.ENGINE.name == engine
-    for scene in available_scenes():
-        assert engine in load_scene(scene).integrators, f"models/{scene}/scene.toml: no default integrator for {engine}"
+    for scene in available_scenes():  # a default integrator, or the scene says why the engine does not run it
+        s = load_scene(scene)
+        assert engine in s.integrators or engine in s.not_run, f"models/{scene}/scene.toml: no default integrator for {engine}"
 
 
 @pytest.mark.parametrize("study", STUDIES)

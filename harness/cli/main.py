@@ -128,6 +128,8 @@ def cmd_simulate(args) -> int:
 
     scene = load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir)
     engine = get_engine(args.engine)
+    if args.engine in scene.not_run:
+        raise InputError(f"{args.engine} does not run {scene.name}: {scene.not_run[args.engine]}")
     if args.engine not in scene.integrators:
         raise InputError(f"scene {scene.name!r} has no default integrator for {args.engine}")
     if not args.rtol > 0:

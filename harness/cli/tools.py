@@ -55,12 +55,19 @@ def add_parsers(sub) -> None:
                    help="folder for debug_<scene>_<A>_<B>.png (default: .)")
     d.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
 
-    c = sub.add_parser("check", help="compare a model (MJCF and/or URDF) between MuJoCo and Pinocchio, write a report",
-                       description="Load a model into MuJoCo and Pinocchio, compare bodies, dynamics terms at random "
-                                   "states and free motion, write check_<model>.md. Exit 0 when they agree, 1 on a "
-                                   "disagreement, 2 on bad input (including a free motion that diverges).")
-    c.add_argument("--mjcf", type=Path, metavar="FILE.xml", help="MJCF file (loaded into MuJoCo; into both when alone)")
-    c.add_argument("--urdf", type=Path, metavar="FILE.urdf", help="URDF file (loaded into Pinocchio; into both when alone)")
+    c = sub.add_parser("check", help="read a model (MJCF and/or URDF) with MuJoCo, Pinocchio and Drake; name the odd one "
+                                     "out; write a report",
+                       description="Load a model with three importers (MuJoCo, Pinocchio, Drake); per joint and quantity "
+                                   "say which agree and, where two agree against one, name the odd one out; compare the "
+                                   "dynamics terms at random states and MuJoCo's free motion against Pinocchio's; write "
+                                   "check_<model>.md. A file Pinocchio or Drake does not load is reported in one line and "
+                                   "the others still compare. Exit 0 when the loaders agree, 1 on a disagreement, 2 on "
+                                   "bad input (a file MuJoCo does not load, one only MuJoCo loads, a free motion that "
+                                   "diverges).")
+    c.add_argument("--mjcf", type=Path, metavar="FILE.xml",
+                   help="MJCF file (loaded into MuJoCo; into all three when alone)")
+    c.add_argument("--urdf", type=Path, metavar="FILE.urdf",
+                   help="URDF file (loaded into Pinocchio and Drake; into all three when alone)")
     c.add_argument("--out-dir", type=Path, default=Path("reports"), metavar="DIR",
                    help="folder for check_<model>.md (default: reports)")
     c.add_argument("--seed", type=_int, default=0, metavar="N", help="seed of the random states (any integer, default 0)")
@@ -68,7 +75,8 @@ def add_parsers(sub) -> None:
     c.add_argument("--free-runs", type=_int, default=3, metavar="N", help="free-motion runs from random states (>= 0, default 3)")
     c.add_argument("--t-end", type=_float, default=0.5, metavar="S", help="free-motion horizon (s, > 0, default 0.5)")
     c.add_argument("--dt", type=_float, default=1e-3, metavar="S", help="free-motion step (s, > 0, default 0.001)")
-    c.add_argument("--floating-base", action="store_true", help="add a free root joint in both engines (default: fixed base)")
+    c.add_argument("--floating-base", action="store_true",
+                   help="add a free root joint named root_joint in every loader (default: fixed base)")
     c.add_argument("--strip-geometry", action="store_true",
                    help="delete geoms and meshes from MuJoCo's copy (meshes need not be found; dynamics unchanged)")
     c.add_argument("--keep-static-links", action="store_true",

@@ -11,6 +11,7 @@ ENGINE_MODULES = {
     "mujoco": "harness.engines.mujoco.engine",
     "pinocchio": "harness.engines.pinocchio.engine",
     "exudyn": "harness.engines.exudyn.engine",
+    "drake": "harness.engines.drake.engine",
 }
 ENGINE_NAMES = tuple(ENGINE_MODULES)
 

@@ -65,6 +65,7 @@ def provenance() -> dict[str, str]:
     model), the CPUs this process may use, and the UTC time now."""
     import exudyn
     import mujoco
+    import pydrake
     import numba
     import numpy
     import pinocchio
@@ -76,6 +77,7 @@ def provenance() -> dict[str, str]:
         "mujoco": mujoco.__version__,
         "pinocchio": pinocchio.__version__,
         "exudyn": exudyn.__version__,
+        "drake": _drake_version(pydrake),
         "numpy": numpy.__version__,
         "scipy": scipy.__version__,
         "numba": numba.__version__,
@@ -86,8 +88,22 @@ def provenance() -> dict[str, str]:
 
 
 #: How the reports name the libraries of ``provenance()`` (in this order).
-LIBRARY_NAMES = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "exudyn": "Exudyn", "numpy": "NumPy", "scipy": "SciPy",
-                 "python": "Python"}
+LIBRARY_NAMES = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "exudyn": "Exudyn", "drake": "Drake", "numpy": "NumPy",
+                 "scipy": "SciPy", "python": "Python"}
+
+
+def _drake_version(pydrake) -> str:
+    """Drake's version (``pydrake.__version__`` where it has one, else the installed
+    distribution's)."""
+    version = getattr(pydrake, "__version__", None)
+    if version:
+        return str(version)
+    from importlib.metadata import PackageNotFoundError, version as dist_version
+
+    try:
+        return dist_version("drake")
+    except PackageNotFoundError:
+        return "?"
 
 
 def made_with(prov: dict[str, str]) -> str:

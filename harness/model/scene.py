@@ -36,7 +36,7 @@ ParamValue = float | tuple[float, ...]
 
 #: The engines a scene gives a default integrator and tolerances for: ``harness.engines.ENGINE_NAMES``
 #: (spelt out here: the model layer imports no engine; tests/model/test_scene.py keeps them equal).
-ENGINE_NAMES = ("inhouse", "mujoco", "pinocchio", "exudyn")
+ENGINE_NAMES = ("inhouse", "mujoco", "pinocchio", "exudyn", "drake")
 
 #: Conserved momentum components a ``[checks.momentum_drift]`` may list:
 #: ``harness.measure.compare.MOMENTUM_COMPONENTS`` (kept equal by tests/model/test_scene.py).
@@ -84,6 +84,7 @@ _TOP_KEYS = {
     "mjcf": ("string", True), "urdf": ("string", True), "urdf_root_joint": ("string", False),
     "builder": ("string", False), "needs": ("table", True), "parameters": ("table", True),
     "simulation": ("table", True), "integrators": ("table", True), "checks": ("table", False),
+    "not_run": ("table", False),
 }
 _NEEDS = ("gravity", "contact", "forcing")
 _SIMULATION = {"t_end": "the horizon in s", "dt": "the step in s", "save_every": "the save interval in s"}
@@ -116,6 +117,9 @@ class Scene:
         t_end, dt, save_every: default horizon, step and save interval (s).
         integrators: default integrator per engine.
         checks: check name -> settings (tolerances per engine or per quantity).
+        not_run: engine -> why it does not run this scene (``[not_run]``: a model the engine
+            cannot state, e.g. Drake and the ideal rolling contact); such an engine needs no
+            default integrator or tolerances, and ``validate`` reports it as not run.
         builder: the module of ``harness.model.builders`` that builds the multibody (the
             scene's name unless its ``scene.toml`` names another, e.g. a copied scene).
 
@@ -138,6 +142,7 @@ class Scene:
     save_every: float
     integrators: Mapping[str, str]
     checks: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    not_run: Mapping[str, str] = field(default_factory=dict)
     builder: str = ""
     _built: Multibody | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -276,9 +281,17 @@ def check_description(data: dict, path: Path) -> None:
         raise InputError(f"{path}: [simulation] t_end = {sim['t_end']!r} s over save_every = {sim['save_every']!r} s "
                          f"saves more than {MAX_SAMPLES:.0e} samples")
 
+    not_run = data.get("not_run", {})
+    _known_keys(not_run, ENGINE_NAMES, path, "[not_run]")
+    for engine, why in not_run.items():
+        if not (isinstance(why, str) and why.strip()):
+            raise InputError(f"{path}: [not_run] {engine} must say why the engine does not run this scene (a string), "
+                             f"got {_show(why)}")
+    runs = [e for e in ENGINE_NAMES if e not in not_run]  # the engines every table must name
+
     integrators = data["integrators"]
     _known_keys(integrators, ENGINE_NAMES, path, "[integrators]")
-    for engine in ENGINE_NAMES:
+    for engine in runs:
         if engine not in integrators:
             raise InputError(f"{path}: [integrators] lacks a default for {engine}")
         if not (isinstance(integrators[engine], str) and integrators[engine].strip()):
@@ -299,6 +312,8 @@ def check_description(data: dict, path: Path) -> None:
             raise InputError(f"{path}: {where} regression_only must be a list of engine names "
                              f"({', '.join(ENGINE_NAMES)}), got {_show(listed)}")
         for key in CHECKS[check]:
+            if key in not_run:
+                continue
             if key not in table:
                 what = "the conserved components" if key == "components" else \
                     ("a tolerance for " + key if key in ENGINE_NAMES else "a tolerance")
@@ -312,7 +327,7 @@ def check_description(data: dict, path: Path) -> None:
                 _positive(value, path, f"{where} {key}", "a tolerance")
             else:  # a tolerance per engine
                 _known_keys(value, ENGINE_NAMES, path, f"{where} {key}")
-                for engine in ENGINE_NAMES:
+                for engine in runs:
                     if engine not in value:
                         raise InputError(f"{path}: {where} {key} lacks a tolerance for {engine}")
                     _positive(value[engine], path, f"{where} {key}.{engine}", "a tolerance")
@@ -368,6 +383,7 @@ def _scene_from_toml(data: dict, path: Path) -> Scene:
         save_every=float(sim["save_every"]),
         integrators=dict(data.get("integrators", {})),
         checks=dict(data.get("checks", {})),
+        not_run=dict(data.get("not_run", {})),
         builder=str(data.get("builder", "")),
     )
     return scene

@@ -92,7 +92,10 @@ def parse_engines(text: list[str]) -> tuple[str, str]:
 
 
 def run_engine(scene: Scene, engine: str, t_end: float | None) -> Trajectory:
-    """One run at the scene's default settings (horizon ``t_end`` if given)."""
+    """One run at the scene's default settings (horizon ``t_end`` if given); InputError for an
+    engine the scene excludes (``[not_run]``)."""
+    if engine in scene.not_run:
+        raise InputError(f"{engine} does not run {scene.name}: {scene.not_run[engine]}")
     settings = reference_settings(scene) if engine == "reference" else default_settings(scene, engine)
     if t_end is not None:
         settings = replace(settings, t_end=t_end)

@@ -30,6 +30,15 @@ where the last term comes from a = T a_pin + (dT/dt) v_pin; on a free joint's li
 a = T a_pin + dT v_pin into M a + b = tau and multiply by T^T: T^T M T a_pin + T^T (b + M dT v_pin)
 = T^T tau, hence b_pin = T^T (b + M dT v_pin).)
 
+Drake (``drake_terms``, any model file in ``harness check``): M from ``CalcMassMatrix``, C v from
+``CalcBiasTerm`` and g = -``CalcGravityGeneralizedForces`` (Drake's is the force of gravity, on
+the right-hand side). Drake orders q and v by its own joints, so each joint is placed by name
+(``joint_map``: ``position_start``/``velocity_start``); hinge and slide coordinates are the
+common ones, a free joint (quaternion floating joint) has q = [quat wxyz, p_WB_W] and
+v = [w_WB_W, v_WB_W], so v = T v_drake with the blocks v_WB_W = v_lin and w_WB_B = R_WB^T w_W.
+T is orthogonal on the mapped dofs and dT/dt v_drake = 0 (d(R^T)/dt w_W = -R^T (w_W x w_W)), so
+M = T M_d T^T, C v = T (C v)_d, g = T g_d. Drake's roll-pitch-yaw ball joint is not mapped.
+
 The in-house source is the scene's ``Multibody`` itself, through ``harness.model.kinematics.forward``
 and ``harness.measure.invariants``: M by polarisation of the kinetic energy (exact: T is quadratic in v),
 g by a fourth-order central difference of the potential energy along the joint manifold (step
@@ -82,6 +91,8 @@ class JointSlot:
         pin_q, pin_v, pin_joint: ``idx_q``, ``idx_v`` and joint id in Pinocchio (-1 where none).
         pin_nq: Pinocchio's nq for the joint (2 for a continuous revolute joint: cos, sin).
         limits: (lower, upper) of q for a limited hinge or slide, else None.
+        drake_q, drake_v: ``position_start``/``velocity_start`` of the joint in a Drake plant
+            (-1 where none).
     """
 
     name: str
@@ -95,6 +106,8 @@ class JointSlot:
     pin_joint: int = -1
     pin_nq: int = 0
     limits: tuple[float, float] | None = None
+    drake_q: int = -1
+    drake_v: int = -1
 
     @property
     def joint(self) -> JointType:
@@ -198,6 +211,35 @@ def named_joint_map(m: mujoco.MjModel, pmodel: pin.Model) -> JointMap:
         entries.append({"name": name, "kind": kind, "mj_q": int(m.jnt_qposadr[j]), "mj_v": int(m.jnt_dofadr[j]),
                         "pin_q": int(pmodel.joints[pid].idx_q), "pin_v": int(pmodel.joints[pid].idx_v),
                         "pin_joint": pid, "pin_nq": int(pmodel.joints[pid].nq), "limits": limits})
+    return _build(entries)
+
+
+def joint_map(m: mujoco.MjModel, pinocchio: Mapping[str, Mapping[str, int]] | None = None,
+              drake: Mapping[str, Mapping[str, int]] | None = None) -> JointMap:
+    """Common coordinates of any model file: MuJoCo's joints in MuJoCo's order, each with its
+    place in the other loaders that are given, by joint name: ``pinocchio`` maps a joint name to
+    ``pin_q``, ``pin_v``, ``pin_joint``, ``pin_nq`` (a composite joint's sub-joint: its own
+    ``idx_q``/``idx_v`` and the composite's id), ``drake`` to ``drake_q``, ``drake_v``. Raises
+    MappingError when a given loader lacks one of MuJoCo's joints or has joints MuJoCo has not."""
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}" for j in range(m.njnt)]
+    for label, table in (("Pinocchio", pinocchio), ("Drake", drake)):
+        if table is None:
+            continue
+        missing, extra = [n for n in names if n not in table], [n for n in table if n not in names]
+        if missing or extra:
+            parts = ([f"MuJoCo joints {missing} are not in {label}"] if missing else []) + (
+                [f"{label} joints {extra} are not in MuJoCo"] if extra else [])
+            raise MappingError("; ".join(parts))
+    entries = []
+    for j, name in enumerate(names):
+        kind = mujoco_joint_kind(m, j, "?")
+        limits = None
+        if JOINTS[kind].axis is not None and m.jnt_limited[j]:
+            limits = (float(m.jnt_range[j][0]), float(m.jnt_range[j][1]))
+        e = {"name": name, "kind": kind, "mj_q": int(m.jnt_qposadr[j]), "mj_v": int(m.jnt_dofadr[j]), "limits": limits}
+        e.update((pinocchio or {}).get(name, {}))
+        e.update((drake or {}).get(name, {}))
+        entries.append(e)
     return _build(entries)
 
 
@@ -319,6 +361,57 @@ def pinocchio_terms(pmodel: pin.Model, jmap: JointMap, q: np.ndarray, v: np.ndar
     T, Tdot_v = velocity_map(jmap, q, v)
     Mc = T @ M @ T.T
     return Terms(Mc, T @ (nle - g) - Mc @ Tdot_v, T @ g)
+
+
+def drake_state(plant, jmap: JointMap, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Drake (q, v) for a common state (joints not in the map at the plant's default positions, at
+    rest). Hinge and slide: the same. Free (Drake's quaternion floating joint): q = [quaternion
+    wxyz, p_WB_W], v = [w_WB_W (angular velocity in WORLD), v_WB_W] -- angular first, both in the
+    world frame, where the common v is [v_WB_W, w_WB_B]."""
+    qd, vd = np.array(plant.GetDefaultPositions(), dtype=float), np.zeros(plant.num_velocities())
+    for s in jmap.slots:
+        qj, vj = s.q(q), s.v(v)
+        if s.joint.world_linear_velocity:
+            R = rotations.matrix(qj[3:7])
+            qd[s.drake_q:s.drake_q + 7] = np.concatenate([qj[3:7], qj[:3]])
+            vd[s.drake_v:s.drake_v + 6] = np.concatenate([R @ vj[3:6], vj[:3]])
+        elif s.joint.nq == 1:
+            qd[s.drake_q], vd[s.drake_v] = qj[0], vj[0]
+        else:
+            raise MappingError(f"joint {s.name!r}: no Drake coordinates for a {s.kind} joint")
+    return qd, vd
+
+
+def drake_velocity_map(plant, jmap: JointMap, q: np.ndarray) -> np.ndarray:
+    """T with common v = T v_drake (rows: common dofs in map order; columns: Drake's dofs). A free
+    joint's block: v_WB_W = the linear part of Drake's v, w_WB_B = R_WB^T times its angular part.
+    T restricted to the mapped dofs is orthogonal and dT/dt v_drake = 0 (d(R^T)/dt w_W =
+    -R^T (w_W x w_W) = 0), so M = T M_d T^T, C v = T (C v)_d, g = T g_d."""
+    T = np.zeros((jmap.nv, plant.num_velocities()))
+    for s in jmap.slots:
+        if s.joint.world_linear_velocity:
+            R = rotations.matrix(s.q(q)[3:7])
+            T[s.vc:s.vc + 3, s.drake_v + 3:s.drake_v + 6] = np.eye(3)
+            T[s.vc + 3:s.vc + 6, s.drake_v:s.drake_v + 3] = R.T
+        else:
+            T[s.vc, s.drake_v] = 1.0
+    return T
+
+
+def drake_terms(plant, jmap: JointMap, q: np.ndarray, v: np.ndarray, context=None) -> Terms:
+    """M from ``CalcMassMatrix`` (includes the actuators' reflected inertia), C v from
+    ``CalcBiasTerm``, g = -``CalcGravityGeneralizedForces`` (Drake's is the generalized force OF
+    gravity, on the right-hand side: M vdot + C v = tau_g + tau); mapped to common coordinates
+    (``drake_velocity_map``)."""
+    context = context or plant.CreateDefaultContext()
+    qd, vd = drake_state(plant, jmap, q, v)
+    plant.SetPositions(context, qd)
+    plant.SetVelocities(context, vd)
+    M = np.array(plant.CalcMassMatrix(context))
+    cv = np.array(plant.CalcBiasTerm(context))
+    g = -np.array(plant.CalcGravityGeneralizedForces(context))
+    T = drake_velocity_map(plant, jmap, q)
+    return Terms(T @ M @ T.T, T @ cv, T @ g)
 
 
 def inhouse_terms(model: Multibody, jmap: JointMap, q: np.ndarray, v: np.ndarray) -> Terms:

@@ -58,6 +58,7 @@ from harness.model.scene import Scene, load_scene
 AS_WRITTEN_RTOL = 1e-6   # the files carry rounded decimals (e.g. 0.083358333333333)
 APPLIED_RTOL = 1e-9
 MODEL_FILE_ENGINES = ("mujoco", "pinocchio")  # the engines that read a scene's model file (MJCF, URDF)
+MODEL_FILE_ENGINES = MODEL_FILE_ENGINES + ("drake",)  # Drake reads the URDF with its own parser
 MODEL_ENGINES = MODEL_FILE_ENGINES + ("exudyn",)  # ... and those whose model as built is checked (Exudyn: from the description)
 
 
@@ -105,6 +106,12 @@ def as_written(scene: Scene, engine: str, model0: Multibody | None = None) -> As
         p = read_urdf(scene.urdf, scene.urdf_root_joint)
         check_joint_bodies_physical(pinocchio_joint_bodies(p), str(scene.urdf))
         return AsWritten(engine, scene.urdf, p, body_discrepancies(pinocchio_bodies(p, model0), model0, rtol=AS_WRITTEN_RTOL))
+    if engine == "drake":  # the URDF as Drake's own parser reads it (a URDF cannot state gravity)
+        from harness.engines.drake.model import drake_bodies, parse
+
+        plant, _, joints = parse(scene.urdf, scene.urdf_root_joint, model0, springs=False)
+        return AsWritten(engine, scene.urdf, plant,
+                         body_discrepancies(drake_bodies(plant, joints, model0), model0, rtol=AS_WRITTEN_RTOL))
     if engine == "exudyn":  # built from the description (Exudyn reads no model file): what it holds
         from harness.engines.exudyn.integrators import NODE_TYPE
         from harness.engines.exudyn.model import build
@@ -241,6 +248,16 @@ def inspect_scene(scene: Scene, *, n_states: int = dc.DEFAULT_STATES, seed: int 
     blocks.append(_dynamics("files as written: MuJoCo <- MJCF, Pinocchio <- URDF, in-house (defaults)", True, model0,
                             m_file, p_file, n_states, seed))
 
+    if "drake" not in scene.not_run:  # a third parser of the URDF as written (Drake's own)
+        from harness.engines.drake.model import drake_bodies
+
+        dw = as_written(scene, "drake", model0)
+        joints = parse_drake_joints(scene, model0)
+        ld = Load(f"Drake <- {scene.urdf.name} as written (against the scene.toml defaults; Drake's own URDF parser)", True)
+        ld.details = _loaded_lines(drake_bodies(dw.model, joints, model0))
+        ld.problems = dw.problems
+        loads.append(ld)
+
     # Cross-loads, as written.
     loads.append(_mjcf_into_pinocchio(scene, model0, blocks, n_states, seed))
     loads += _urdf_into_mujoco(scene, model0, blocks, n_states, seed)
@@ -268,6 +285,13 @@ def _exudyn_load(scene: Scene, model: Multibody) -> Load:
                           f"centre at body {_v(marker['localPosition'])} m (the lower rim edge), axis {_v(obj['discAxis'])}")
     ld.problems = compare_bodies(bodies, model, rtol=APPLIED_RTOL) + _gravity(gravity, model)
     return ld
+
+
+def parse_drake_joints(scene: Scene, model0: Multibody) -> dict:
+    """Scene body name -> the Drake joint that moves it (None: floating) in the URDF as written."""
+    from harness.engines.drake.model import parse
+
+    return parse(scene.urdf, scene.urdf_root_joint, model0, springs=False)[2]
 
 
 def _gravity(g, model: Multibody, rtol: float = APPLIED_RTOL) -> list[str]:

@@ -65,10 +65,10 @@ def _fmt_margin(m: float) -> str:
 
 def engines_of(results: list[SceneValidation]) -> list[str]:
     """The matrix's columns: ``reference`` first, then the engines in the order they ran (then any
-    engine with checks but no run record)."""
+    engine with checks but no run record, then any a scene excludes)."""
     seen: list[str] = []
     for v in results:
-        for e in [r.engine for r in v.runs] + [c.engine for c in v.checks]:  # run order: reference, engines
+        for e in [r.engine for r in v.runs] + [c.engine for c in v.checks] + list(v.not_run):  # run order
             if e not in seen:
                 seen.append(e)
     return sorted(seen, key=lambda e: (e != "reference", seen.index(e)))
@@ -87,6 +87,9 @@ def worst_check(checks: list[CheckResult]) -> CheckResult | None:
         return math.inf if math.isnan(m) else m
 
     return max(pool, key=key)
+
+
+NOT_RUN_MARK = "§"  # a matrix cell the scene excludes ([not_run] in its scene.toml)
 
 
 def matrix(results: list[SceneValidation]) -> tuple[list[str], dict[tuple[str, str], dict]]:
@@ -114,7 +117,7 @@ def matrix_lines(results: list[SceneValidation]) -> list[str]:
         for e in engines:
             cell = cells.get((v.scene, e))
             if cell is None:
-                row.append("—")
+                row.append(f"not run [{NOT_RUN_MARK}](#{_anchor(v)})" if e in v.not_run else "—")
                 continue
             verdict = "PASS" if cell["passed"] else "**FAIL**"
             mark = f" {REGRESSION_MARK}" if cell["regression"] else ""
@@ -123,6 +126,9 @@ def matrix_lines(results: list[SceneValidation]) -> list[str]:
     legend = ("Each cell: the verdict of every check of that scene on that engine, the worst margin "
               "(value / tolerance; 1 = at the tolerance) and the check that sets it (the worst failing one when "
               "a check fails).")
+    if any(v.not_run for v in results):
+        legend += (f" not run {NOT_RUN_MARK}: the scene's `[not_run]` says why the engine cannot state it; the "
+                   "scene's section below gives the reason.")
     if any(cell["regression"] for cell in cells.values()):
         legend += (f" {REGRESSION_MARK}: some of the cell's tolerances are regression bounds (what the engine reaches, "
                    "with a margin, not what the physics demands; rows marked `regression` below).")
@@ -200,19 +206,20 @@ def _model_lines(v: SceneValidation) -> list[str]:
         if not model:
             continue
         bad = [c for c in model if not c.passed]
-        source = model[0].detail.split(" as written", 1)[0]
+        source = model[0].detail.split(" vs scene.toml defaults", 1)[0]  # "<file> as written", or Exudyn's build
         if bad:
-            out.append(f"- {e} ({source} as written): **{len(bad)} of {len(model)} quantities disagree** "
+            out.append(f"- {e} ({source}): **{len(bad)} of {len(model)} quantities disagree** "
                        f"({', '.join(c.check for c in bad)}): see the table")
         else:
             bodies = {c.check.split(".")[1] for c in model if c.check.count(".") == 2}
             w = worst_check(model)
-            out.append(f"- {e} ({source} as written): all {len(model)} quantities of {len(bodies)} "
+            out.append(f"- {e} ({source}): all {len(model)} quantities of {len(bodies)} "
                        f"{'body' if len(bodies) == 1 else 'bodies'} agree; "
                        f"worst {_fmt(w.value)} {w.unit} (`{w.check}`, tolerance {_fmt(w.tolerance)})")
     if out:
-        out = ["Model files as written against the scene.toml defaults (mass, centre of mass, inertia, joint "
-               "position, type and axis per body; MJCF gravity):", ""] + out + [""]
+        out = ["Model files as written (Exudyn: its system as built from the description) against the scene.toml "
+               "defaults (mass, centre of mass, inertia, joint position, type and axis per body; gravity where the "
+               "model states it):", ""] + out + [""]
     return out
 
 
@@ -253,6 +260,8 @@ def markdown(results: list[SceneValidation], prov: dict) -> str:
     for v in results:
         lines += [f"## {v.scene} — {'PASS' if v.passed else 'FAIL'}", ""]
         lines += [_parameters_line(v), ""]
+        for e, why in v.not_run.items():
+            lines += [f"Not run on {e} {NOT_RUN_MARK}: {why} (`[not_run]` in the scene's scene.toml).", ""]
         if v.tolerance_changes:
             lines += ["Tolerances changed by the tolerance file: " + "; ".join(v.tolerance_changes), ""]
         lines += ["| run | integrator | dt (s) | rtol | status | steps | wall (s) | settings |",
@@ -312,16 +321,22 @@ def write_reports(results: list[SceneValidation], prov: dict, out_dir: Path) -> 
 
 def junit_xml(results: list[SceneValidation], prov: dict) -> str:
     """JUnit XML: a test suite per scene, a test case per engine x check (``classname`` =
-    ``scene.engine``), a failure element carrying value, tolerance and detail."""
+    ``scene.engine``), a failure element carrying value, tolerance and detail; an engine the
+    scene excludes (``[not_run]``) is one skipped case saying why."""
     suites = ET.Element("testsuites", name="harness validate")
     for v in results:
         failures = sum(not c.passed for c in v.checks)
         wall = sum(r.wall_s for r in v.runs)
-        suite = ET.SubElement(suites, "testsuite", name=v.scene, tests=str(len(v.checks)),
-                              failures=str(failures), errors="0", time=f"{wall:.3f}", timestamp=prov["date_utc"])
+        suite = ET.SubElement(suites, "testsuite", name=v.scene, tests=str(len(v.checks) + len(v.not_run)),
+                              failures=str(failures), errors="0", skipped=str(len(v.not_run)), time=f"{wall:.3f}",
+                              timestamp=prov["date_utc"])
         props = ET.SubElement(suite, "properties")
-        for key in ("mujoco", "pinocchio", "numpy", "scipy", "python", "machine"):
-            ET.SubElement(props, "property", name=key, value=str(prov[key]))
+        for key in ("mujoco", "pinocchio", "exudyn", "drake", "numpy", "scipy", "python", "machine"):
+            if key in prov:
+                ET.SubElement(props, "property", name=key, value=str(prov[key]))
+        for e, why in v.not_run.items():  # the scene excludes the engine ([not_run]): a skipped case, with why
+            case = ET.SubElement(suite, "testcase", classname=f"{v.scene}.{e}", name="not_run")
+            ET.SubElement(case, "skipped", message=why)
         for c in v.checks:
             case = ET.SubElement(suite, "testcase", classname=f"{v.scene}.{c.engine}", name=c.check)
             if not c.passed:

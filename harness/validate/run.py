@@ -120,6 +120,7 @@ class SceneValidation:
     cross: dict[str, dict[str, float]] = field(default_factory=dict)
     tolerance_changes: list[str] = field(default_factory=list)
     overrides: dict[str, dict] = field(default_factory=dict)  # parameter -> {"value", "default"}: set away from scene.toml
+    not_run: dict[str, str] = field(default_factory=dict)  # engine -> why it does not run this scene ([not_run])
 
     @property
     def passed(self) -> bool:
@@ -183,7 +184,7 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
     for s in scenes:
         ref_outcome = refs[s.name]
         ref = ref_outcome.value[0] if ref_outcome.status == "ok" else None
-        cases += [((s.name, e), engine_case, (s, e, ref)) for e in engines]
+        cases += [((s.name, e), engine_case, (s, e, ref)) for e in engines if e not in s.not_run]
     outcomes = run_cases(cases, jobs, timeout, on_done=tick)
     _raise_input_errors(outcomes)
 
@@ -195,7 +196,10 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
         v.checks.extend(models[s.name])
         _collect(v, s, "reference", refs[s.name], reference_settings(s))
         trajectories = {}
+        v.not_run = {e: s.not_run[e] for e in engines if e in s.not_run}
         for e in engines:
+            if e in v.not_run:
+                continue
             outcome = outcomes[(s.name, e)]
             _collect(v, s, e, outcome, default_settings(s, e))
             if outcome.status == "ok" and outcome.value[0].ok:
@@ -245,6 +249,8 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
         hint += f" --models-dir {scene.directory.parent}"
     out: list[CheckResult] = []
     for engine in engines:
+        if engine in scene.not_run:
+            continue
         if engine not in MODEL_ENGINES:
             continue
         try:
@@ -252,7 +258,7 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
         except InputError:
             raise
         except Exception as err:  # noqa: BLE001 - a model that cannot be read back is a failed check
-            path = {"mujoco": scene.mjcf, "pinocchio": scene.urdf}.get(engine, scene.directory / "scene.toml")
+            path = {"mujoco": scene.mjcf, "pinocchio": scene.urdf, "drake": scene.urdf}.get(engine, scene.directory / "scene.toml")
             out.append(CheckResult(scene.name, engine, "model.load", float("nan"), 0.0, "", False,
                                    f"{path.name} as written: {type(err).__name__}: {' '.join(str(err).split())}; {hint} shows more"))
             continue
@@ -396,4 +402,5 @@ def as_dict(v: SceneValidation) -> dict:
         "runs": [asdict(r) for r in v.runs],
         "checks": [asdict(c) for c in v.checks],
         "cross_engine": v.cross,
+        "not_run": v.not_run,
     }

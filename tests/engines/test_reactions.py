@@ -15,7 +15,7 @@ from harness.model.scene import load_scene
 from harness.io.trajectory_csv import to_frame
 from harness.measure.trajectory import REACTION_FIELDS
 
-DEFAULT = {"inhouse": "rk4", "mujoco": "RK4", "pinocchio": "rkmk4", "exudyn": "GeneralizedAlpha"}
+DEFAULT = {"inhouse": "rk4", "mujoco": "RK4", "pinocchio": "rkmk4", "exudyn": "GeneralizedAlpha", "drake": "RK5"}
 
 
 def with_reactions(scene):
@@ -72,6 +72,9 @@ def test_engines_agree_on_a_hinge_couple(monkeypatch):
     # Exudyn: generalized-alpha (order 2) at the same step; measured 3.8e-6 and 4.8e-7 of the scales
     err = compare.reaction_error(tr["exudyn"], ref)
     assert err["force_max"] < 1e-4 * f_scale and err["moment_max"] < 1e-4 * m_scale, err
+    # Drake: RK5 at target accuracy 1e-10, its reaction port
+    err = compare.reaction_error(tr["drake"], ref)
+    assert err["force_max"] < 1e-6 * f_scale and err["moment_max"] < 1e-6 * m_scale, err
 
 
 def test_engines_agree_with_a_force_at_the_pin():
@@ -88,6 +91,9 @@ def test_engines_agree_with_a_force_at_the_pin():
     # Exudyn (the pin force a CreateForce with a load user function): order 2, measured 6.4e-6
     err = compare.reaction_error(tr["exudyn"], ref)
     assert err["force_max"] < 1e-4 * f_scale and err["moment_max"] < 1e-4 * m_scale, err
+    # Drake (the pin force through the plant's applied-spatial-force port), RK5 at 1e-10
+    err = compare.reaction_error(tr["drake"], ref)
+    assert err["force_max"] < 1e-6 * f_scale and err["moment_max"] < 1e-6 * m_scale, err
 
 
 def test_reaction_balances_newton_for_the_whole_chain():

@@ -15,7 +15,7 @@ from harness.tools.loaded_models import mujoco_spring_problems
 from harness.model.scene import load_scene
 from harness.io.trajectory_csv import to_frame
 
-DEFAULT = {"inhouse": "rk4", "mujoco": "RK4", "pinocchio": "rkmk4", "exudyn": "GeneralizedAlpha"}
+DEFAULT = {"inhouse": "rk4", "mujoco": "RK4", "pinocchio": "rkmk4", "exudyn": "GeneralizedAlpha", "drake": "RK5"}
 
 
 def test_spring_reaches_mujoco_and_is_checked():
@@ -57,3 +57,7 @@ def test_engines_agree_with_a_spring_on_a_turning_slide():
     err = compare.trajectory_error(runs["exudyn"], runs["inhouse"])
     assert err["position_max"] < 1e-5 and err["velocity_max"] < 1e-4, err
     assert compare.energy_drift(runs["exudyn"], model) < 1e-5
+    # Drake (a PrismaticSpring), RK5 at target accuracy 1e-10
+    err = compare.trajectory_error(runs["drake"], runs["inhouse"])
+    assert err["position_max"] < 1e-7 and err["velocity_max"] < 1e-6, err
+    assert compare.energy_drift(runs["drake"], model) < 1e-7

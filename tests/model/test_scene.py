@@ -135,6 +135,9 @@ MISTAKES = {
     "trajectory tolerance missing": (TRAJ_POSITION, "", "[checks.trajectory] lacks position"),
     "trajectory table missing an engine": (TRAJ_POSITION, "position = { inhouse = 1e-6, mujoco = 1e-6 }\n",
                                            "[checks.trajectory] position lacks a tolerance for pinocchio"),
+    "not_run reason not a string": ("[integrators]", "[not_run]\ndrake = 5\n\n[integrators]",
+                                    "[not_run] drake must say why the engine does not run this scene"),
+    "not_run unknown engine": ("[integrators]", '[not_run]\nbullet = "no"\n\n[integrators]', "unknown key 'bullet' at [not_run]"),
     "unknown momentum component": ('components = ["Lz", "L3"]', 'components = ["Lz", "L4"]',
                                    "[checks.momentum_drift] components must be a non-empty list"),
     "unknown parameter kind": ('kind = "positive", doc = "mass of the top"', 'kind = "positve", doc = "mass of the top"',
@@ -183,3 +186,18 @@ def test_boolean_parameter_value_is_not_a_number():
     with pytest.raises(InputError, match="'mass': not a number"):
         load_scene("heavy_top", {"mass": True})
     assert math.isfinite(load_scene("heavy_top").params["mass"])
+
+
+def test_an_engine_the_scene_excludes_needs_no_integrator_or_tolerances(scene_copy):
+    """``[not_run] drake = "why"`` frees every table from naming drake; the scene keeps why."""
+    import re
+
+    models, path = scene_copy
+    text = re.sub(r"^drake = .*\n", "", path.read_text(), flags=re.M)  # drake's integrator and scalar tolerances
+    text = re.sub(r", drake = [0-9.e+-]+ \}", " }", text)  # and its per-engine trajectory tolerances
+    path.write_text(text.replace("[integrators]", '[not_run]\ndrake = "a test: Drake left out"\n\n[integrators]', 1))
+    scene = load_scene("heavy_top", models_dir=models)
+    assert scene.not_run == {"drake": "a test: Drake left out"} and "drake" not in scene.integrators
+    path.write_text(text)  # without [not_run], the same file lacks drake's entries
+    with pytest.raises(InputError, match="lacks a default for drake"):
+        load_scene("heavy_top", models_dir=models)

@@ -156,3 +156,27 @@ def test_validate_carries_the_engine_warnings_into_the_report(monkeypatch):
     assert [r.warnings for r in res.runs if r.engine == "reference"] == [{}]  # the in-house engine reports none
     md = markdown([res], PROV)
     assert "- mujoco (RK4): 2 warnings; first: Too many contacts \\| (test)" in md
+
+
+def test_an_engine_the_scene_excludes_is_reported_not_run_with_why(tmp_path):
+    """rolling_disk excludes Drake ([not_run]): no Drake run or check, the matrix cell says "not
+    run", the scene's section and the JSON say why, and JUnit has one skipped case."""
+    import json
+
+    from dataclasses import replace
+
+    from harness.io.provenance import provenance
+    from harness.model.scene import load_scene
+    from harness.validate.report import write_reports
+    from harness.validate.run import validate
+
+    scene = load_scene("rolling_disk")
+    short = replace(scene, t_end=0.05)
+    (res,) = validate([short], ["drake", "pinocchio"], jobs=1)
+    assert not [c for c in res.checks if c.engine == "drake"] and res.not_run == {"drake": scene.not_run["drake"]}
+    write_reports([res], provenance(), tmp_path)
+    md = (tmp_path / "validation.md").read_text()
+    assert "| not run [" in md and "Not run on drake" in md and scene.not_run["drake"] in md
+    assert json.loads((tmp_path / "validation.json").read_text())["scenes"][0]["not_run"]["drake"] == scene.not_run["drake"]
+    junit = (tmp_path / "validation.junit.xml").read_text()
+    assert 'skipped="1"' in junit and '<testcase classname="rolling_disk.drake" name="not_run">' in junit

@@ -355,8 +355,8 @@ def skip_reason(variant: Variant, models_dir: Path | None = None) -> str | None:
     missing = [b for b in variant.scale if b not in names]
     if missing:
         return f"scene {variant.scene!r} has no body {missing[0]!r} (bodies: {', '.join(names)})"
-    for engine in variant.integrators:
-        if engine not in scene.integrators:
+    for engine in variant.integrators:  # an engine the scene excludes ([not_run]) runs "unsupported": not run
+        if engine not in scene.integrators and engine not in scene.not_run:
             return f"scene {variant.scene!r} has no default integrator for {engine}"
     return None
 

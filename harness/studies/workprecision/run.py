@@ -13,6 +13,10 @@ What is swept, per scene (``curves``):
   ``MujocoEngine.simulate`` (variant ``loop``: the loop's own time, which includes reading every
   saved sample back; ``time_total_s`` includes compiling the model).
 * Pinocchio: each harness integrator (rkmk4, euler) over timesteps (loop time).
+* Drake: RK3, RK5 and Radau3 with Drake's error control over target accuracies (as the in-house
+  SciPy methods over tolerances), RK3_fixed and RK2 over timesteps, through
+  ``DrakeEngine.simulate`` (the engine's whole run: parsing the URDF, building the plant,
+  integrating, reading every sample); the rolling disk is not run on Drake (unsupported).
 * Exudyn: GeneralizedAlpha and TrapezoidalIndex2 (implicit, every scene) and RK44, RK67
   (explicit, free bodies only) over timesteps, through ``ExudynEngine.simulate`` (the engine's
   whole run: building the Exudyn system, solving, reading the sensors).
@@ -407,6 +411,8 @@ def curves(engines) -> list[Curve]:
             out += [Curve("mujoco", method, "rollout"), Curve("mujoco", method, "loop")]
     if "pinocchio" in engines:
         out += [Curve("pinocchio", "rkmk4", ""), Curve("pinocchio", "euler", "")]
+    if "drake" in engines:  # error-controlled ones over target accuracies, fixed-step ones over timesteps
+        out += [Curve("drake", m, "") for m in ("RK3", "RK5", "Radau3", "RK3_fixed", "RK2")]
     if "exudyn" in engines:  # implicit on every scene; explicit ones on free bodies only (else unsupported)
         out += [Curve("exudyn", m, "") for m in ("GeneralizedAlpha", "TrapezoidalIndex2", "RK44", "RK67")]
     if "inhouse" in engines:

@@ -1,0 +1,154 @@
+"""Drake engine: the scene's URDF in a continuous-time MultibodyPlant, Drake's own integrators.
+
+Drake reads the scene's URDF with its own parser (a third importer beside MuJoCo's and
+Pinocchio's) and integrates the plant's state (reduced coordinates) with the integrators of
+Drake's ``Simulator``, selected as Drake's ``ResetIntegratorFromFlags`` names them
+(``harness.engines.drake.integrators``): error-controlled ones at a target accuracy (the run's
+``rtol``), the way Drake's users run it, and fixed-step ones at ``dt``. The model and the
+scene's physics: ``harness.engines.drake.model``.
+
+Maximal coordinates at every saved sample come from Drake's kinematics
+(``EvalBodyPoseInWorld``, ``EvalBodySpatialVelocityInWorld``: the body frame, world), moved to the
+centre of mass; the energies are Drake's own (``CalcKineticEnergy``, ``CalcPotentialEnergy``:
+gravity and springs). Joint reactions (``[checks.reaction]``) are Drake's reaction-force output
+port: per joint, the spatial force on the child body at the joint's child frame origin (the
+child's body frame origin), in world.
+
+Not modelled: the ideal rolling contact (Drake has no rolling constraint; its contact is
+compliant), run as "unsupported".
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
+from harness.engines.drake.integrators import METHODS, SCHEMES
+from harness.engines.drake.model import build
+from harness.measure.trajectory import SampleBuffer, Trajectory, unsupported
+from harness.model import rotations
+from harness.model.joints import JOINTS
+from harness.model.scene import Scene
+
+
+class DrakeEngine:
+    """Runs a scene in Drake from its URDF file."""
+
+    name = "drake"
+    integrators = METHODS
+
+    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
+        check_settings(settings, self.integrators, self.name)
+        model = scene.multibody()
+        names = tuple(model.body_names)
+        method = settings.integrator
+        start = time.perf_counter()
+        try:
+            dm = build(scene, model)
+        except NotImplementedError as err:
+            return unsupported(self.name, method, names, f"{method}: {err}")
+        from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
+
+        system, context = (dm.diagram, dm.diagram_context) if dm.diagram is not None else (dm.plant, dm.context)
+        simulator = Simulator(system, context)
+        spec = METHODS[method]
+        integ = ResetIntegratorFromFlags(simulator, SCHEMES[method], settings.save_every if spec.adaptive else settings.dt)
+        if spec.adaptive:  # dt is not passed as an initial step: see ``harness.engines.drake.integrators``
+            integ.set_target_accuracy(settings.rtol)
+        else:
+            integ.set_fixed_step_mode(True)
+        simulator.Initialize()
+        jointed = [(b.name, dm.joints[b.name]) for b in model.bodies
+                   if JOINTS[b.joint].constrained and dm.joints[b.name] is not None] if "reaction" in scene.checks else []
+        n = settings.n_saves + 1
+        buf = SampleBuffer(n, len(names))
+        react = {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name, _ in jointed}
+        status, message, saved = "ok", "", 0
+        t0 = time.perf_counter()
+        try:
+            for k in range(n):
+                if k > 0:
+                    simulator.AdvanceTo(k * settings.save_every)
+                reason = _read(dm, model, k, buf)
+                if reason:
+                    status, message = "blowup", f"{reason} at t = {k * settings.save_every:.6g} s"
+                    break
+                if jointed:
+                    forces = dm.plant.get_reaction_forces_output_port().Eval(dm.context)
+                    for name, joint in jointed:
+                        react[name][0][k], react[name][1][k] = joint_reaction(dm, joint, forces[int(joint.index())])
+                saved = k + 1
+        except Exception as err:  # noqa: BLE001 - Drake raises RuntimeError on an integrator failure
+            status, message = "failed", f"{method}: Drake stopped at t = {context.get_time():.6g} s: " \
+                                        f"{' '.join(str(err).split())[:300]}"
+        stats = {"steps": integ.get_num_steps_taken(), "rhs_evals": integ.get_num_derivative_evaluations(),
+                 "wall_s": time.perf_counter() - start, "wall_integrate_s": time.perf_counter() - t0,
+                 "settings": _describe(method, settings, scene)}
+        traj = buf.trajectory(self.name, method, names, settings.save_every, saved, stats, status, message)
+        if react:
+            traj = replace(traj, reactions={name: (f[:saved], m[:saved]) for name, (f, m) in react.items()})
+        return traj
+
+
+def joint_reaction(dm, joint, F_CJc_Jc) -> tuple[np.ndarray, np.ndarray]:
+    """``(force_W, moment_W)`` (N, N m): Drake's reaction output ``F_CJc_Jc`` (the spatial force
+    on the child at the joint's child frame Jc, expressed in Jc) rotated to world, without its
+    component along a 1-dof joint's free direction (the force of a spring on that coordinate,
+    which Drake's port includes; an ideal joint's constraint force has none)."""
+    plant, ctx = dm.plant, dm.context
+    frame = joint.frame_on_child()
+    R_WJc = plant.EvalBodyPoseInWorld(ctx, joint.child_body()).rotation().matrix() @ \
+        frame.CalcPoseInBodyFrame(ctx).rotation().matrix()
+    f, m = R_WJc @ F_CJc_Jc.translational(), R_WJc @ F_CJc_Jc.rotational()
+    if joint.num_velocities() == 1:
+        axis_W = R_WJc @ np.asarray(_joint_axis(joint), dtype=float)
+        if joint.type_name() == "prismatic":
+            f = f - (f @ axis_W) * axis_W
+        else:
+            m = m - (m @ axis_W) * axis_W
+    return f, m
+
+
+def _joint_axis(joint) -> np.ndarray:
+    """A 1-dof joint's unit axis in its frames (revolute: ``revolute_axis``, prismatic:
+    ``translation_axis``)."""
+    return joint.revolute_axis() if joint.type_name() == "revolute" else joint.translation_axis()
+
+
+def _describe(method: str, settings: RunSettings, scene: Scene) -> str:
+    spec = METHODS[method]
+    how = (f"target accuracy {settings.rtol:g}, max step {settings.save_every:g} s" if spec.adaptive
+           else f"fixed step {settings.dt:g} s")
+    return f"Drake {SCHEMES[method]} ({how}) on the continuous MultibodyPlant of {scene.urdf.name}"
+
+
+def _read(dm, model, k: int, buf: SampleBuffer) -> str:
+    """Fill sample ``k`` of ``buf`` (centre-of-mass position and velocity, orientation, world
+    angular velocity, Drake's energies); return why the state is a blow-up, or ""."""
+    plant, ctx = dm.plant, dm.context
+    for i, body in enumerate(model.bodies):
+        b = dm.bodies[body.name]
+        X = plant.EvalBodyPoseInWorld(ctx, b)
+        V = plant.EvalBodySpatialVelocityInWorld(ctx, b)
+        R = X.rotation().matrix()
+        w = V.rotational()
+        r = R @ b.CalcCenterOfMassInBodyFrame(ctx)
+        buf.p_WCm_W[k, i] = X.translation() + r
+        buf.quat_WB[k, i] = rotations.from_matrix(R)
+        buf.v_WCm_W[k, i] = V.translational() + np.cross(w, r)
+        buf.w_WB_W[k, i] = w
+    buf.kinetic[k] = plant.CalcKineticEnergy(ctx)
+    buf.potential[k] = plant.CalcPotentialEnergy(ctx)
+    state = np.concatenate([buf.p_WCm_W[k].ravel(), buf.v_WCm_W[k].ravel(), buf.w_WB_W[k].ravel()])
+    if not np.all(np.isfinite(state)):
+        return "non-finite state"
+    speed = float(np.abs(state[3 * len(model.bodies):]).max(initial=0.0))
+    if speed > BLOWUP_SPEED:
+        return f"speed {speed:.3g} beyond {BLOWUP_SPEED:g}"
+    return ""
+
+
+ENGINE = DrakeEngine()
