@@ -20,6 +20,12 @@ from harness.measure.trajectory import Trajectory
 BLOWUP_SPEED = 1e8
 
 
+def warning_stats(messages: list[str]) -> dict:
+    """An engine's own warnings of a run, as ``stats["warnings"]`` holds them: ``{"count": number
+    of warnings, "first": the first message on one line, or ""}``."""
+    return {"count": len(messages), "first": " ".join(messages[0].split()) if messages else ""}
+
+
 @dataclass(frozen=True)
 class Integrator:
     """One integration method of one engine.

@@ -25,9 +25,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
+from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings, warning_stats
 from harness.engines.drake.integrators import METHODS, SCHEMES
-from harness.engines.drake.model import build
+from harness.engines.drake.model import build, captured_drake_log
 from harness.measure.trajectory import SampleBuffer, Trajectory, unsupported
 from harness.model import rotations
 from harness.model.joints import JOINTS
@@ -41,7 +41,15 @@ class DrakeEngine:
     integrators = METHODS
 
     def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
+        """Run ``scene``; Drake's log messages during the run go to ``stats["warnings"]``."""
         check_settings(settings, self.integrators, self.name)
+        with captured_drake_log() as log:
+            traj = self._simulate(scene, settings)
+        if traj.stats is not None and "steps" in traj.stats:
+            traj.stats["warnings"] = warning_stats(log.messages)
+        return traj
+
+    def _simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
         model = scene.multibody()
         names = tuple(model.body_names)
         method = settings.integrator

@@ -57,6 +57,31 @@ def _check_supported(model: Multibody) -> None:
             raise NotImplementedError(f"the Drake engine does not model {ft.label}s ({ft.name})")
 
 
+class captured_drake_log:
+    """Context manager: the messages Drake logs (Python logger ``drake``: warnings such as "does
+    not handle joint limits for continuous models") are appended to ``messages`` instead of
+    being printed; the logger's handlers and level are restored on exit."""
+
+    def __enter__(self) -> "captured_drake_log":
+        import logging
+
+        self.messages: list[str] = []
+        self._logger = logging.getLogger("drake")
+        self._saved = (self._logger.handlers[:], self._logger.propagate)
+        messages = self.messages
+
+        class _Keep(logging.Handler):
+            def emit(self, record):
+                messages.append(record.getMessage())
+
+        self._logger.handlers = [_Keep(logging.WARNING)]
+        self._logger.propagate = False
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._logger.handlers, self._logger.propagate = self._saved
+
+
 def parse(path, root_joint: str, model: Multibody, *, springs: bool = True):
     """``(plant, instance, joints)``: the URDF at ``path`` parsed by Drake into a continuous
     plant with the scene's gravity, its root joint and its springs, finalised; ``joints`` maps
@@ -68,7 +93,8 @@ def parse(path, root_joint: str, model: Multibody, *, springs: bool = True):
 
     plant = MultibodyPlant(0.0)
     try:
-        (instance,) = Parser(plant).AddModels(str(path))
+        with captured_drake_log():  # a continuous plant ignores the URDF's joint limits: said once below
+            (instance,) = Parser(plant).AddModels(str(path))
     except Exception as err:  # noqa: BLE001 - Drake raises RuntimeError with its parser's message
         raise InputError(f"{path}: Drake cannot read it: {' '.join(str(err).split())[:300]}") from None
     names = {plant.get_body(i).name() for i in plant.GetBodyIndices(instance)}
@@ -96,7 +122,8 @@ def parse(path, root_joint: str, model: Multibody, *, springs: bool = True):
                 raise NotImplementedError(f"the Drake engine has no spring for the joint of {spring.body!r}")
             plant.AddForceElement(PrismaticSpring(joint, float(spring.q_ref), float(spring.stiffness)))
     plant.mutable_gravity_field().set_gravity_vector(np.asarray(model.gravity_W, dtype=float))
-    plant.Finalize()
+    with captured_drake_log():  # the run's own capture (engine) records it; a bare parse keeps quiet
+        plant.Finalize()
     return plant, instance, joints
 
 

@@ -18,10 +18,7 @@ from __future__ import annotations
 
 import mujoco
 
-
-def warning_stats(messages: list[str]) -> dict:
-    """``{"count": number of warnings, "first": the first message on one line, or ""}``."""
-    return {"count": len(messages), "first": " ".join(messages[0].split()) if messages else ""}
+from harness.engines.base import warning_stats  # noqa: F401 - the engines' common form, re-exported
 
 
 class captured_warnings:
