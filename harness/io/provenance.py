@@ -65,7 +65,6 @@ def provenance() -> dict[str, str]:
     model), the CPUs this process may use, and the UTC time now."""
     import exudyn
     import mujoco
-    import pydrake
     import numba
     import numpy
     import pinocchio
@@ -77,7 +76,7 @@ def provenance() -> dict[str, str]:
         "mujoco": mujoco.__version__,
         "pinocchio": pinocchio.__version__,
         "exudyn": exudyn.__version__,
-        "drake": _drake_version(pydrake),
+        "drake": drake_version(),
         "numpy": numpy.__version__,
         "scipy": scipy.__version__,
         "numba": numba.__version__,
@@ -92,9 +91,11 @@ LIBRARY_NAMES = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "exudyn": "Exudyn
                  "scipy": "SciPy", "python": "Python"}
 
 
-def _drake_version(pydrake) -> str:
+def drake_version() -> str:
     """Drake's version (``pydrake.__version__`` where it has one, else the installed
-    distribution's)."""
+    distribution's; "?" when neither tells)."""
+    import pydrake
+
     version = getattr(pydrake, "__version__", None)
     if version:
         return str(version)

@@ -69,6 +69,7 @@ import numpy as np
 import pinocchio as pin
 
 from harness.io import atomic
+from harness.io.provenance import drake_version
 from harness.tools import dynamics_terms as dc
 from harness.engines.mujoco.model import joint_kind as mujoco_joint_kind
 from harness.engines.mujoco.warning_capture import captured_warnings
@@ -86,9 +87,9 @@ from harness.tools.loaded_models import (
     drake_gravity,
     drake_joint_bodies,
     drake_joint_details,
+    has_axis,
     load_drake,
     mujoco_joint_bodies,
-    mujoco_joint_bodies_at,
     mujoco_joint_details,
     pinocchio_joint_bodies,
     pinocchio_joint_details,
@@ -502,14 +503,15 @@ def load_models(mjcf: Path | None, urdf: Path | None, *, floating_base: bool = F
         if pin_bad is not None:
             raise pin_bad from None
         raise
+    bodies = mujoco_joint_bodies(m, _zero_qpos(m))  # masses and inertias do not depend on the configuration
     last = {}  # a MuJoCo body with several joints carries its mass at the last one
-    for x in mujoco_joint_bodies(m):
+    for x in bodies:
         last[x.body] = x
     check_joint_bodies_physical(list(last.values()), str(mj_file))
     if m.nv == 0:
         raise InputError(f"{mj_file}: the model has no moving joint, nothing to compare "
                          f"(a URDF's root link is fixed unless --floating-base)")
-    mjr = Reading("MuJoCo", mj_file, mujoco.__version__, bodies=mujoco_joint_bodies_at(m, _zero_qpos(m)),
+    mjr = Reading("MuJoCo", mj_file, mujoco.__version__, bodies=bodies,
                   details=mujoco_joint_details(m), gravity=mujoco_gravity(m), model=m, hints=_mujoco_hints(m, mj_file))
     if pin_bad is not None:  # MuJoCo reads the bodies as physical: Pinocchio's reading is what differs
         pinr.dynamics = f"its reading of a body is not physical ({_refusal(pin_bad, other_file)})"
@@ -522,7 +524,7 @@ def load_models(mjcf: Path | None, urdf: Path | None, *, floating_base: bool = F
             pinr.bodies = pinocchio_split_joint_bodies(pinr.model, pinr.slots)
             pinr.details = pinocchio_joint_details(pinr.model, pinr.slots)
             pinr.gravity = np.array(pinr.model.gravity.linear, dtype=float)
-    drr = Reading("Drake", other_file, _drake_version())
+    drr = Reading("Drake", other_file, drake_version())
     try:
         with captured_native_stderr():
             load = load_drake(other_file, root_joint=root)
@@ -572,23 +574,9 @@ def _zero_qpos(m: mujoco.MjModel) -> np.ndarray:
     Drake is put by ``drake_joint_bodies``."""
     q = np.array(m.qpos0, dtype=float)
     for j in range(m.njnt):
-        if _has_axis_kind(mujoco_joint_kind(m, j)):
+        if has_axis(mujoco_joint_kind(m, j)):
             q[m.jnt_qposadr[j]] = 0.0
     return q
-
-
-def _has_axis_kind(kind: str) -> bool:
-    jt = JOINTS.get(kind)
-    return jt is not None and jt.axis is not None
-
-
-def _drake_version() -> str:
-    try:
-        from importlib.metadata import version
-
-        return version("drake")
-    except Exception:  # pragma: no cover - not installed as a distribution
-        return "?"
 
 
 def _match_free_joints(readings: dict[str, Reading]) -> list[str]:

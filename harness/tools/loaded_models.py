@@ -270,14 +270,17 @@ def _composite(parts) -> tuple[float, np.ndarray, np.ndarray]:
     return mass, com, inertia
 
 
-def mujoco_joint_bodies(m: mujoco.MjModel) -> list[JointBody]:
-    """Per MuJoCo joint (model order): the composite body it moves, at ``qpos0``.
+def mujoco_joint_bodies(m: mujoco.MjModel, qpos: np.ndarray | None = None) -> list[JointBody]:
+    """Per MuJoCo joint (model order): the composite body it moves, at the configuration
+    ``qpos`` (default ``qpos0``). MuJoCo turns a hinge or slide by ``qpos - qpos0``, ``qpos0``
+    holding its ``ref``: at ``qpos`` = 0 the body stands where the joint coordinate is 0, as
+    Pinocchio's ``neutral`` and Drake's zero positions put it.
 
     A body without joints belongs to its nearest ancestor with a joint (or to the world). A
     body with several joints is reported at its last joint; its other joints get mass 0.
     """
     d = mujoco.MjData(m)
-    d.qpos[:] = m.qpos0
+    d.qpos[:] = m.qpos0 if qpos is None else qpos
     mujoco.mj_kinematics(m, d)
     owner = np.zeros(m.nbody, dtype=int)
     for b in range(1, m.nbody):
@@ -297,7 +300,7 @@ def mujoco_joint_bodies(m: mujoco.MjModel) -> list[JointBody]:
         pb = owner[m.body_parentid[b]]
         R_WP, p_WP = d.xmat[pb].reshape(3, 3), d.xpos[pb]
         kind = mujoco_joint_kind(m, j)
-        axis = np.array(m.jnt_axis[j]) if _has_axis(kind) else np.zeros(3)
+        axis = np.array(m.jnt_axis[j]) if has_axis(kind) else np.zeros(3)
         out.append(JointBody(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}",
                              mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}", kind, mass, com, inertia,
                              mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, pb) or "world",
@@ -305,7 +308,7 @@ def mujoco_joint_bodies(m: mujoco.MjModel) -> list[JointBody]:
     return out
 
 
-def _has_axis(kind: str) -> bool:
+def has_axis(kind: str) -> bool:
     """Whether a joint of kind ``kind`` (a harness name or an engine's own) moves along an axis."""
     jt = JOINTS.get(kind)
     return jt is not None and jt.axis is not None
@@ -391,7 +394,7 @@ def compare_joint_bodies(a: list[JointBody], b: list[JointBody], labels=("A", "B
             if np.abs(x.R_PB - y.R_PB).max() > max(rtol, 1e-12):
                 problems.append(f"{who}: orientation in parent differs by "
                                 f"{_angle(x.R_PB.T @ y.R_PB):.3e} rad between {labels[0]} and {labels[1]}")
-        if x.kind == y.kind and _has_axis(x.kind) and np.linalg.norm(x.axis_B - y.axis_B) > max(rtol, 1e-12):
+        if x.kind == y.kind and has_axis(x.kind) and np.linalg.norm(x.axis_B - y.axis_B) > max(rtol, 1e-12):
             problems.append(f"{who}: axis {np.round(x.axis_B, 9).tolist()} in {labels[0]}, {np.round(y.axis_B, 9).tolist()} in {labels[1]}")
     return problems
 
@@ -758,7 +761,7 @@ def mujoco_joint_details(m: mujoco.MjModel) -> list[JointDetails]:
     out = []
     for j in range(m.njnt):
         kind = mujoco_joint_kind(m, j)
-        one = _has_axis(kind)
+        one = has_axis(kind)
         dof = int(m.jnt_dofadr[j])
         limits = _limits(*m.jnt_range[j]) if one and m.jnt_limited[j] else None
         point = np.zeros(3) if kind == FREE.name else np.array(m.jnt_pos[j], dtype=float)
@@ -787,7 +790,7 @@ def drake_joint_details(source) -> list[JointDetails]:
         X_WB = plant.EvalBodyPoseInWorld(context, B)
         p_WM = j.frame_on_child().CalcPoseInWorld(context).translation()
         kind = drake_joint_kind(j)
-        one = _has_axis(kind) and j.num_velocities() == 1
+        one = has_axis(kind) and j.num_velocities() == 1
         point = np.zeros(3) if kind == FREE.name else X_WB.rotation().matrix().T @ (p_WM - X_WB.translation())
         limits = _limits(j.position_lower_limits()[0], j.position_upper_limits()[0]) if one else None
         out.append(JointDetails(j.name(), point, limits, float(j.default_damping_vector()[0]) if one else None,
@@ -901,35 +904,4 @@ def pinocchio_joint_details(pmodel: pin.Model, slots: dict[str, PinocchioSlot]) 
                   if one and s.nq == 1 else None)
         out.append(JointDetails(name, point, limits, float(pmodel.damping[s.idx_v]) if one else None,
                                 float(pmodel.armature[s.idx_v]) if one else None))
-    return out
-
-
-def mujoco_joint_bodies_at(m: mujoco.MjModel, qpos: np.ndarray) -> list[JointBody]:
-    """``mujoco_joint_bodies`` at the configuration ``qpos`` instead of ``qpos0`` (MuJoCo turns a
-    hinge or slide by ``qpos - qpos0``, ``qpos0`` holding its ``ref``: at ``qpos`` = 0 the body
-    stands where the joint coordinate is 0, as Pinocchio's ``neutral`` and Drake's zero
-    positions put it). Bodies, masses, frames and units as ``mujoco_joint_bodies``."""
-    from dataclasses import replace
-
-    d = mujoco.MjData(m)
-    d.qpos[:] = qpos
-    mujoco.mj_kinematics(m, d)
-    owner = np.zeros(m.nbody, dtype=int)
-    for b in range(1, m.nbody):
-        owner[b] = b if m.body_jntnum[b] > 0 else owner[m.body_parentid[b]]
-    out = []
-    for x, j in zip(mujoco_joint_bodies(m), range(m.njnt)):  # names, kinds, axes (body frame) at qpos0
-        b = int(m.jnt_bodyid[j])
-        last = j == m.body_jntadr[b] + m.body_jntnum[b] - 1
-        R_WB, p_WB = d.xmat[b].reshape(3, 3), d.xpos[b]
-        parts = []
-        for k in range(1, m.nbody):
-            if last and owner[k] == b:
-                Rk = d.ximat[k].reshape(3, 3)
-                parts.append((float(m.body_mass[k]), R_WB.T @ (d.xipos[k] - p_WB),
-                              R_WB.T @ Rk @ np.diag(m.body_inertia[k]) @ Rk.T @ R_WB))
-        mass, com, inertia = _composite(parts) if parts else (0.0, np.zeros(3), np.zeros((3, 3)))
-        pb = owner[m.body_parentid[b]]
-        R_WP, p_WP = d.xmat[pb].reshape(3, 3), d.xpos[pb]
-        out.append(replace(x, mass=mass, p_BCm_B=com, I_Cm_B=inertia, p_PB_P=R_WP.T @ (p_WB - p_WP), R_PB=R_WP.T @ R_WB))
     return out

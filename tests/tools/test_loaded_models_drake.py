@@ -15,7 +15,7 @@ from harness.tools.loaded_models import (
     drake_joint_bodies,
     drake_joint_details,
     load_drake,
-    mujoco_joint_bodies_at,
+    mujoco_joint_bodies,
     mujoco_joint_details,
     pinocchio_joint_details,
     pinocchio_joint_slots,
@@ -33,7 +33,7 @@ def _readings(path, root):
     pmodel = load_pinocchio(path, root_joint=root)
     slots = pinocchio_joint_slots(pmodel)
     drake = load_drake(path, root_joint=root)
-    return ((mujoco_joint_bodies_at(m, _zero_qpos(m)), mujoco_joint_details(m)),
+    return ((mujoco_joint_bodies(m, _zero_qpos(m)), mujoco_joint_details(m)),
             (pinocchio_split_joint_bodies(pmodel, slots), pinocchio_joint_details(pmodel, slots)),
             (drake_joint_bodies(drake), drake_joint_details(drake)))
 
@@ -124,7 +124,7 @@ def test_a_body_with_several_joints_is_reported_as_mujoco_reports_it(tmp_path):
     dr = drake_joint_bodies(path)
     assert [(x.joint, x.body) for x in dr] == [("x", "box"), ("z", "box"), ("pitch", "box")]
     assert [x.mass for x in dr] == [0.0, 0.0, pytest.approx(1.0)]
-    assert compare_joint_bodies(mujoco_joint_bodies_at(m, _zero_qpos(m)), dr, ("MuJoCo", "Drake")) == []
+    assert compare_joint_bodies(mujoco_joint_bodies(m, _zero_qpos(m)), dr, ("MuJoCo", "Drake")) == []
 
 
 def test_mujoco_at_zero_coordinates_turns_a_joint_with_ref(tmp_path):
@@ -135,7 +135,7 @@ def test_mujoco_at_zero_coordinates_turns_a_joint_with_ref(tmp_path):
       <body name="a" pos="0 0 1"><joint name="h" axis="0 1 0" ref="0.5"/><geom size=".1" mass="1"/></body>
       </worldbody></mujoco>""")
     m, _ = load_mujoco(path)
-    (x,) = mujoco_joint_bodies_at(m, _zero_qpos(m))
+    (x,) = mujoco_joint_bodies(m, _zero_qpos(m))
     c, s = np.cos(-0.5), np.sin(-0.5)
     assert np.allclose(x.R_PB, [[c, 0, s], [0, 1, 0], [-s, 0, c]])
 
