@@ -94,6 +94,12 @@ def require_scene_files_utf8(scene) -> None:
     require_utf8(scene.urdf, "URDF")
 
 
+def add_engines(parser) -> None:
+    """The ``--engines A,B`` option of the commands that run a selection of the registered engines."""
+    parser.add_argument("--engines", type=csv_list, metavar="A,B",
+                        help=f"comma-separated engines among {ENGINES_HELP} (default: all)")
+
+
 def add_out_dir(parser, command: str, what: str, subset: tuple[str, ...]) -> None:
     """Add ``--out-dir`` to a report-writing command: ``what`` its files, ``subset`` the
     options (attribute names, e.g. ``("scenes", "quick")``) that make a run partial."""

@@ -21,7 +21,7 @@ from harness.cli import workprecision as cli_workprecision
 from harness.io.progress import set_quiet
 from harness.io.provenance import set_argv
 from harness.model.errors import InputError
-from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_out_dir, check_samples, check_selection, csv_list as _csv_list,
+from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_engines, add_out_dir, check_samples, check_selection, csv_list as _csv_list,
                                    float_arg as _float, int_arg as _int, models_dir_arg as _models_dir,
                                    out_dir, require_scene_files_utf8)
 
@@ -83,8 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "fails, 2 on bad input (nothing written).")
     v.add_argument("--scenes", type=_csv_list, metavar="A,B",
                    help="comma-separated scene names (default: every scene of --models-dir)")
-    v.add_argument("--engines", type=_csv_list, metavar="A,B",
-                   help=f"comma-separated engines among {ENGINES_HELP} (default: all)")
+    add_engines(v)
     v.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a parameter, in its unit, in every selected scene that has it (repeatable)")
     add_out_dir(v, "validate", "the validation reports", VALIDATE_SUBSET)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_out_dir, check_selection, csv_list as _csv_list, float_arg as _float,
+from harness.cli.arg_types import (MODELS_DIR_HELP, add_engines, add_out_dir, check_selection, csv_list as _csv_list, float_arg as _float,
                                    int_arg as _int, models_dir_arg as _models_dir, out_dir)
 
 EXIT_OK = 0
@@ -27,8 +27,7 @@ def add_parser(sub) -> None:
                                    "runs are findings), 2 on bad input.")
     s.add_argument("--variants", type=_csv_list, metavar="A,B",
                    help="comma-separated variant names of the catalogue (default: the whole catalogue)")
-    s.add_argument("--engines", type=_csv_list, metavar="A,B",
-                   help=f"comma-separated engines among {ENGINES_HELP} (default: all)")
+    add_engines(s)
     s.add_argument("--quick", action="store_true", help="a smoke run: short horizons, a tenth of the step budget, one bisection step")
     s.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
     s.add_argument("--timeout", type=_float, default=120.0, metavar="S",

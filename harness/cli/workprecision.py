@@ -11,7 +11,7 @@ import os
 from dataclasses import replace
 
 from harness.model.errors import InputError
-from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_out_dir, check_selection, csv_list as _csv_list, float_arg as _float,
+from harness.cli.arg_types import (MODELS_DIR_HELP, add_engines, add_out_dir, check_selection, csv_list as _csv_list, float_arg as _float,
                                    int_arg as _int, models_dir_arg as _models_dir, out_dir)
 
 SUBSET = ("quick", "scenes", "engines", "models_dir")  # options that make a run partial
@@ -25,8 +25,7 @@ def add_parser(sub) -> None:
                                    "workprecision.csv and workprecision/<scene>.png. Exit 0, or 2 on bad input.")
     w.add_argument("--scenes", type=_csv_list, metavar="A,B",
                    help="comma-separated scene names (default: every scene of --models-dir)")
-    w.add_argument("--engines", type=_csv_list, metavar="A,B",
-                   help=f"comma-separated engines among {ENGINES_HELP} (default: all)")
+    add_engines(w)
     w.add_argument("--repeats", type=_int, metavar="N", help="timed runs after the warm-up (>= 1, default 3)")
     w.add_argument("--max-run-s", type=_float, metavar="S",
                    help="stop refining a curve after a run this slow (s, > 0, default 2)")

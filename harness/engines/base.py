@@ -11,6 +11,8 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
+import numpy as np
+
 from harness.model.errors import InputError
 from harness.model.scene import Scene
 from harness.measure.trajectory import Trajectory
@@ -18,6 +20,19 @@ from harness.measure.trajectory import Trajectory
 
 #: Speed (m/s, or rad/s for rotation) beyond which every engine declares its run a blow-up.
 BLOWUP_SPEED = 1e8
+
+
+def maximal_blowup(p_WCm_W, quat_WB, v_WCm_W, w_WB_W) -> str:
+    """Why one sample of a trajectory in maximal coordinates (arrays ``[body, component]``: m,
+    ``wxyz``, m/s, rad/s) counts as a blow-up: a non-finite state, or a speed (linear or
+    angular) beyond ``BLOWUP_SPEED``; "" when it does not."""
+    state = np.concatenate([np.ravel(p_WCm_W), np.ravel(quat_WB), np.ravel(v_WCm_W), np.ravel(w_WB_W)])
+    if not np.all(np.isfinite(state)):
+        return "non-finite state"
+    speed = max(np.abs(v_WCm_W).max(initial=0.0), np.abs(w_WB_W).max(initial=0.0))
+    if speed > BLOWUP_SPEED:
+        return f"speed {speed:.3g} beyond {BLOWUP_SPEED:g}"
+    return ""
 
 
 def warning_stats(messages: list[str]) -> dict:

@@ -155,6 +155,8 @@ class JointType:
         urdf_root: the scene's ``urdf_root_joint`` that makes Pinocchio add this kind.
         exudyn: how Exudyn states it (``ExudynJoint``), None for a joint Exudyn needs no object
             for (free: an unconnected body).
+        drake: Drake's joint ``type_name()``s of this kind (Drake's ball is ``BallRpyJoint``:
+            the same kind in roll-pitch-yaw coordinates).
         quat_at: index in q of a ``wxyz`` quaternion, None without one.
         world_linear_velocity: v starts with the world-frame velocity of the body-frame origin.
         motion: ``(body, q, v) -> (p, R, v_rel, w_rel)``: B's frame origin in the parent frame
@@ -189,6 +191,7 @@ class JointType:
     retract: Callable
     distance: Callable
     exudyn: ExudynJoint | None = None
+    drake: tuple[str, ...] = ()
 
     @property
     def rows(self) -> int:
@@ -305,13 +308,14 @@ FREE = JointType(
     mujoco="mjJNT_FREE", pinocchio=r"FreeFlyer", pinocchio_root="FreeFlyer", urdf=(), urdf_root="free",
     quat_at=3, world_linear_velocity=True,
     motion=_free_motion, coordinate=None, draw=_draw_free, retract=_retract_free, distance=_distance_free,
+    drake=("quaternion_floating", "rpy_floating"),
 )
 BALL = JointType(
     name="ball", nq=4, nv=3, axis=None, root_only=False, conditions=(POINT,),
     mujoco="mjJNT_BALL", pinocchio=r"Spherical", pinocchio_root="Spherical", urdf=(), urdf_root="spherical",
     quat_at=0, world_linear_velocity=False,
     motion=_ball_motion, coordinate=None, draw=_draw_ball, retract=_retract_ball, distance=_distance_ball,
-    exudyn=ExudynJoint("CreateSphericalJoint", "JointSpherical", None, "Force"),
+    exudyn=ExudynJoint("CreateSphericalJoint", "JointSpherical", None, "Force"), drake=("ball_rpy",),
 )
 HINGE = JointType(
     name="hinge", nq=1, nv=1, axis=ROTATIONAL, root_only=False, conditions=(POINT, ALIGNED),
@@ -320,7 +324,7 @@ HINGE = JointType(
     quat_at=None, world_linear_velocity=False,
     motion=_hinge_motion, coordinate=None, draw=_draw_along_axis(np.pi, 1.0), retract=_retract_along_axis,
     distance=_distance_hinge,
-    exudyn=ExudynJoint("CreateRevoluteJoint", "JointRevoluteZ", 2, "ForceLocal", ((2, 0), (2, 1))),
+    exudyn=ExudynJoint("CreateRevoluteJoint", "JointRevoluteZ", 2, "ForceLocal", ((2, 0), (2, 1))), drake=("revolute",),
 )
 SLIDE = JointType(
     name="slide", nq=1, nv=1, axis=TRANSLATIONAL, root_only=False, conditions=(ON_AXIS, PARALLEL),
@@ -329,6 +333,7 @@ SLIDE = JointType(
     motion=_slide_motion, coordinate=_slide_coordinate, draw=_draw_along_axis(0.5, 0.5), retract=_retract_along_axis,
     distance=_distance_slide,
     exudyn=ExudynJoint("CreatePrismaticJoint", "JointPrismaticX", 0, "ForceLocal", ((2, 1), (2, 0), (0, 1))),
+    drake=("prismatic",),
 )
 
 JOINTS: dict[str, JointType] = {jt.name: jt for jt in (FREE, BALL, HINGE, SLIDE)}
@@ -340,6 +345,11 @@ JOINTS: dict[str, JointType] = {jt.name: jt for jt in (FREE, BALL, HINGE, SLIDE)
 def by_mujoco(member: str) -> JointType | None:
     """The kind whose ``mujoco.mjtJoint`` member is named ``member`` (e.g. ``mjJNT_HINGE``)."""
     return next((jt for jt in JOINTS.values() if jt.mujoco == member), None)
+
+
+def by_drake(type_name: str) -> JointType | None:
+    """The kind of a Drake joint by its ``type_name()`` (e.g. ``revolute``, ``ball_rpy``)."""
+    return next((jt for jt in JOINTS.values() if type_name in jt.drake), None)
 
 
 def by_exudyn(object_type: str) -> JointType | None:

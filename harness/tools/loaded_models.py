@@ -26,7 +26,7 @@ from harness.engines.pinocchio.model import joint_kind as pin_joint_kind
 from harness.engines.pinocchio.model import joint_type as pin_joint_type
 from harness.model import rotations
 from harness.model.forces import JOINT_SPRINGS
-from harness.model.joints import FREE, JOINTS, ROTATIONAL, TRANSLATIONAL, by_exudyn
+from harness.model.joints import FREE, JOINTS, ROTATIONAL, TRANSLATIONAL, by_drake, by_exudyn
 from harness.model.multibody import Multibody
 
 
@@ -450,17 +450,9 @@ class DrakeRefusal(Exception):
     reason, one line."""
 
 
-def _drake_kinds() -> dict:
-    """Drake joint ``type_name()`` -> harness joint kind (``harness.model.joints``). Drake's ball
-    joint is ``BallRpyJoint`` (roll-pitch-yaw coordinates): the same kind, other coordinates."""
-    from harness.model.joints import BALL, HINGE, SLIDE
-
-    return {"revolute": HINGE, "prismatic": SLIDE, "quaternion_floating": FREE, "ball_rpy": BALL}
-
-
 def drake_joint_kind(joint) -> str:
-    """The harness name of a Drake joint's kind, else Drake's ``type_name()``."""
-    jt = _drake_kinds().get(joint.type_name())
+    """The harness name of a Drake joint's kind (``JointType.drake``), else Drake's ``type_name()``."""
+    jt = by_drake(joint.type_name())
     return jt.name if jt is not None else joint.type_name()
 
 

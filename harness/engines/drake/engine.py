@@ -25,7 +25,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings, warning_stats
+from harness.engines.base import RunSettings, check_settings, maximal_blowup, warning_stats
 from harness.engines.drake.integrators import METHODS, SCHEMES
 from harness.engines.drake.model import build, captured_drake_log
 from harness.measure.trajectory import SampleBuffer, Trajectory, unsupported
@@ -150,13 +150,7 @@ def _read(dm, model, k: int, buf: SampleBuffer) -> str:
         buf.w_WB_W[k, i] = w
     buf.kinetic[k] = plant.CalcKineticEnergy(ctx)
     buf.potential[k] = plant.CalcPotentialEnergy(ctx)
-    state = np.concatenate([buf.p_WCm_W[k].ravel(), buf.v_WCm_W[k].ravel(), buf.w_WB_W[k].ravel()])
-    if not np.all(np.isfinite(state)):
-        return "non-finite state"
-    speed = float(np.abs(state[3 * len(model.bodies):]).max(initial=0.0))
-    if speed > BLOWUP_SPEED:
-        return f"speed {speed:.3g} beyond {BLOWUP_SPEED:g}"
-    return ""
+    return maximal_blowup(buf.p_WCm_W[k], buf.quat_WB[k], buf.v_WCm_W[k], buf.w_WB_W[k])
 
 
 ENGINE = DrakeEngine()

@@ -26,7 +26,7 @@ import numpy as np
 from harness.model import rotations
 from harness.model.errors import InputError
 from harness.model.forces import JOINT_SPRINGS, POINT_FORCES, elements
-from harness.model.joints import JOINTS, ROTATIONAL, TRANSLATIONAL
+from harness.model.joints import FREE, JOINTS, ROTATIONAL, TRANSLATIONAL
 from harness.model.multibody import Multibody
 
 @dataclass
@@ -231,27 +231,13 @@ def _with_point_forces(plant, bodies, model):
     return diagram, diagram.CreateDefaultContext()
 
 
-def drake_joint_kind(joint) -> str:
-    """The harness's joint kind of a Drake joint: by its axis (revolute, prismatic), a ball
-    (``ball_rpy``) or a floating joint; else Drake's own type name."""
-    name = joint.type_name()
-    for jt in JOINTS.values():
-        if (name == "revolute" and jt.axis == ROTATIONAL) or (name == "prismatic" and jt.axis == TRANSLATIONAL):
-            return jt.name
-        if name == "ball_rpy" and jt.axis is None and jt.constrained:
-            return jt.name
-        if name in ("quaternion_floating", "rpy_floating") and not jt.constrained:
-            return jt.name
-    return name
-
-
 def drake_bodies(plant, joints: dict, model: Multibody) -> list:
     """Read back the scene's bodies as Drake holds them by default (the file's values, before
     the scene's physics is applied in a context): mass (kg), centre of mass and inertia about it
     in the body frame (m, kg m^2), the joint frame's position in the parent body (m), the joint
     kind and its unit axis in the child's frame (``LoadedBody`` of
     ``harness.tools.loaded_models``; a floating body: kind free, no axis)."""
-    from harness.tools.loaded_models import LoadedBody
+    from harness.tools.loaded_models import LoadedBody, drake_joint_kind
 
     out = []
     for body in model.bodies:
@@ -262,7 +248,7 @@ def drake_bodies(plant, joints: dict, model: Multibody) -> list:
         I_C = I_com - m * (float(c @ c) * np.eye(3) - np.outer(c, c))  # shifted to the centre of mass
         joint = joints.get(body.name)
         if joint is None:
-            out.append(LoadedBody(body.name, m, c, I_C, np.zeros(3), drake_joint_kind_free(), np.zeros(3)))
+            out.append(LoadedBody(body.name, m, c, I_C, np.zeros(3), FREE.name, np.zeros(3)))
             continue
         X_PF = joint.frame_on_parent().GetFixedPoseInBodyFrame()
         R_CM = joint.frame_on_child().GetFixedPoseInBodyFrame().rotation().matrix()
@@ -274,7 +260,3 @@ def drake_bodies(plant, joints: dict, model: Multibody) -> list:
                               drake_joint_kind(joint), axis))
     return out
 
-
-def drake_joint_kind_free() -> str:
-    """The harness's name of the joint of a body Drake floats (no joint to its parent)."""
-    return next(jt.name for jt in JOINTS.values() if not jt.constrained)

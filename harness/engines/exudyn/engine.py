@@ -25,10 +25,11 @@ lateral, longitudinal, normal) is turned to world with the joint's ``RotationMat
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
-from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
+from harness.engines.base import RunSettings, check_settings, maximal_blowup
 from harness.engines.exudyn.integrators import IMPLICIT, METHODS, NODE_TYPE
 from harness.engines.exudyn.model import build
 from harness.measure.trajectory import Trajectory, unsupported
@@ -121,9 +122,9 @@ class ExudynEngine:
             "settings": _describe(method, settings, model),
         })
         if status != "ok":
-            return _with(out, status=status, message=message)
+            return replace(out, status=status, message=message)
         if reactions or model.contacts:
-            out = _with(out, reactions=reaction_series(system, model, out, reactions=reactions))
+            out = replace(out, reactions=reaction_series(system, model, out, reactions=reactions))
         return out
 
 
@@ -192,24 +193,15 @@ def _blowup(traj: Trajectory) -> tuple[str, int]:
     """``(reason, samples kept)``: the first sample with a non-finite state or a speed beyond
     ``BLOWUP_SPEED`` ends the trajectory (reason "" when there is none)."""
     for k in range(len(traj.t)):
-        state = np.concatenate([traj.p_WCm_W[k].ravel(), traj.quat_WB[k].ravel(), traj.v_WCm_W[k].ravel(), traj.w_WB_W[k].ravel()])
-        if not np.all(np.isfinite(state)):
-            return f"non-finite state at t = {traj.t[k]:.6g} s", k
-        speed = max(np.abs(traj.v_WCm_W[k]).max(initial=0.0), np.abs(traj.w_WB_W[k]).max(initial=0.0))
-        if speed > BLOWUP_SPEED:
-            return f"speed {speed:.3g} beyond {BLOWUP_SPEED:g} at t = {traj.t[k]:.6g} s", k
+        reason = maximal_blowup(traj.p_WCm_W[k], traj.quat_WB[k], traj.v_WCm_W[k], traj.w_WB_W[k])
+        if reason:
+            return f"{reason} at t = {traj.t[k]:.6g} s", k
     return "", len(traj.t)
 
 
 def _truncate(traj: Trajectory, n: int) -> Trajectory:
     return Trajectory(traj.engine, traj.integrator, traj.body_names, traj.t[:n], traj.p_WCm_W[:n], traj.quat_WB[:n],
                       traj.v_WCm_W[:n], traj.w_WB_W[:n], stats=dict(traj.stats))
-
-
-def _with(traj: Trajectory, **changes) -> Trajectory:
-    from dataclasses import replace
-
-    return replace(traj, **changes)
 
 
 def _edge_flip(system, traj: Trajectory, model) -> str:
