@@ -69,8 +69,8 @@ class AsWritten:
     ``engine``: ``mujoco`` (the MJCF, ``read_spec().compile()``), ``pinocchio`` (the URDF,
     ``read_urdf`` with the scene's root joint) or ``exudyn`` (no file: the system built from
     the scene's description, ``harness.engines.exudyn.model``); ``path``: the file
-    (``scene.toml`` for Exudyn); ``model``: the compiled ``MjModel``, ``pin.Model`` or the
-    ``ExudynSystem``; ``discrepancies``: every quantity of every body
+    (``scene.toml`` for Exudyn); ``model``: the compiled ``MjModel``, ``pin.Model``, Drake's
+    ``(plant, joints)`` (``harness.engines.drake.model.parse``) or the ``ExudynSystem``; ``discrepancies``: every quantity of every body
     (``harness.tools.loaded_models.body_discrepancies`` at ``AS_WRITTEN_RTOL``) and, for the
     MJCF, its gravity (at ``APPLIED_RTOL``; a URDF cannot state gravity).
     """
@@ -110,7 +110,7 @@ def as_written(scene: Scene, engine: str, model0: Multibody | None = None) -> As
         from harness.engines.drake.model import drake_bodies, parse
 
         plant, _, joints = parse(scene.urdf, scene.urdf_root_joint, model0, springs=False)
-        return AsWritten(engine, scene.urdf, plant,
+        return AsWritten(engine, scene.urdf, (plant, joints),
                          body_discrepancies(drake_bodies(plant, joints, model0), model0, rtol=AS_WRITTEN_RTOL))
     if engine == "exudyn":  # built from the description (Exudyn reads no model file): what it holds
         from harness.engines.exudyn.integrators import NODE_TYPE
@@ -252,9 +252,8 @@ def inspect_scene(scene: Scene, *, n_states: int = dc.DEFAULT_STATES, seed: int 
         from harness.engines.drake.model import drake_bodies
 
         dw = as_written(scene, "drake", model0)
-        joints = parse_drake_joints(scene, model0)
         ld = Load(f"Drake <- {scene.urdf.name} as written (against the scene.toml defaults; Drake's own URDF parser)", True)
-        ld.details = _loaded_lines(drake_bodies(dw.model, joints, model0))
+        ld.details = _loaded_lines(drake_bodies(*dw.model, model0))
         ld.problems = dw.problems
         loads.append(ld)
 
@@ -285,13 +284,6 @@ def _exudyn_load(scene: Scene, model: Multibody) -> Load:
                           f"centre at body {_v(marker['localPosition'])} m (the lower rim edge), axis {_v(obj['discAxis'])}")
     ld.problems = compare_bodies(bodies, model, rtol=APPLIED_RTOL) + _gravity(gravity, model)
     return ld
-
-
-def parse_drake_joints(scene: Scene, model0: Multibody) -> dict:
-    """Scene body name -> the Drake joint that moves it (None: floating) in the URDF as written."""
-    from harness.engines.drake.model import parse
-
-    return parse(scene.urdf, scene.urdf_root_joint, model0, springs=False)[2]
 
 
 def _gravity(g, model: Multibody, rtol: float = APPLIED_RTOL) -> list[str]:
