@@ -79,6 +79,24 @@ ERRATA: tuple[Erratum, ...] = (
                "tests/references/test_rolling_disk.py::test_steady_circular_motion_keeps_the_lean"),
     ),
     Erratum(
+        location="Ex. 5.1.1 (l. 2627)",
+        title="generalized force of the piston force on a crankshaft",
+        kind="sign error",
+        printed="Q_θ = F dx/dθ = −F a sin θ (1 − a cos θ/√(b² − a² sin² θ))",
+        correct="Q_θ = F dx/dθ = −F a sin θ (1 + a cos θ/√(b² − a² sin² θ)) (with an offset e of the piston's "
+                "line: Q_θ = F(−a sin θ + a s cos θ/w), s = e − a sin θ, w = √(b² − s²); "
+                "harness.references.slider_crank.generalized_force_piston)",
+        why="The book's own lines before it are right: x = a cos θ + √(b² − a² sin² θ) and δx = −(a sin θ + "
+            "a² sin θ cos θ/√(b² − a² sin² θ)) δθ; factoring −a sin θ out of δx gives (1 + …). The printed form "
+            "differs from F dx/dθ by 2F a² sin θ cos θ/√(…): for a = 0.1 m, b = 0.3 m, F = −2 N at θ = 0.5 rad it "
+            "gives 0.0675 N m instead of 0.1243 N m. With it the crank's equation of motion does not conserve "
+            "T + V − F x (drift > 1e-3 relative in 2 s; the corrected Q_θ: < 1e-11), and the corrected one "
+            "agrees with a constrained integration in (θ, φ, x) and with the in-house engine (scene "
+            "slider_crank).",
+        tests=("tests/references/test_slider_crank.py::test_ex_511_printed_generalized_force_has_the_wrong_sign",
+               "tests/references/test_slider_crank.py::test_reference_matches_the_multiplier_form"),
+    ),
+    Erratum(
         location="Ex. 5.2.2 (l. 2854)",
         title="nonlinear φ equation of the double pendulum",
         kind="sign error",
@@ -186,6 +204,9 @@ VERIFIED: tuple[tuple[str, str, str], ...] = (
      "tests/references/test_cart_pendulum.py::test_textbook_ex161_cart_speed_and_ex151_frequency"),
     ("Ex. 2.2.1", "angular velocity of a top in the non-spinning frame",
      "tests/references/test_heavy_top.py::test_heavy_top_cos_theta_matches_integration"),
+    ("Problem 3.4 (answer l. 3445)", "collars: v_B = (1/3)v e_y, a_B = −25v²/(27L) e_y (guides skew at OD = 0.3L, "
+     "b = OA = 0.4L; the figure is not in the OCR'd copy)",
+     "tests/references/test_slider_crank.py::test_problem_34_collars"),
     ("Ex. 4.2.1, 4.5.1", "plate inertia m(a² + b²)/3 and (4/3)m(a² + b²) about the corner",
      "tests/references/test_plate_pendulum.py::test_textbook_plate_inertia"),
     ("Ex. 4.5.1", "ω_max = √(3g(√(a² + b²) − b)/(2(a² + b²)))",
@@ -196,6 +217,8 @@ VERIFIED: tuple[tuple[str, str, str], ...] = (
      "tests/references/test_rotating_plate.py::test_couple_is_the_rate_of_angular_momentum"),
     ("§4.7, Eqs. 4.60–4.73", "Euler's equations, stability β, symmetric solution, cone angles",
      "tests/references/test_torque_free.py::test_torque_free_textbook_stability_beta"),
+    ("Ex. 5.1.1", "sin φ = (a/b) sin θ, x = a cos θ + √(b² − a² sin² θ), δx (the Q_θ that follows: erratum)",
+     "tests/references/test_slider_crank.py::test_ex_511_printed_generalized_force_has_the_wrong_sign"),
     ("Ex. 5.3.1", "Lagrange's equations, r* = L + mg/k, ω_1 = √(k/m), ω_2 = √(g/r*)",
      "tests/references/test_spring_pendulum.py::test_textbook_frequencies_from_small_oscillations"),
     ("Ex. 6.1.1", "ω = 0.86, 2.30 √(g/L); mode ratios 1.43, −2.10; unit vectors",

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from harness.measure import invariants
+from harness.model import loop_closure as closure
 from harness.model import rotations
 from harness.model.joints import JOINTS, joint_frames
 from harness.model.joints import angular_conditions as joints_angular_conditions
@@ -162,6 +163,29 @@ def constraint_violation(traj: Trajectory, model: Multibody) -> dict[str, float]
             value = float(np.max(condition.violation(*frames, body.axis_B)))
             worst[condition.measure] = max(worst[condition.measure], value)
     return worst
+
+
+def loop_closure(traj: Trajectory, model: Multibody) -> dict[str, dict[str, float]]:
+    """Per cut joint (``Multibody.loops``), the largest closure residual of each kind over the
+    samples, from maximal coordinates (``harness.model.loop_closure.residuals``): ``position``
+    (m), ``velocity`` (m/s) and, for a hinge, ``axis`` (rad) and ``axis_rate`` (rad/s). Empty
+    for a tree."""
+    out = {}
+    if not model.loops or len(traj.t) == 0:
+        return out
+    R_all = rotations.matrix(traj.quat_WB.reshape(-1, 4)).reshape(traj.quat_WB.shape[:2] + (3, 3))
+    n = len(traj.t)
+    for loop in model.loops:
+        ends = []
+        for body, p, axis in ((loop.body_a, loop.p_A, loop.axis_A), (loop.body_b, loop.p_B, loop.axis_B)):
+            if body is None:
+                ends.append(closure.world_end(p, axis, (n,)))
+                continue
+            i = traj.body_index(body)
+            ends.append(closure.end(traj.p_WCm_W[:, i], R_all[:, i], traj.v_WCm_W[:, i], traj.w_WB_W[:, i],
+                                         model.body(body).p_BCm_B, p, axis))
+        out[loop.name] = {k: float(np.max(v)) for k, v in closure.residuals(loop, *ends).items()}
+    return out
 
 
 def angular_conditions(model: Multibody) -> list[str]:

@@ -368,6 +368,18 @@ def by_urdf_root(root: str) -> JointType | None:
     return next((jt for jt in JOINTS.values() if jt.urdf_root == root), None)
 
 
+def keeps_axis(kind: str) -> bool:
+    """Whether joints of ``kind`` keep an axis aligned between their two bodies (``ALIGNED``: a
+    hinge), e.g. to know whether a loop joint has axis rows."""
+    return ALIGNED in JOINTS[kind].conditions
+
+
+def loop_kinds() -> tuple[str, ...]:
+    """The kinds a loop (cut) joint may be (``harness.model.multibody.LoopJoint``): those whose
+    conditions start with a coinciding joint point (ball, hinge)."""
+    return tuple(name for name, jt in JOINTS.items() if jt.conditions[:1] == (POINT,))
+
+
 def angular_conditions(kinds: Iterable[str]) -> list[str]:
     """"<kind> <condition>" for each angular condition (``measure == "axis"``) that the joint
     kinds ``kinds`` impose, in table order (e.g. ``["hinge axes stay aligned"]``)."""

@@ -16,7 +16,7 @@ import numpy as np
 
 from harness.model.forces import JointSpring, PointForce
 
-__all__ = ["Body", "JointSpring", "Multibody", "PointForce", "RollingContact"]
+__all__ = ["Body", "JointSpring", "LoopJoint", "Multibody", "PointForce", "RollingContact"]
 
 
 @dataclass(frozen=True)
@@ -70,6 +70,42 @@ class RollingContact:
 
 
 @dataclass(frozen=True)
+class LoopJoint:
+    """A joint that closes a kinematic loop (a *cut joint*): it connects two bodies that the tree
+    of ``Body`` joints already connects, so its conditions are extra constraints, not a tree edge.
+
+    A URDF cannot state it; the MJCF states it as ``<equality><connect site1 site2>`` between two
+    sites (one ``connect`` for a ball, two for a hinge: at the joint point and at the point one
+    ``hinge_span`` along the axis). Its rows may be redundant with the tree's (a planar loop
+    closed by a hinge: 3 of its 5 rows are implied by the other hinges); engines must handle that.
+
+    Attributes:
+        name: the cut joint's name (its reaction key ``<name>``; its MJCF sites are
+            ``<name>_a``, ``<name>_b`` and, for a hinge, ``<name>_a2``, ``<name>_b2``; its
+            equalities ``<name>`` and ``<name>_2``).
+        kind: a joint kind of ``harness.model.joints.loop_kinds()``: a ball (the two points
+            coincide, 3 rows) or a hinge (the points coincide and the axes stay aligned, 5 rows).
+        body_a: the body carrying the first end (its reaction is the force on this body).
+        body_b: the body carrying the second end, or None for the world.
+        p_A: the joint point in body_a's frame (m).
+        p_B: the joint point in body_b's frame, or in world for the world (m).
+        axis_A, axis_B: the unit hinge axis in body_a's and in body_b's frame (ignored for a
+            ball); at the initial state they coincide in world.
+        hinge_span: distance (m) between the two MJCF connect points of a hinge, > 0.
+    """
+
+    name: str
+    kind: str
+    body_a: str
+    body_b: str | None
+    p_A: np.ndarray
+    p_B: np.ndarray
+    axis_A: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    axis_B: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    hinge_span: float = 0.1
+
+
+@dataclass(frozen=True)
 class Multibody:
     """A scene's mechanical system: bodies in tree order, gravity, forcing and initial state.
 
@@ -81,6 +117,8 @@ class Multibody:
         springs: joint springs (empty when the scene has none).
         (Every force-element field is named in ``harness.model.forces.FORCES``.)
         contacts: rolling contacts with the plane z = 0 (empty when the scene has none).
+        loops: cut joints closing kinematic loops (empty for a tree). The initial state
+            ``q0, v0`` must satisfy them (a builder assembles the loop).
     """
 
     bodies: tuple[Body, ...]
@@ -90,6 +128,7 @@ class Multibody:
     forces: tuple[PointForce, ...] = field(default_factory=tuple)
     springs: tuple[JointSpring, ...] = field(default_factory=tuple)
     contacts: tuple[RollingContact, ...] = field(default_factory=tuple)
+    loops: tuple[LoopJoint, ...] = field(default_factory=tuple)
 
     def body(self, name: str) -> Body:
         for b in self.bodies:

@@ -8,7 +8,8 @@ import numpy as np
 
 from harness.model.errors import InputError
 from harness.model.forces import check_forces
-from harness.model.joints import JOINTS, TRANSLATIONAL
+from harness.model.joints import JOINTS, TRANSLATIONAL, keeps_axis, loop_kinds
+from harness.model.loop_closure import initial_residuals
 from harness.model.multibody import Multibody
 
 
@@ -59,3 +60,46 @@ def check_multibody(model: Multibody, source: str) -> None:
     if not np.all(np.isfinite(model.gravity_W)):
         raise InputError(f"{source}: gravity is not finite")
     check_forces(model, source)
+    check_loops(model, source)
+
+
+#: How far (m, rad; m/s, rad/s) the initial state may be from closing a loop: a builder assembles
+#: it to round-off, a hand-typed initial state that does not close is refused.
+LOOP_ASSEMBLY_TOL = 1e-9
+
+
+def check_loops(model: Multibody, source: str) -> None:
+    """Raise InputError unless every cut joint (``Multibody.loops``) names known bodies and a loop
+    kind, has finite points and unit axes, and the initial state closes it (``LOOP_ASSEMBLY_TOL``
+    times the larger of 1 and the model's size; ``harness.model.loop_closure``)."""
+    if not model.loops:
+        return
+    bodies = set(model.body_names)
+    seen = set()
+    for loop in model.loops:
+        where = f"loop joint {loop.name!r}"
+        if loop.name in seen or loop.name in bodies:
+            raise InputError(f"{source}: {where}: name used twice")
+        seen.add(loop.name)
+        if loop.kind not in loop_kinds():
+            raise InputError(f"{source}: {where}: kind must be one of {', '.join(loop_kinds())}, got {loop.kind!r}")
+        for body in (loop.body_a, loop.body_b):
+            if body is not None and body not in bodies:
+                raise InputError(f"{source}: {where}: unknown body {body!r}")
+        if loop.body_a == loop.body_b:
+            raise InputError(f"{source}: {where}: both ends on body {loop.body_a!r}")
+        for label, vec in (("p_A", loop.p_A), ("p_B", loop.p_B), ("axis_A", loop.axis_A), ("axis_B", loop.axis_B)):
+            if np.shape(vec) != (3,) or not np.all(np.isfinite(vec)):
+                raise InputError(f"{source}: {where}: {label} must be three finite numbers")
+        if keeps_axis(loop.kind):
+            for label, vec in (("axis_A", loop.axis_A), ("axis_B", loop.axis_B)):
+                if abs(float(np.linalg.norm(vec)) - 1.0) > 1e-9:
+                    raise InputError(f"{source}: {where}: {label} must be a unit vector")
+            if not (np.isfinite(loop.hinge_span) and loop.hinge_span > 0.0):
+                raise InputError(f"{source}: {where}: hinge_span must be positive")
+    size = max([1.0] + [float(np.linalg.norm(b.p_PB_P)) for b in model.bodies])
+    for name, res in initial_residuals(model).items():
+        for kind, value in res.items():
+            if not value <= LOOP_ASSEMBLY_TOL * size:
+                raise InputError(f"{source}: loop joint {name!r}: the initial state does not close the loop "
+                                 f"({kind} residual {value:.3g})")

@@ -57,6 +57,7 @@ CHECKS: dict[str, tuple[str, ...]] = {
     "momentum_drift": ("components",) + ENGINE_NAMES,
     "trajectory": ("position", "orientation", "velocity"),
     "constraint": ENGINE_NAMES,
+    "closure": ("position", "velocity"),
     "exact": ENGINE_NAMES,
     "reaction": ENGINE_NAMES,
     "slip": ENGINE_NAMES,

@@ -49,9 +49,13 @@ from harness.tools.loaded_models import (
     gravity_discrepancy,
     gravity_problem,
     mujoco_bodies,
+    mujoco_loop_discrepancies,
     pinocchio_bodies,
     pinocchio_joint_bodies,
 )
+from harness.engines.mujoco.loops import loop_points
+from harness.engines.mujoco.loops import settings_text as loop_settings
+from harness.model.joints import keeps_axis
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene, load_scene
 
@@ -100,6 +104,7 @@ def as_written(scene: Scene, engine: str, model0: Multibody | None = None) -> As
     if engine == "mujoco":
         m = _compile_as_written(scene)
         found = body_discrepancies(mujoco_bodies(m, model0), model0, rtol=AS_WRITTEN_RTOL)
+        found += mujoco_loop_discrepancies(m, model0, rtol=AS_WRITTEN_RTOL)  # cut joints: the <connect> sites
         found.append(gravity_discrepancy(np.asarray(m.opt.gravity, dtype=float), model0.gravity_W, APPLIED_RTOL))
         return AsWritten(engine, scene.mjcf, m, found)
     if engine == "pinocchio":
@@ -192,7 +197,19 @@ def describe_multibody(model: Multibody) -> list[str]:
     lines = [f"  gravity {_v(model.gravity_W)} m/s^2 (world)"]
     for b in model.bodies:
         lines += body_lines(b.name, b.joint, b.axis_B, b.p_PB_P, b.mass, b.p_BCm_B, b.I_Cm_B)
+    for lp in model.loops:
+        axes = f", axis {_v(lp.axis_A)} in {lp.body_a}, {_v(lp.axis_B)} in {lp.body_b or 'world'}" if keeps_axis(lp.kind) else ""
+        lines.append(f"  loop joint {lp.name}: {lp.kind} closing the tree between {lp.body_a} at {_v(lp.p_A)} m "
+                     f"and {lp.body_b or 'world'} at {_v(lp.p_B)} m (body frames){axes}")
     return lines
+
+
+def _mujoco_loop_lines(m: mujoco.MjModel) -> list[str]:
+    """The site-based <connect> equalities of a compiled model and their soft-constraint settings."""
+    lines = [f"  equality {name}: connect {ends[0][0]} at {_v(ends[0][1])} m to {ends[1][0]} at {_v(ends[1][1])} m"
+             for name, ends in loop_points(m).items()]
+    text = loop_settings(m)
+    return lines + ([f"  {text}"] if text else [])
 
 
 def _mujoco_options(m: mujoco.MjModel, scene: Scene) -> str:
@@ -217,8 +234,9 @@ def inspect_scene(scene: Scene, *, n_states: int = dc.DEFAULT_STATES, seed: int 
     m = load_mjcf(scene.mjcf, model)
     ld = Load(f"MuJoCo <- {scene.mjcf.name} with the scene's parameters (load_mjcf)", True)
     mb = mujoco_bodies(m, model)
-    ld.details = [_mujoco_options(m, scene)] + _loaded_lines(mb)
-    ld.problems = compare_bodies(mb, model, rtol=APPLIED_RTOL) + _gravity(m.opt.gravity, model)
+    ld.details = [_mujoco_options(m, scene)] + _loaded_lines(mb) + _mujoco_loop_lines(m)
+    ld.problems = (compare_bodies(mb, model, rtol=APPLIED_RTOL) + _gravity(m.opt.gravity, model)
+                   + [d.message for d in mujoco_loop_discrepancies(m, model, rtol=APPLIED_RTOL) if not d.passed])
     loads.append(ld)
     pmodel, _ = load_urdf(scene.urdf, scene.urdf_root_joint, model)
     lp = Load(f"Pinocchio <- {scene.urdf.name} with the scene's parameters (load_urdf, root joint {scene.urdf_root_joint})", True)

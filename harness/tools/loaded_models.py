@@ -219,6 +219,36 @@ def body_discrepancies(loaded: list[LoadedBody], model: Multibody, rtol: float =
     return out
 
 
+def mujoco_loop_discrepancies(m, model: Multibody, rtol: float = 1e-9) -> list[Discrepancy]:
+    """Every cut joint of the description (``Multibody.loops``) against the compiled MJCF's
+    site-based ``<connect>`` equalities that state it (``harness.engines.mujoco.loops.connects``):
+    each equality present, each site on the right body, at the right point (distance over the
+    loop's length scale, the largest |p| of its points, at least 1 mm). Each is named by the
+    equality (``body`` = its name, ``quantity`` = ``present``, ``site1``, ``site2`` or
+    ``site<k>_body``), so a validation check reads ``model.cut_2.site1``."""
+    from harness.engines.mujoco.loops import connects, loop_points
+
+    found = loop_points(m)
+    out = []
+    for loop in model.loops:
+        for eq_name, *ends in connects(loop):
+            if eq_name not in found:
+                out.append(Discrepancy(eq_name, "present", 1.0, 0.0, "",
+                                       f"{loop.name}: no site-based <connect> named {eq_name!r}"))
+                continue
+            length = max([1e-3] + [float(np.linalg.norm(pos)) for _, _, pos in ends])
+            for k, ((site, body, pos), (got_body, got_pos)) in enumerate(zip(ends, found[eq_name]), start=1):
+                want = body or "world"
+                if got_body != want:
+                    out.append(Discrepancy(eq_name, f"site{k}_body", 1.0, 0.0, "",
+                                           f"{loop.name}: {eq_name} site{k} on body {got_body!r}, scene says {want!r}"))
+                    continue
+                out.append(Discrepancy(eq_name, f"site{k}", float(np.linalg.norm(got_pos - pos)) / length, rtol,
+                                       "rel", f"{loop.name}: {eq_name} site{k} at {got_pos.tolist()} m in {want}, "
+                                              f"scene says {pos.tolist()} m"))
+    return out
+
+
 def compare_bodies(loaded: list[LoadedBody], model: Multibody, rtol: float = 1e-9) -> list[str]:
     """Disagreements between loaded bodies and the scene description, one message each
     (the failing ``body_discrepancies``)."""

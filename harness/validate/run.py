@@ -336,6 +336,8 @@ def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Traj
         what = compare.angular_conditions(model)  # e.g. "hinge axes stay aligned" (joint table)
         if what:
             add("constraint.axis", viol["axis"], tol, "rad", ", ".join(what))
+    if "closure" in checks:
+        _check_closure(checks["closure"], engine, traj, model, add)
     if "exact" in checks:
         tol = checks["exact"][engine]
         try:
@@ -353,6 +355,29 @@ def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Traj
     if mismatch is not None:
         add("engine_energy", mismatch, ENGINE_ENERGY_TOL, "rel", "engine's own energy vs harness recomputation")
     return out
+
+
+def _check_closure(table, engine: str, traj: Trajectory, model, add) -> None:
+    """``closure.position`` (m) and ``closure.velocity`` (m/s): the largest gap and relative
+    velocity of the cut joints' points (``compare.loop_closure``), and for hinges ``closure.axis``
+    (rad, judged with the position tolerance) and ``closure.axis_rate`` (rad/s, with the velocity
+    tolerance); the detail names the worst cut joint."""
+    found = compare.loop_closure(traj, model)
+    if not found:
+        add("closure.position", float("nan"), quantities.per_engine(table["position"], engine), "",
+            "the scene has [checks.closure] but no loop joints")
+        return
+    units = {"position": ("m", "position"), "axis": ("rad", "position"), "velocity": ("m/s", "velocity"),
+             "axis_rate": ("rad/s", "velocity")}
+    texts = {"position": "cut points coincide", "axis": "cut hinge axes stay aligned",
+             "velocity": "cut points move together", "axis_rate": "relative rotation only about the cut hinge axis"}
+    for kind, (unit, key) in units.items():
+        values = {name: res[kind] for name, res in found.items() if kind in res}
+        if not values:
+            continue
+        worst = max(values, key=lambda n: values[n])
+        add(f"closure.{kind}", values[worst], quantities.per_engine(table[key], engine), unit,
+            f"{texts[kind]}; worst: {worst}")
 
 
 def _check_reactions(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Trajectory | None, model, add) -> None:

@@ -200,7 +200,8 @@ def test_table_agrees_with_mujoco_pinocchio_and_the_inhouse_model(name):
     assert sum(JOINTS[b.joint].nq for b in model.bodies) == m.nq == pmodel.nq
     assert sum(JOINTS[b.joint].nv for b in model.bodies) == m.nv == pmodel.nv
     # the in-house model removes the table's rows (plus 3 per rolling contact)
-    assert build(model).nc == sum(JOINTS[b.joint].rows for b in model.bodies) + 3 * len(model.contacts)
+    assert build(model).nc == (sum(JOINTS[b.joint].rows for b in model.bodies) + 3 * len(model.contacts)
+                               + sum(JOINTS[lp.kind].rows for lp in model.loops))
 
 
 @pytest.mark.parametrize("name", SCENES)

@@ -6,7 +6,7 @@ import pytest
 
 from harness.engines.mujoco.model import load_mjcf, read_spec
 from harness.engines.pinocchio.model import load_urdf, read_urdf
-from harness.tools.loaded_models import compare_bodies, mujoco_bodies, pinocchio_bodies
+from harness.tools.loaded_models import compare_bodies, mujoco_bodies, mujoco_loop_discrepancies, pinocchio_bodies
 from harness.model.scene import available_scenes, load_scene
 
 SCENES = available_scenes()
@@ -21,6 +21,9 @@ OVERRIDES = {
     "rolling_disk": {"mass": 0.02, "R": 0.03, "h": 0.004},
     "spring_pendulum": {"m": 0.5, "k": 90.0, "L": 0.3, "rb": 0.03, "m_hub": 0.2, "r_hub": 0.02},
     "rotating_plate": {"m": 2.0, "a": 0.3, "h": 0.02, "phi": 0.9},
+    "four_bar": {"a": 0.15, "b": 0.55, "c": 0.35, "d": 0.5, "m_coupler": 1.7, "theta0": 2.0},
+    "four_bar_near_singular": {"a": 0.25, "c": 0.31, "m_rocker": 0.3, "branch": -1.0},
+    "slider_crank": {"a": 0.12, "b": 0.4, "e": 0.03, "w": 0.08, "m_slider": 2.0},
 }
 
 
@@ -46,6 +49,23 @@ def test_overrides_reach_mujoco_and_pinocchio(name):
     pmodel, _ = load_urdf(scene.urdf, scene.urdf_root_joint, model)
     assert compare_bodies(mujoco_bodies(m, model), model) == []
     assert compare_bodies(pinocchio_bodies(pmodel, model), model) == []
+    assert [d.message for d in mujoco_loop_discrepancies(m, model) if not d.passed] == []
+
+
+def test_a_loop_site_moved_in_the_mjcf_is_named():
+    """A cut joint's <connect> site off its point in the file, or an equality missing, fails the
+    as-written check, naming it."""
+    scene = load_scene("four_bar")
+    model = scene.multibody()
+    spec = read_spec(scene.mjcf)
+    spec.site("cut_b").pos = [0.41, 0.0, 0.0]
+    found = [d for d in mujoco_loop_discrepancies(spec.compile(), model) if not d.passed]
+    assert [(d.body, d.quantity) for d in found] == [("cut", "site2")]
+    assert "0.41" in found[0].message and "scene says [0.4, 0.0, 0.0]" in found[0].message
+    spec = read_spec(scene.mjcf)
+    next(e for e in spec.equalities if e.name == "cut_2").name = "renamed"
+    found = [d for d in mujoco_loop_discrepancies(spec.compile(), model) if not d.passed]
+    assert [(d.body, d.quantity) for d in found] == [("cut_2", "present")] and "'cut_2'" in found[0].message
 
 
 def test_compare_bodies_names_a_wrong_inertia():

@@ -34,6 +34,11 @@ from harness.model.joints import JOINTS
 from harness.model.scene import Scene
 
 
+#: Why Drake does not run a scene with loop joints (``Multibody.loops``).
+LOOPS_UNSUPPORTED = ("Drake's continuous-time MultibodyPlant has no loop-closing constraint (its ball, distance and "
+                     "weld constraints need a discrete SAP plant), and a URDF cannot state a loop")
+
+
 class DrakeEngine:
     """Runs a scene in Drake from its URDF file."""
 
@@ -54,6 +59,8 @@ class DrakeEngine:
         names = tuple(model.body_names)
         method = settings.integrator
         start = time.perf_counter()
+        if model.loops:  # a continuous MultibodyPlant has no loop-closing constraint
+            return unsupported(self.name, method, names, f"{method}: {LOOPS_UNSUPPORTED}")
         try:
             dm = build(scene, model)
         except NotImplementedError as err:

@@ -2,10 +2,14 @@
 
 A different formulation from the other engines (MuJoCo and Pinocchio: reduced coordinates and
 articulated-body dynamics; in-house: maximal coordinates with Baumgarte-stabilised or projected
-index-1 constraints): Exudyn integrates every body's absolute coordinates and enforces joints
-and the rolling contact as algebraic equations with Lagrange multipliers, solved with the time
-step (index 3 or index 2; ``harness.engines.exudyn.integrators``). The system is built from the
-scene's description (``harness.engines.exudyn.model``); Exudyn reads no model file.
+index-1 constraints): Exudyn integrates every body's absolute coordinates and enforces joints,
+loop (cut) joints and the rolling contact as algebraic equations with Lagrange multipliers,
+solved with the time step (index 3 or index 2; ``harness.engines.exudyn.integrators``). The
+system is built from the scene's description (``harness.engines.exudyn.model``); Exudyn reads
+no model file. A loop joint is an ``ObjectJointGeneric`` stating the loop's rows that are not
+structurally implied by the tree (``harness.engines.exudyn.model.loop_rows``); when rows are
+dependent at the initial state only, every row is kept and the run uses Eigen's full-pivot LU
+(``EigenDense`` with ``ignoreSingularJacobian``). The run record's settings name the rows.
 
 Maximal coordinates come from Exudyn's sensors at every saved sample: the centre of mass
 position and velocity (m, m/s, world), the rotation matrix and the world angular velocity
@@ -19,7 +23,16 @@ its first body (the parent); the force on the child (the harness's convention: w
 parent exerts on the child, about the joint point) is its negative. For the rolling contact,
 the rolling-disc joint's ``ForceLocal`` (the force on the disc in Exudyn's contact frame J1:
 lateral, longitudinal, normal) is turned to world with the joint's ``RotationMatrix`` output
-(J1 -> world); the moment about the contact point is zero (an ideal point contact).
+(J1 -> world); the moment about the contact point is zero (an ideal point contact). A loop joint
+``<name>`` (``LoopJoint``) reports under its name the reaction on body_a (its first marker):
+the generic joint's ``ForceLocal`` in J_A turned to world (N), and the moment about the joint
+point (N m, world) of the multipliers of its stated rotation conditions (``TorqueLocal``,
+``rotation_conditions``), zero for a ball. A row left out as redundant carries nothing: the tree
+joints take that direction. Like every multiplier here, the loop's starts off when a joint
+point away from a node moves at t = 0 (Exudyn's initial accelerations) and generalized-alpha
+damps the error out: on a spatial ball loop (tests/engines/exudyn/test_loops.py), 1.3e-2 of the
+force scale at t = 0, 1.3e-4 from 0.1 s and 1.3e-5 from 0.2 s at a 1e-3 s step (the tree's ball
+joints of that model alike; a double pendulum whose upper bar turns at t = 0 shows it too).
 """
 
 from __future__ import annotations
@@ -31,7 +44,7 @@ import numpy as np
 
 from harness.engines.base import RunSettings, check_settings, maximal_blowup
 from harness.engines.exudyn.integrators import IMPLICIT, METHODS, NODE_TYPE
-from harness.engines.exudyn.model import build
+from harness.engines.exudyn.model import build, rotation_conditions
 from harness.measure.trajectory import Trajectory, unsupported
 from harness.model import rotations
 from harness.model.joints import JOINTS
@@ -77,8 +90,8 @@ class ExudynEngine:
         names = tuple(model.body_names)
         method = settings.integrator
         constrained = [b.name for b in model.bodies if JOINTS[b.joint].constrained]
-        if method not in IMPLICIT and (constrained or model.contacts):
-            what = "joints" if constrained else "a rolling contact"
+        if method not in IMPLICIT and (constrained or model.loops or model.contacts):
+            what = "joints" if constrained or model.loops else "a rolling contact"
             return unsupported(self.name, method, names,
                                f"{method}: Exudyn's explicit solvers take no algebraic equations and this scene has {what} "
                           f"(implicit: {', '.join(IMPLICIT)})")
@@ -89,6 +102,10 @@ class ExudynEngine:
             return unsupported(self.name, method, names, f"{method}: {err}")
         n_steps = settings.n_saves * settings.steps_per_save
         ss = _solver_settings(exu, settings, n_steps)
+        if system.loop_rows is not None and system.loop_rows.singular:
+            # loop rows dependent at the initial state only: Eigen's full-pivot LU resolves them
+            ss.linearSolver.solverType = exu.LinearSolverType.EigenDense
+            ss.linearSolver.ignoreSingularJacobian = True
         printing = exu.config.printToConsole
         exu.config.printToConsole = False  # Exudyn's own failure banner; the run record says it
         status, message = "ok", ""
@@ -119,7 +136,7 @@ class ExudynEngine:
             "steps": n_steps if status == "ok" else max(len(out.t) - 1, 0) * settings.steps_per_save,
             "wall_s": time.perf_counter() - start,
             "wall_solve_s": wall_solve,
-            "settings": _describe(method, settings, model),
+            "settings": _describe(method, settings, model, system),
         })
         if status != "ok":
             return replace(out, status=status, message=message)
@@ -150,7 +167,7 @@ def _solver_settings(exu, settings: RunSettings, n_steps: int):
     return ss
 
 
-def _describe(method: str, settings: RunSettings, model) -> str:
+def _describe(method: str, settings: RunSettings, model, system=None) -> str:
     node = NODE_TYPE[method]
     text = f"Exudyn {method} on {node} nodes, step {settings.dt:g} s"
     if method in IMPLICIT:
@@ -161,6 +178,8 @@ def _describe(method: str, settings: RunSettings, model) -> str:
             text += ", index-2 constraints"
     if model.contacts:
         text += ", rolling contact: ObjectJointRollingDisc at the lower rim edge"
+    if system is not None and system.loop_rows is not None:
+        text += f", loop joints as ObjectJointGeneric rows ({system.loop_rows.describe()})"
     return text
 
 
@@ -261,11 +280,36 @@ def reaction_series(system, model, traj: Trajectory, *, reactions: bool) -> dict
                 J1 = rotations.matrix(traj.quat_WB[:, traj.body_index(body)]) @ joint_frame(system.mbs, joint, 1)
                 moment_W = moment_of_conditions(spec.rotation_conditions, J0, J1, lam)
             out[body] = (-force_W, moment_W)  # Exudyn reports the force on the parent
+        for name, (force, torque) in system.loop_sensors.items():
+            force_J0, torque_J0 = (_stored(system, s)[:n, 1:4] for s in (force, torque))
+            out[name] = _loop_reaction(system, traj, name, force_J0, torque_J0)
     for name, (force, frame) in system.contact_sensors.items():
         f_J1 = _stored(system, force)[:n, 1:4]
         A = _stored(system, frame)[:n, 1:10].reshape(-1, 3, 3)  # J1 (lateral, longitudinal, normal) -> world
         out[name] = (np.einsum("nij,nj->ni", A, f_J1), np.zeros((n, 3)))
     return out
+
+
+def _loop_reaction(system, traj: Trajectory, name: str, force_J0: np.ndarray, torque: np.ndarray):
+    """A loop joint's reaction on body_a (its marker 0): force (N, world) and moment about the
+    joint point (N m, world), from the generic joint's ``ForceLocal`` (J_A) and the multipliers
+    of its rotation conditions (``rotation_conditions``; ``moment_of_conditions`` gives the
+    moment on the second body, body_b: body_a gets its opposite)."""
+    joint, rows, body_a, body_b = system.loops[name]
+    n = len(traj.t)
+
+    def rotation(body):
+        return np.broadcast_to(np.eye(3), (n, 3, 3)) if body is None else rotations.matrix(traj.quat_WB[:, traj.body_index(body)])
+
+    J0 = rotation(body_a) @ joint_frame(system.mbs, joint, 0)
+    force_W = np.einsum("nij,nj->ni", J0, force_J0)
+    conditions = rotation_conditions(rows)
+    moment_W = np.zeros((n, 3))
+    if conditions:
+        J1 = rotation(body_b) @ joint_frame(system.mbs, joint, 1)
+        lam = torque[:, [k for k, _ in conditions]]
+        moment_W = -moment_of_conditions([pair for _, pair in conditions], J0, J1, lam)
+    return force_W, moment_W
 
 
 ENGINE = ExudynEngine()

@@ -14,9 +14,9 @@ Lie-group form, it runs):
   condition one more algebraic equation), constraints at velocity level (index 2: the position
   constraints drift slowly). Order 2.
 * ``RK44``, ``RK67``: explicit Runge-Kutta of order 4 and 6 with Lie-group updates of
-  rotation-vector nodes. Exudyn's explicit solvers take no algebraic equations, hence no joint
-  and no rolling contact: they run only scenes whose bodies are all free (else the run is
-  "unsupported").
+  rotation-vector nodes. Exudyn's explicit solvers take no algebraic equations, hence no joint,
+  no loop joint and no rolling contact: they run only scenes whose bodies are all free and
+  unconnected (else the run is "unsupported").
 """
 
 from __future__ import annotations

@@ -72,6 +72,29 @@ def spd_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return x
 
 
+#: Eigenvalues of ``J M^-1 J^T`` below this fraction of the largest are treated as zero by
+#: ``solve_rows`` (dependent rows of a loop: round-off, ~1e-16; a genuine near-singular position of
+#: a linkage stays far above it).
+RANK_RTOL = 1e-10
+
+
+def solve_rows(A: np.ndarray, b: np.ndarray, redundant: bool) -> np.ndarray:
+    """Solve ``A x = b`` for the symmetric ``A = J M^-1 J^T``: by Cholesky (``spd_solve``) for a
+    model whose rows are independent, by the pseudo-inverse (eigenvalues below ``RANK_RTOL`` of the
+    largest dropped; minimum-norm x, least-squares in b) for a model with loop joints whose rows
+    may be dependent (``NEModel.redundant``)."""
+    if not redundant:
+        return spd_solve(A, b)
+    w, V = np.linalg.eigh(A)
+    if not np.all(np.isfinite(w)):
+        raise DynamicsError("non-finite constraint matrix J M^-1 J^T")
+    keep = w > RANK_RTOL * max(float(w[-1]), 0.0)
+    if not keep.any():
+        raise DynamicsError("constraint matrix J M^-1 J^T is zero")
+    Vk = V[:, keep]
+    return Vk @ ((Vk.T @ b) / w[keep])
+
+
 def linear_velocities(nb: int, y: np.ndarray) -> np.ndarray:
     """Centre-of-mass velocities (nb+1, 3) of state ``y``, the world (at rest) appended."""
     return np.concatenate([y[7 * nb : 10 * nb].reshape(nb, 3), _ZERO])
@@ -282,7 +305,7 @@ def project(nem: NEModel, y: np.ndarray, tol: float = 1e-13, max_iter: int = 8) 
             raise DynamicsError("non-finite constraint error in the projection")
         if err <= tol:
             break
-        dx = -(spd_solve(A, C) @ JM)
+        dx = -(solve_rows(A, C, nem.redundant) @ JM)
         y[: 3 * nb] += dx[: 3 * nb]
         # R -> R exp([dtheta_B]x) to first order, q -> q (x) (1, dtheta_B / 2), renormalised:
         # exact to O(|dtheta|^3), and Gauss-Newton iterates on any remainder.
@@ -293,7 +316,7 @@ def project(nem: NEModel, y: np.ndarray, tol: float = 1e-13, max_iter: int = 8) 
     else:
         raise DynamicsError(f"position projection did not converge (max |C| = {err:.3e})")
     u = y[7 * nb :]
-    u -= spd_solve(A, J @ u) @ JM
+    u -= solve_rows(A, J @ u, nem.redundant) @ JM
     return y
 
 

@@ -42,6 +42,16 @@ A force type the in-house engine does not model is refused when the model is bui
 
 Rolling contacts (``harness.model.multibody.RollingContact``: a rim edge rolling without slip on the
 plane z = 0) are constraints of 3 rows each, appended after the slide rows (``rolling``).
+
+Loop (cut) joints (``harness.model.multibody.LoopJoint``) are rows of the ball/hinge block like any
+tree joint: maximal coordinates need no tree, so a cut joint is one more joint whose "child" end is
+its ``body_a`` and whose "parent" end is its ``body_b`` (or the world), each with its own axis
+(``axis_A`` for the child end, the perpendiculars of ``axis_B`` for the parent end). They come after
+the tree's ball/hinge joints. A loop's rows may be redundant (a planar loop closed by a hinge: 3 of
+its 5 rows are implied), so ``J M^-1 J^T`` is singular: a model with loops (``NEModel.redundant``)
+solves it by the pseudo-inverse (``constraints.solve_rows``), which gives the motion uniquely and the
+minimum-norm multipliers (the reactions in redundant directions are not determined by rigid-body
+mechanics; the others are).
 """
 
 from __future__ import annotations
@@ -136,8 +146,10 @@ class NEModel:
         I_B, Iinv_B: (nb, 3, 3) inertia about the centre of mass in the body frame, and inverse.
         weight_W: (nb, 3) gravity force m g in world (N).
         Minv: (6nb, 6nb) inverse mass matrix for ``u = [v_WCm_W..., w_WB_B...]``.
-        joint_names: child body name of each constrained joint.
-        joint_types: the joint kind (``Body.joint``: ball or hinge) per constrained joint.
+        joint_names: child body name of each constrained tree joint, then the name of each loop
+            joint (``Multibody.loops``).
+        joint_types: the joint kind (``Body.joint`` or ``LoopJoint.kind``: ball or hinge) per
+            constrained joint.
         ends: (2nj,) body index of each end (child ends, then parent ends; nb = world).
         K_end: (2nj, 3, 3) constant factor of the ball rows' body-frame rotational blocks,
             ``-[r]x`` for a child end and ``+[r]x`` for a parent end (r = first column of D_end),
@@ -188,6 +200,7 @@ class NEModel:
     slides: tuple[SlideJoint, ...] = ()
     springs: tuple[SpringElement, ...] = ()
     contacts: tuple[RollingRows, ...] = ()  # rolling contacts: 3 rows each, after the slide rows (``rolling``)
+    redundant: bool = False  # the model has loop joints: its rows may be dependent (``constraints.solve_rows``)
 
     @property
     def nc_fast(self) -> int:
@@ -240,30 +253,36 @@ def build(model: Multibody) -> NEModel:
         if ft not in _MODELLED_FORCES and ft.elements(model):
             raise NotImplementedError(f"the in-house engine does not model {ft.label}s ({ft.name})")
     block = {b.name: row_block(b.joint) for b in model.bodies}
-    joints = [b for b in model.bodies if block[b.name] == "point"]
-    aligned = {b.name: ALIGNED in JOINTS[b.joint].conditions for b in joints}
+    tree = [b for b in model.bodies if block[b.name] == "point"]
+    loops = tuple(model.loops)
+    # Each ball/hinge row joint as (name, kind, child, parent, child point, parent point, child axis,
+    # parent axis); points from the end body's centre of mass in its frame (world point for the world).
+    def com(body):
+        return np.zeros(3) if body is None else np.asarray(model.body(body).p_BCm_B, dtype=float)
+
+    joints = [(b.name, b.joint, b.name, b.parent, np.zeros(3) - com(b.name), np.asarray(b.p_PB_P, float) - com(b.parent),
+               np.asarray(b.axis_B, float), np.asarray(b.axis_B, float)) for b in tree]
+    joints += [(lp.name, lp.kind, lp.body_a, lp.body_b, np.asarray(lp.p_A, float) - com(lp.body_a),
+                np.asarray(lp.p_B, float) - com(lp.body_b), np.asarray(lp.axis_A, float), np.asarray(lp.axis_B, float))
+               for lp in loops]
+    aligned = [ALIGNED in JOINTS[kind].conditions for _, kind, *_ in joints]
     nj = len(joints)
-    has_hinge = any(aligned.values())
+    has_hinge = any(aligned)
     rpj = 5 if has_hinge else 3
-    child = [index[b.name] for b in joints]
-    parent = [nb if b.parent is None else index[b.parent] for b in joints]
+    child = [index[jt[2]] for jt in joints]
+    parent = [nb if jt[3] is None else index[jt[3]] for jt in joints]
     ends = np.array(child + parent, dtype=int)
     D_end = np.zeros((2 * nj, 3, 3))
-    for j, b in enumerate(joints):
-        D_end[j, :, 0] = -np.asarray(b.p_BCm_B, dtype=float)
-        p_PB_P = np.asarray(b.p_PB_P, dtype=float)
-        if b.parent is None:
-            D_end[nj + j, :, 0] = p_PB_P
-        else:
-            D_end[nj + j, :, 0] = p_PB_P - np.asarray(model.body(b.parent).p_BCm_B, dtype=float)
-        if aligned[b.name]:
-            axis = np.asarray(b.axis_B, dtype=float)
-            D_end[j, :, 1] = axis / np.linalg.norm(axis)
-            D_end[nj + j, :, 1:] = perpendiculars(axis).T
+    for j, (_, _, _, _, r_c, r_p, axis_c, axis_p) in enumerate(joints):
+        D_end[j, :, 0] = r_c
+        D_end[nj + j, :, 0] = r_p
+        if aligned[j]:
+            D_end[j, :, 1] = axis_c / np.linalg.norm(axis_c)
+            D_end[nj + j, :, 1:] = perpendiculars(axis_p).T
     exists = np.ones((nj, rpj), dtype=bool)
     if has_hinge:
-        for j, b in enumerate(joints):
-            exists[j, 3:] = aligned[b.name]
+        for j in range(nj):
+            exists[j, 3:] = aligned[j]
     keep_all = np.flatnonzero(exists.ravel())
     nc = len(keep_all)
     row_of = -np.ones(nj * rpj, dtype=int)
@@ -325,8 +344,8 @@ def build(model: Multibody) -> NEModel:
         Iinv_B=Iinv_B,
         weight_W=weight,
         Minv=Minv,
-        joint_names=tuple(b.name for b in joints),
-        joint_types=tuple(b.joint for b in joints),
+        joint_names=tuple(jt[0] for jt in joints),
+        joint_types=tuple(jt[1] for jt in joints),
         ends=ends,
         K_end=-sign[:, None, None] * np.array([rotations.skew(r) for r in D_end[:, :, 0]]).reshape(2 * nj, 3, 3),
         D_end=D_end,
@@ -342,6 +361,7 @@ def build(model: Multibody) -> NEModel:
         slides=tuple(slides),
         springs=springs,
         contacts=contacts,
+        redundant=bool(loops),
     )
 
 

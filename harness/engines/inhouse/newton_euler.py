@@ -16,7 +16,8 @@ the accelerations and multipliers solve the KKT system::
     [ J  0   ] [ -lambda ] = [ -gamma - 2 zeta w_b J u - w_b^2 C  ]
 
 solved by its Schur complement ``(J M^-1 J^T) lambda = rhs - J M^-1 f`` (M is block diagonal
-with a constant inverse). The last two terms are Baumgarte stabilisation: the constraint error
+with a constant inverse); with loop joints, whose rows may be dependent, by its pseudo-inverse
+(``constraints.solve_rows``: the minimum-norm multipliers). The last two terms are Baumgarte stabilisation: the constraint error
 obeys ``C'' + 2 zeta w_b C' + w_b^2 C = 0`` instead of drifting; on the constraint manifold they
 vanish and the dynamics are exact. ``lambda`` are the joint reactions: for a ball block, the
 force (N, world) the parent exerts on the child at the joint point; for the two hinge
@@ -32,7 +33,7 @@ import numpy as np
 from scipy.linalg.lapack import dposv
 
 from harness.engines.inhouse import algebra, rolling
-from harness.engines.inhouse.constraints import DynamicsError, evaluate, frames, linear_velocities, slide_reactions
+from harness.engines.inhouse.constraints import DynamicsError, evaluate, frames, linear_velocities, slide_reactions, solve_rows
 from harness.engines.inhouse.model import NEModel, build
 from harness.model.multibody import Multibody
 
@@ -63,6 +64,7 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
     forces = nem.forces
     springs, slides = nem.springs, nem.slides
     kp, kd = float(gains.kp), float(gains.kd)
+    redundant = nem.redundant
     n3, n7, n10 = 3 * nb, 7 * nb, 10 * nb
     no_lambda = np.zeros(0)
     cross, quat_matrix, quat_rate = algebra.cross, algebra.quat_matrix, algebra.quat_rate
@@ -94,9 +96,12 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
             rhs = -gamma - J @ a
             if kd or kp:
                 rhs -= kd * (J @ y[n7:]) + kp * C
-            _, lam, info = dposv(JM @ J.T, rhs)
-            if info != 0:
-                raise DynamicsError(f"singular constraint (KKT) matrix at t = {t!r} s")
+            if redundant:  # loop joints: dependent rows, the pseudo-inverse (``constraints.solve_rows``)
+                lam = solve_rows(JM @ J.T, rhs, True)
+            else:
+                _, lam, info = dposv(JM @ J.T, rhs)
+                if info != 0:
+                    raise DynamicsError(f"singular constraint (KKT) matrix at t = {t!r} s")
             a = a + lam @ JM
         return np.concatenate([y[n7:n10], quat_rate(Q, W).ravel(), a]), lam
 

@@ -35,6 +35,7 @@ import numpy as np
 
 from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
 from harness.engines.mujoco.integrators import INTEGRATOR_METHODS
+from harness.engines.mujoco.loops import settings_text as loop_settings
 from harness.engines.mujoco.model import joint_type, load_mjcf, set_initial_state
 from harness.engines.mujoco.rolling import ContactForceReader, describe_contact
 from harness.engines.mujoco.warning_capture import captured_warnings
@@ -114,6 +115,8 @@ class MujocoEngine:
         if rolling is not None:
             react.update(rolling.series(saved))
             stats["settings"] += ", " + describe_contact(m)
+        if model.loops:  # cut joints: soft <connect> equalities (``loops``)
+            stats["settings"] += ", " + loop_settings(m)
         if react:
             traj = replace(traj, reactions={name: (f[:saved], mo[:saved]) for name, (f, mo) in react.items()})
         return traj

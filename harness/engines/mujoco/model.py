@@ -2,7 +2,8 @@
 
 The MJCF file is the model as a user writes it; ``load_mjcf`` rewrites, from the scene's
 ``Multibody``, what parameters can change (body positions, masses, centres of mass, inertias,
-gravity, the site where a prescribed force acts, joint springs) and sets timestep and integrator.
+gravity, the site where a prescribed force acts, joint springs, the sites of a loop joint's
+``<connect>`` equalities: ``harness.engines.mujoco.loops``) and sets timestep and integrator.
 Joint types and axes are not rewritten: they are checked (``harness.tools.loaded_models``).
 
 Joint kinds map to MuJoCo's ``mjtJoint`` through the joint table (``JointType.mujoco``,
@@ -24,6 +25,7 @@ from harness.model.joints import JOINTS, JointType
 from harness.model.multibody import Multibody
 
 from harness.engines.mujoco.integrators import INTEGRATORS
+from harness.engines.mujoco.loops import apply_loops
 from harness.engines.mujoco.rolling import apply_contacts
 
 
@@ -102,6 +104,8 @@ def apply_multibody(spec: mujoco.MjSpec, model: Multibody, source: Path) -> None
     spec.option.gravity = model.gravity_W
     if getattr(model, "contacts", ()):  # rolling rims: cylinder size from the scene (mujoco_rolling)
         apply_contacts(spec, model, source)
+    if model.loops:  # cut joints: the sites of their <connect> equalities (``loops``)
+        apply_loops(spec, model, source)
 
 
 def _write_spring(spec: mujoco.MjSpec, spring: JointSpring, source: Path) -> None:

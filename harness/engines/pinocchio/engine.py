@@ -15,6 +15,10 @@ that the parent exerts on the subtree of joint j, about the joint origin (the bo
 of the URDF link), in the joint's local frame; it is rotated to world. The joint's own applied
 generalised force (the ``tau`` entry of a joint spring) acts along the motion subspace and is
 removed, so the reaction is the constraint force alone.
+
+Scenes with rolling contacts run in ``rolling`` (``simulate_rolling``); scenes with closed
+kinematic loops (``Multibody.loops``, cut joints the URDF cannot state) in ``loops``
+(``simulate_loops``: Pinocchio's ``RigidConstraintModel``s and ``constraintDynamics``).
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from harness.model.joints import JOINTS
 from harness.engines.base import RunSettings, check_settings
 from harness.engines.pinocchio.lie_group_integrators import METHODS, STEPPERS
 from harness.engines.pinocchio.model import blowup_reason, initial_configuration, load_urdf, read_maximal
+from harness.engines.pinocchio.loops import simulate_loops
 from harness.engines.pinocchio.rolling import simulate_rolling
 from harness.model.scene import Scene
 from harness.measure.trajectory import SampleBuffer, Trajectory
@@ -46,6 +51,8 @@ class PinocchioEngine:
         model = scene.multibody()
         if getattr(model, "contacts", ()):  # rolling contacts: constrained forward dynamics (pinocchio_rolling)
             return simulate_rolling(self, scene, settings, model)
+        if getattr(model, "loops", ()):  # cut joints: Pinocchio's loop-constraint models (``loops``)
+            return simulate_loops(self, scene, settings, model)
         pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
         data = pmodel.createData()
         q, v = initial_configuration(pmodel, ids, model)

@@ -1,0 +1,319 @@
+"""Pinocchio with closed kinematic loops: the scene's tree from its URDF, each cut joint
+(``harness.model.multibody.LoopJoint``) as Pinocchio's own loop-closure constraint models, forward
+dynamics by Pinocchio's proximal constrained solver ``pin.constraintDynamics``, our Lie-group
+integrators and a projection onto the constraint manifold after every step.
+
+How a cut joint reaches Pinocchio. A URDF is a tree and cannot state a loop, so the URDF holds the
+tree only; the cut joints come from the scene description (``Multibody.loops``) and are built here
+as ``pin.RigidConstraintModel``s (``LoopConstraints``):
+
+* a ball: one ``CONTACT_3D`` model between ``joint1`` = the joint that moves ``body_a``, placement
+  ``SE3(I, p_A)``, and ``joint2`` = the joint of ``body_b`` (0, the universe, for the world),
+  placement ``SE3(I, p_B)``: the two points coincide (3 rows);
+* a hinge: two ``CONTACT_3D`` models, at the joint point (p_A, p_B) and at the point one
+  ``hinge_span`` (m) along the axis (p_A + hinge_span axis_A, p_B + hinge_span axis_B): two
+  coinciding points fix the axis and leave the rotation about it free (6 rows for the hinge's 5:
+  the one along the axis is always redundant) -- the same statement as the MJCF's two site
+  ``<connect>``s (``harness.engines.mujoco.loops``).
+
+The placements are in the body frame of the URDF link, which is the joint frame of the body
+(``load_urdf`` refuses links not at their joint frame), so p_A, p_B (m, body frame of
+body_a/body_b, or world) are used as they are.
+
+Why these models. Pinocchio 4.1 has no hinge constraint: ``CONTACT_6D`` (a weld) also locks the
+rotation about the axis, which is wrong for a hinge; the newer ``PointAnchorConstraintModel`` /
+``FrameAnchorConstraintModel`` (4.1) feed the contact solvers (``ADMMConstraintSolver``,
+``PGSConstraintSolver``) of a velocity-level time-stepping scheme, not ``constraintDynamics``,
+whose Python binding takes ``RigidConstraintModel``s only, and a frame anchor is a weld too. Two
+point constraints are what 4.1 offers to state a hinge exactly. Every model has the reference
+frame ``LOCAL_WORLD_ALIGNED``: its 3 rows are the world components of x_1 - x_2 (the point on
+joint1 minus the point on joint2), so ``getConstraintsJacobian`` is exactly the Jacobian of the
+position residual e = x_1 - x_2 = -R_1 c1Mc2.translation (m, world; ``c1Mc2`` and ``oMc1`` of the
+constraint data after ``RigidConstraintModel.calc``) used by the projection below, and the
+multipliers are world forces.
+
+Dynamics. ``pin.constraintDynamics(model, data, q, v, tau, models, datas, ProximalSettings)`` solves
+the KKT system of the tree with the constraint rows by Pinocchio's sparse Cholesky of the
+regularised KKT matrix and proximal iterations ``lambda_{k+1} = (D + mu I)^-1 (rhs + mu lambda_k)``
+(D the Delassus matrix J M^-1 J^T), which converge for rank-deficient D: this is how the redundant
+rows are handled (a planar loop closed by a hinge has 6 rows of rank 2; the in-plane constraint
+force is determined, the rest of the multipliers is the proximal iteration's, which starts from 0,
+so the minimum-norm one up to round-off). Settings (``proximal_settings``): ``mu = MU_RELATIVE``
+(1e-6) x the largest diagonal entry of the Delassus matrix at the initial state
+(``pin.computeDelassusMatrix``; 1/kg for point rows: 3.3e-6 on four_bar, 4.0e-6 on slider_crank);
+relative accuracy ``ACCURACY_RELATIVE`` (1e-9) x ``force_scale`` (the total weight, N: 2.3e-8 N on
+four_bar) on the max change of the multipliers between proximal iterations; at most
+``MAX_PROXIMAL_ITER`` (20) iterations. The absolute accuracy is off (0): the absolute residual that
+4.1's ``constraintDynamics`` reports (a Delassus product of the iterate minus the right-hand side)
+is not the constraint-acceleration error: it stayed at 13 to 18 at converged solves on
+four_bar/slider_crank where J a + gamma, computed apart, was 1e-15 m/s^2. The range part of the
+multipliers converges by a factor ~mu/sigma_min(D) per iteration (at most 3 iterations on those
+scenes); the null-space part only collects round-off (~eps sigma_max/mu |lambda|, which is why mu is
+not smaller: at 1e-8 it kept the relative criterion from being met), and ``J^T`` maps it to zero, so
+the acceleration agrees with the pseudo-inverse KKT solution to round-off (checked: 1e-15 relative)
+whether or not the criterion is met (four_bar_near_singular: 1 solve in 20000 ran to max_iter);
+``stats`` counts the solves that stopped at ``max_iter`` (``prox_unconverged``) and the most
+iterations taken (``prox_iter_max``).
+The Baumgarte corrector of the models is off (Kp = Kd = 0): drift is controlled by projection.
+
+``constraintDynamics`` takes no external forces: the scene's prescribed point forces (``fext`` of
+``engine._applied_function``: spatial forces in the local frame of the joint that moves the body)
+enter ``tau`` as generalised forces ``sum_j J_j^T f_j`` with ``J_j`` the joint's ``LOCAL`` Jacobian;
+joint springs are already in ``tau``.
+
+Drift control (after every step of ``rkmk4`` or ``euler`` on the configuration Lie group, and once
+at t = 0): the position residual e(q) (m, world, all rows) is removed by Gauss-Newton in the tangent
+space, ``q <- integrate(q, dq)``, ``dq = argmin{ dq^T M dq : J dq = -e }`` (the mass-weighted
+minimum-norm step, by a least-squares solve of ``J L^-T z = -e`` with M = L L^T from ``crba`` and
+rcond ``RCOND``, which drops the redundant rows), until ``max|e| <= PROJECTION_TOL`` (1e-14) x the
+distance of the farthest constraint point from the world origin, at least 1 m (the round-off of e
+grows with it), at most ``MAX_PROJECTION_ITER`` Gauss-Newton steps (else the run fails); then the
+velocity onto ``J v = 0`` the same way, ``v <- v - L^-T pinv(J L^-T) J v`` (the mass-weighted
+projection: a perfectly inelastic impulse on the rows). The same choice as the in-house engine's
+fixed-step methods; no Baumgarte terms inside Runge-Kutta stages.
+
+Reactions. At each saved sample the multipliers of one more ``constraintDynamics`` solve give, per
+cut joint, ``Trajectory.reactions[<loop name>] = (force_W, moment_W)``: the force (N, world) that
+body_b (or the world) exerts on body_a through the cut joint, and its moment (N m, world) about
+the joint point x_A. With ``LOCAL_WORLD_ALIGNED`` rows on x_A - x_B the generalised constraint
+force is ``J^T lambda`` = lambda applied on body_a at the point and -lambda on body_b, so a ball's
+force is its lambda and its moment 0; a hinge's force is lambda_1 + lambda_2 and its moment
+(x_A2 - x_A) x lambda_2 (x_A2: the second point, hinge_span along the axis). Components in
+redundant directions (for a planar loop: the out-of-plane force and the moments about in-plane
+axes) are statically indeterminate: they are the proximal solver's minimum-norm split between the
+two points (in-house: minimum norm over its own 5 hinge rows, so these can differ); the
+determinate ones agree. Reactions of the tree's joints (``[checks.reaction]``) are not computed on
+this path.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+import pinocchio as pin
+
+from harness.engines.base import RunSettings
+from harness.engines.pinocchio.lie_group_integrators import STEPPERS
+from harness.engines.pinocchio.model import blowup_reason, initial_configuration, load_urdf, read_maximal
+from harness.measure.trajectory import SampleBuffer, Trajectory
+from harness.model.joints import keeps_axis, loop_kinds
+from harness.model.multibody import Multibody
+
+MU_RELATIVE = 1e-6  # proximal regularisation mu, relative to the largest diagonal entry of the Delassus matrix
+ACCURACY_RELATIVE = 1e-9  # stop when the multipliers change by less than this times the force scale
+MAX_PROXIMAL_ITER = 20
+PROJECTION_TOL = 1e-14  # m per m of length scale (at least 1 m): closure residual left by the projection
+MAX_PROJECTION_ITER = 8
+RCOND = 1e-10  # relative cut-off of the singular values of J L^-T (redundant rows)
+
+
+class LoopClosureError(ArithmeticError):
+    """The projection onto the loop-closure manifold did not converge."""
+
+
+class LoopConstraints:
+    """The cut joints of a scene as Pinocchio constraint models (module docstring).
+
+    Attributes:
+        models, datas: ``StdVec_RigidConstraintModel`` / ``StdVec_RigidConstraintData``, in the
+            order of ``Multibody.loops``, one model per ball and two per hinge.
+        items: per cut joint ``(loop, first model index, number of models)``.
+        nc: number of constraint rows (3 per model).
+    """
+
+    def __init__(self, pmodel: pin.Model, ids: list[int], model: Multibody):
+        index = {b.name: i for i, b in enumerate(model.bodies)}
+        self.models = pin.StdVec_RigidConstraintModel()
+        self.datas = pin.StdVec_RigidConstraintData()
+        self.items = []
+        for loop in model.loops:
+            j1 = ids[index[loop.body_a]]
+            j2 = 0 if loop.body_b is None else ids[index[loop.body_b]]
+            p_A, p_B = np.asarray(loop.p_A, float), np.asarray(loop.p_B, float)
+            points = [(p_A, p_B)]
+            if keeps_axis(loop.kind):
+                span = float(loop.hinge_span)
+                a_A = np.asarray(loop.axis_A, float) / np.linalg.norm(loop.axis_A)
+                a_B = np.asarray(loop.axis_B, float) / np.linalg.norm(loop.axis_B)
+                points.append((p_A + span * a_A, p_B + span * a_B))
+            elif loop.kind not in loop_kinds():
+                raise NotImplementedError(f"loop joint {loop.name!r}: kind {loop.kind!r} (known: {', '.join(loop_kinds())})")
+            self.items.append((loop, len(self.models), len(points)))
+            for k, (x1, x2) in enumerate(points):
+                cm = pin.RigidConstraintModel(pin.ContactType.CONTACT_3D, pmodel, j1, pin.SE3(np.eye(3), x1),
+                                              j2, pin.SE3(np.eye(3), x2), pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+                cm.name = f"{loop.name}" if k == 0 else f"{loop.name}_2"
+                self.models.append(cm)
+                self.datas.append(cm.createData())
+        self.nc = 3 * len(self.models)
+
+    def rows(self, pmodel: pin.Model, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """Position residual e (nc,) m, world (x_1 - x_2 = -R_1 c1Mc2.translation per model), its
+        Jacobian J (nc, nv) and the length scale (m) of the residual's round-off: the largest
+        distance of a constraint point from the world origin, at least 1 m; at configuration q
+        (``computeJointJacobians``, ``RigidConstraintModel.calc``, ``getConstraintsJacobian``)."""
+        pin.computeJointJacobians(pmodel, data, q)
+        e = np.empty(self.nc)
+        length = 1.0
+        for k, (cm, cd) in enumerate(zip(self.models, self.datas)):
+            cm.calc(pmodel, data, cd)
+            e[3 * k : 3 * k + 3] = -cd.oMc1.rotation @ cd.c1Mc2.translation
+            length = max(length, float(np.linalg.norm(cd.oMc1.translation)), float(np.linalg.norm(cd.oMc2.translation)))
+        return e, pin.getConstraintsJacobian(pmodel, data, self.models, self.datas), length
+
+    def reactions(self, lam: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Per cut joint, (force N, moment N m about the joint point), world, on body_a, from the
+        multipliers ``lam`` (nc,) of ``constraintDynamics`` (module docstring). Needs the
+        constraint datas of the same solve."""
+        out = {}
+        for loop, first, count in self.items:
+            force = np.zeros(3)
+            moment = np.zeros(3)
+            x0 = np.array(self.datas[first].oMc1.translation)
+            for k in range(first, first + count):
+                f = lam[3 * k : 3 * k + 3]
+                force += f
+                moment += np.cross(np.array(self.datas[k].oMc1.translation) - x0, f)
+            out[loop.name] = (force, moment)
+        return out
+
+
+def _baumgarte_off(constraints: LoopConstraints) -> None:
+    """Set every model's Baumgarte gains to zero (Pinocchio's default, made explicit)."""
+    for cm in constraints.models:
+        bp = cm.m_baumgarte_parameters
+        bp.Kp, bp.Kd = 0.0, 0.0
+        cm.setBaumgarteCorrectorParameters(bp)
+
+
+def _external_torque(pmodel: pin.Model, data: pin.Data, q: np.ndarray, fext) -> np.ndarray:
+    """Generalised force (nv,) of the spatial forces ``fext`` (one ``pin.Force`` per joint, in
+    the joint's local frame): ``sum_j J_j^T f_j`` with ``J_j`` the joint's LOCAL Jacobian."""
+    tau = np.zeros(pmodel.nv)
+    pin.computeJointJacobians(pmodel, data, q)
+    for jid in range(1, pmodel.njoints):
+        f = np.asarray(fext[jid].vector)
+        if np.any(f):
+            tau += pin.getJointJacobian(pmodel, data, jid, pin.ReferenceFrame.LOCAL).T @ f
+    return tau
+
+
+def force_scale(model: Multibody) -> float:
+    """Force scale (N) of the proximal stopping criterion: the total weight M |g|, at least 1 N."""
+    return max(model.total_mass * float(np.linalg.norm(model.gravity_W)), 1.0)
+
+
+def proximal_settings(pmodel: pin.Model, data: pin.Data, q: np.ndarray, constraints: LoopConstraints,
+                      model: Multibody) -> pin.ProximalSettings:
+    """``ProximalSettings(absolute accuracy 0, relative accuracy ACCURACY_RELATIVE x force_scale
+    (N), mu, MAX_PROXIMAL_ITER)`` with ``mu = MU_RELATIVE x`` the largest diagonal entry of the
+    Delassus matrix at q (1/kg for point rows; ``pin.computeDelassusMatrix``). Also
+    ``initConstraintDynamics``."""
+    pin.initConstraintDynamics(pmodel, data, constraints.models, constraints.datas)
+    delassus = pin.computeDelassusMatrix(pmodel, data, q, constraints.models, constraints.datas, 0.0)
+    scale = float(np.max(np.abs(np.diag(delassus)), initial=0.0))
+    if not (np.isfinite(scale) and scale > 0.0):
+        raise LoopClosureError("the loop constraints' Delassus matrix is zero or not finite at the initial state")
+    return pin.ProximalSettings(0.0, ACCURACY_RELATIVE * force_scale(model), MU_RELATIVE * scale, MAX_PROXIMAL_ITER)
+
+
+def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Trajectory:
+    """Run a scene with cut joints in Pinocchio (module docstring); the trajectory carries each cut
+    joint's reaction on body_a in ``reactions[<loop name>]``."""
+    from harness.engines.pinocchio.engine import _applied_function, _joint_slots, spring_energy
+
+    pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
+    data = pmodel.createData()
+    fdata = pmodel.createData()  # kinematics of the applied forces, apart from the solver's data
+    q, v = initial_configuration(pmodel, ids, model)
+    constraints = LoopConstraints(pmodel, ids, model)
+    _baumgarte_off(constraints)
+    applied = _applied_function(pmodel, fdata, ids, model)
+    joint_slots = _joint_slots(pmodel, ids, model)
+    counters = {"rhs_evals": 0, "prox_iter_max": 0, "prox_unconverged": 0, "projection_iter_max": 0}
+    step = STEPPERS[settings.integrator]
+    h = settings.dt
+    n = settings.n_saves + 1
+    buf = SampleBuffer(n, len(ids))
+    react = {loop.name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for loop in model.loops}
+    status, message, saved, steps = "ok", "", 0, 0
+    prox = None
+
+    def solve(t, q, v):
+        tau, fext = applied(t, q, v)
+        if fext is not None:
+            tau = tau + _external_torque(pmodel, fdata, q, fext)
+        a = pin.constraintDynamics(pmodel, data, q, v, tau, constraints.models, constraints.datas, prox)
+        counters["prox_iter_max"] = max(counters["prox_iter_max"], prox.iter)
+        if prox.iter >= prox.max_iter:
+            counters["prox_unconverged"] += 1
+        return a.copy()
+
+    def accel(t, q, v):
+        counters["rhs_evals"] += 1
+        return solve(t, q, v)
+
+    def project(q, v):
+        for it in range(MAX_PROJECTION_ITER + 1):
+            e, J, length = constraints.rows(pmodel, data, q)
+            M = pin.crba(pmodel, data, q)
+            L = np.linalg.cholesky(np.triu(M) + np.triu(M, 1).T)
+            A = np.linalg.solve(L, J.T).T  # J L^-T
+            err = float(np.max(np.abs(e), initial=0.0))
+            if not np.isfinite(err):
+                raise LoopClosureError("non-finite loop-closure residual")
+            if err <= PROJECTION_TOL * length:
+                break
+            if it == MAX_PROJECTION_ITER:
+                raise LoopClosureError(f"position projection did not converge (closure residual {err:.3e} m)")
+            z = np.linalg.lstsq(A, -e, rcond=RCOND)[0]
+            q = pin.integrate(pmodel, q, np.linalg.solve(L.T, z))
+        counters["projection_iter_max"] = max(counters["projection_iter_max"], it)
+        z = np.linalg.lstsq(A, J @ v, rcond=RCOND)[0]
+        return q, v - np.linalg.solve(L.T, z)
+
+    t0 = time.perf_counter()
+    try:
+        prox = proximal_settings(pmodel, data, q, constraints, model)
+        q, v = project(q, v)
+        for k in range(n):
+            if k > 0:
+                for _ in range(settings.steps_per_save):
+                    q, v = step(pmodel, accel, steps * h, q, v, h)
+                    steps += 1
+                    reason = blowup_reason(q, v, steps * h)
+                    if reason:
+                        break
+                    q, v = project(q, v)
+            reason = blowup_reason(q, v, steps * h)
+            if reason:
+                status, message = "blowup", reason
+                break
+            solve(steps * h, q, v)  # the multipliers at the sample (data.lambda_c)
+            lam = np.array(data.lambda_c)
+            for name, (force, moment) in constraints.reactions(lam).items():
+                react[name][0][k], react[name][1][k] = force, moment
+            read_maximal(pmodel, data, ids, model, q, v, k, buf)
+            buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
+            buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q) + spring_energy(joint_slots, q)
+            saved = k + 1
+    except (RuntimeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+        status, message = "failed", f"{type(err).__name__} at t = {steps * h:.6g} s: {err}"
+    mu = prox.mu if prox is not None else float("nan")
+    acc = prox.relative_accuracy if prox is not None else float("nan")
+    spans = "/".join(f"{lp.hinge_span:g}" for lp in model.loops if keeps_axis(lp.kind)) or "-"
+    stats = {"steps": steps, "rhs_evals": counters["rhs_evals"], "wall_s": time.perf_counter() - t0,
+             "prox_iter_max": counters["prox_iter_max"], "prox_unconverged": counters["prox_unconverged"],
+             "projection_iter_max": counters["projection_iter_max"],
+             "settings": f"constraintDynamics (proximal KKT) with RigidConstraintModel CONTACT_3D rows in "
+                         f"LOCAL_WORLD_ALIGNED (ball: 1 point, hinge: 2 points {spans} m apart on the axis), "
+                         f"mu {mu:.3g} ({MU_RELATIVE:g} of the Delassus diagonal), relative accuracy {acc:.3g} N, "
+                         f"max_iter {MAX_PROXIMAL_ITER}, Baumgarte off; {settings.integrator} on the configuration Lie group, "
+                         f"step {h:g} s; drift: Gauss-Newton position projection (tol {PROJECTION_TOL:g} m per m, "
+                         f"at least 1 m) then "
+                         f"velocity projection after each step, mass-weighted; root joint {scene.urdf_root_joint}"}
+    traj = buf.trajectory(engine.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
+                          saved, stats, status, message)
+    return replace(traj, reactions={name: (f[:saved], mo[:saved]) for name, (f, mo) in react.items()})
