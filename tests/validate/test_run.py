@@ -348,3 +348,25 @@ def test_a_non_finite_run_is_judged_by_its_status():
     assert mark_non_finite(fine, scene.multibody()) is fine
     gone = failed("inhouse", "rk4", fine.body_names, "failed", "solver failure")
     assert mark_non_finite(gone, scene.multibody()) is gone
+
+
+def test_an_engine_that_drops_the_loop_fails_the_closure_check():
+    """A run of the tree alone (the loop joint ignored, as an engine without loop support would)
+    opens the loop: ``closure.*`` fails, naming the cut joint; the engines' real runs pass."""
+    from dataclasses import replace
+
+    from harness.engines.base import RunSettings
+    from harness.engines.inhouse import ENGINE
+    from harness.validate.run import check_run
+
+    scene = short("four_bar")
+    settings = RunSettings(t_end=0.5, dt=1e-3, save_every=0.01, integrator="rk4")
+    tree = ENGINE.simulate_model(replace(scene.multibody(), loops=()), settings)
+    checks = {c.check: c for c in check_run(scene, "inhouse", "inhouse", tree, None, settings)}
+    assert not checks["closure.position"].passed and checks["closure.position"].value > 1e-3
+    assert "worst: cut" in checks["closure.position"].detail
+    assert checks["constraint.position"].passed  # the tree's own joints still hold
+    (res,) = validate([scene], ["inhouse", "pinocchio", "exudyn", "drake"], jobs=2)
+    closure = [c for c in res.checks if c.check.startswith("closure.")]
+    assert {c.engine for c in closure} == {"reference", "inhouse", "pinocchio", "exudyn"} and all(c.passed for c in closure)
+    assert "drake" in res.not_run
