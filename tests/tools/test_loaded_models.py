@@ -24,6 +24,7 @@ OVERRIDES = {
     "four_bar": {"a": 0.15, "b": 0.55, "c": 0.35, "d": 0.5, "m_coupler": 1.7, "theta0": 2.0},
     "four_bar_near_singular": {"a": 0.25, "c": 0.31, "m_rocker": 0.3, "branch": -1.0},
     "slider_crank": {"a": 0.12, "b": 0.4, "e": 0.03, "w": 0.08, "m_slider": 2.0},
+    "bricard": {"L": 0.7, "s": 0.05, "m": 2.5, "dq0": 0.4},
 }
 
 

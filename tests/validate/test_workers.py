@@ -185,3 +185,22 @@ def test_workers_are_killed_when_the_parent_loop_fails(monkeypatch):
         run_cases([(i, _hang, (i,)) for i in range(2)], jobs=2, timeout=60.0)
     assert started and all(p.exitcode == -signal.SIGKILL for p in started)
     assert not workers._LIVE
+
+
+def _blas_threads():
+    from threadpoolctl import threadpool_info
+
+    return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
+
+
+def test_a_worker_runs_its_blas_on_one_thread():
+    """Workers run side by side, one per CPU: each one's BLAS gets one thread (three concurrent
+    in-house runs of a loop scene were 15x slower with a thread per CPU each)."""
+    import numpy  # noqa: F401 - loaded before the fork, as in every command
+
+    parent = _blas_threads()
+    outcome = run_cases([("blas", _blas_threads, ())], jobs=1, timeout=30)["blas"]
+    assert outcome.status == "ok", outcome.message
+    assert outcome.value and all(n == 1 for n in outcome.value)
+    if (os.cpu_count() or 1) > 1 and "OPENBLAS_NUM_THREADS" not in os.environ:
+        assert max(parent) > 1  # the limit is the worker's, not inherited: the parent keeps its threads

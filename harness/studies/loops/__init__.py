@@ -1,0 +1,1 @@
+"""The closed-loop study (``harness loop-study``): loop closure, energy and exact error against step size."""
