@@ -404,11 +404,7 @@ BODIES = ("crank", "coupler", "rocker")
 def bar_angles(traj: "Trajectory") -> np.ndarray:
     """(n, 3) absolute angles (rad) of crank, coupler and rocker in a run: the angle of each
     body's +x axis in the world x-z plane, atan2(x_z, x_x) (the rotation about world −y)."""
-    out = []
-    for name in BODIES:
-        R = rotations.matrix(traj.quat_WB[:, traj.body_names.index(name)])
-        out.append(np.arctan2(R[:, 2, 0], R[:, 0, 0]))
-    return np.stack(out, axis=1)
+    return np.stack([rotations.xz_plane_angle(traj.quat_WB[:, traj.body_names.index(name)]) for name in BODIES], axis=1)
 
 
 def _wrap(x: np.ndarray) -> np.ndarray:

@@ -300,11 +300,7 @@ BARS = ("crank", "rod")
 def body_angles(traj: "Trajectory") -> np.ndarray:
     """(n, 2) absolute angles (rad) of crank and rod in a run, atan2(x_z, x_x) of each body's +x
     axis (the rotation about world −y)."""
-    out = []
-    for name in BARS:
-        R = rotations.matrix(traj.quat_WB[:, traj.body_names.index(name)])
-        out.append(np.arctan2(R[:, 2, 0], R[:, 0, 0]))
-    return np.stack(out, axis=1)
+    return np.stack([rotations.xz_plane_angle(traj.quat_WB[:, traj.body_names.index(name)]) for name in BARS], axis=1)
 
 
 def _wrap(x: np.ndarray) -> np.ndarray:

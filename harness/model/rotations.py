@@ -75,6 +75,14 @@ def geodesic_angle(a_wxyz: np.ndarray, b_wxyz: np.ndarray) -> np.ndarray:
     return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0]))
 
 
+def xz_plane_angle(q_wxyz: np.ndarray) -> np.ndarray:
+    """Angle (rad) of a body's +x axis in the world x-z plane, from +x toward +z: the rotation
+    about world -y of a body that turns in that plane (``atan2(R_zx, R_xx)``); one per quaternion
+    ``wxyz`` (body -> world) of a stack."""
+    R = matrix(q_wxyz)
+    return np.arctan2(R[..., 2, 0], R[..., 0, 0])
+
+
 def skew(v: np.ndarray) -> np.ndarray:
     """Cross-product matrix ``[v]x`` so that ``skew(v) @ u == cross(v, u)``."""
     x, y, z = v

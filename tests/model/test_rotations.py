@@ -30,3 +30,13 @@ def test_multiply_composes_rotations():
     a = rotations.from_axis_angle([1.0, 0.0, 0.0], 0.4)
     b = rotations.from_axis_angle([0.0, 1.0, 0.0], -1.1)
     assert np.allclose(rotations.matrix(rotations.multiply(a, b)), rotations.matrix(a) @ rotations.matrix(b))
+
+
+def test_xz_plane_angle_is_the_turn_about_minus_y():
+    import numpy as np
+
+    from harness.model.rotations import from_axis_angle, xz_plane_angle
+
+    angles = np.array([-3.0, -1.2, 0.0, 0.7, 2.9])
+    q = np.stack([from_axis_angle(np.array([0.0, -1.0, 0.0]), a) for a in angles])
+    assert np.allclose(xz_plane_angle(q), angles, atol=1e-14)
