@@ -516,13 +516,9 @@ def _solve(p: BricardParams, t_bytes: bytes, rtol: float, atol: float, method: s
 EXACT_NEEDS_RUNS = False  # the run itself is judged against the reference: no extra runs
 
 
-def _wrap(x: np.ndarray) -> np.ndarray:
-    return np.angle(np.exp(1j * x))
-
-
 def _about(q_wxyz: np.ndarray, k: int) -> np.ndarray:
     """The rotation angle (rad) about coordinate axis k of quaternion(s) that turn about it."""
-    return _wrap(2.0 * np.arctan2(q_wxyz[..., 1 + k], q_wxyz[..., 0]))
+    return rotations.wrap_angle(2.0 * np.arctan2(q_wxyz[..., 1 + k], q_wxyz[..., 0]))
 
 
 def hinge_angles(traj: "Trajectory") -> np.ndarray:
@@ -547,7 +543,7 @@ def symmetry_residual(q: np.ndarray, psi: np.ndarray | None = None) -> np.ndarra
     parts = [q[:, 0] - q[:, 2], q[:, 0] + q[:, 4], q[:, 1] + q[:, 3]]
     if psi is not None:
         parts.append(psi - q[:, 1])
-    return np.max(np.abs(_wrap(np.stack(parts, axis=1))), axis=1)
+    return np.max(np.abs(rotations.wrap_angle(np.stack(parts, axis=1))), axis=1)
 
 
 def exact_error_series(scene: "Scene", traj: "Trajectory") -> np.ndarray:
@@ -557,7 +553,7 @@ def exact_error_series(scene: "Scene", traj: "Trajectory") -> np.ndarray:
     The run's angles are read from the bodies' orientations (``hinge_angles``); differences are
     wrapped to (−π, π]."""
     ref = reference_solution(scene.params, traj.t)
-    return np.max(np.abs(_wrap(hinge_angles(traj) - ref.angles)), axis=1)
+    return np.max(np.abs(rotations.wrap_angle(hinge_angles(traj) - ref.angles)), axis=1)
 
 
 def exact_error(scene: "Scene", traj: "Trajectory", settings=None, run=None) -> tuple[float, str, str]:
@@ -570,7 +566,7 @@ def exact_error(scene: "Scene", traj: "Trajectory", settings=None, run=None) -> 
         return float("nan"), "rad", "no samples"
     ref = reference_solution(p, traj.t)
     q = hinge_angles(traj)
-    err = float(np.max(np.abs(_wrap(q - ref.angles))))
+    err = float(np.max(np.abs(rotations.wrap_angle(q - ref.angles))))
     sym = float(np.max(symmetry_residual(q, cut_angle(traj))))
     clo = float(np.max(np.abs(closure_residual(q[:, 0], q[:, 1]))))
     how = (f"M(θ) θ̈ + ½ M'(θ) θ̇² + V'(θ) = 0, DOP853 rtol {RTOL_THETA:g}" if ref.method == "theta"

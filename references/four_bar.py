@@ -407,10 +407,6 @@ def bar_angles(traj: "Trajectory") -> np.ndarray:
     return np.stack([rotations.xz_plane_angle(traj.quat_WB[:, traj.body_names.index(name)]) for name in BODIES], axis=1)
 
 
-def _wrap(x: np.ndarray) -> np.ndarray:
-    return np.angle(np.exp(1j * x))
-
-
 def exact_error_series(scene: "Scene", traj: "Trajectory") -> np.ndarray:
     """max over crank, coupler and rocker of |α_run − α_exact| (rad), the absolute bar angles
     against the tightly integrated reference (``reference_solution``).
@@ -418,7 +414,7 @@ def exact_error_series(scene: "Scene", traj: "Trajectory") -> np.ndarray:
     The run's angles are read from the bodies' orientations (``bar_angles``); differences are
     wrapped to (−π, π]."""
     ref = reference_solution(scene.params, traj.t)
-    return np.max(np.abs(_wrap(bar_angles(traj) - ref.angles)), axis=1)
+    return np.max(np.abs(rotations.wrap_angle(bar_angles(traj) - ref.angles)), axis=1)
 
 
 def com_positions(params, theta, beta, gamma) -> np.ndarray:
@@ -442,7 +438,7 @@ def exact_error(scene: "Scene", traj: "Trajectory", settings=None, run=None) -> 
         return float("nan"), "rad", "no samples"
     ref = reference_solution(p, traj.t)
     ang = bar_angles(traj)
-    err = float(np.max(np.abs(_wrap(ang - ref.angles))))
+    err = float(np.max(np.abs(rotations.wrap_angle(ang - ref.angles))))
     idx = [traj.body_names.index(n) for n in BODIES]
     com = traj.p_WCm_W[:, idx][:, :, [0, 2]]
     err_pos = float(np.max(np.linalg.norm(com - com_positions(p, ref.theta, ref.beta, ref.gamma), axis=-1)))

@@ -303,17 +303,13 @@ def body_angles(traj: "Trajectory") -> np.ndarray:
     return np.stack([rotations.xz_plane_angle(traj.quat_WB[:, traj.body_names.index(name)]) for name in BARS], axis=1)
 
 
-def _wrap(x: np.ndarray) -> np.ndarray:
-    return np.angle(np.exp(1j * x))
-
-
 def exact_error_series(scene: "Scene", traj: "Trajectory") -> np.ndarray:
     """max over crank and rod of |α_run − α_exact| (rad), their absolute angles against the tight
     integration of the exact 1-DOF equation (``reference_solution``).
 
     Angles from the bodies' orientations; differences wrapped to (−π, π]."""
     ref = reference_solution(scene.params, traj.t)
-    return np.max(np.abs(_wrap(body_angles(traj) - np.stack([ref.theta, ref.phi], axis=1))), axis=1)
+    return np.max(np.abs(rotations.wrap_angle(body_angles(traj) - np.stack([ref.theta, ref.phi], axis=1))), axis=1)
 
 
 def exact_error(scene: "Scene", traj: "Trajectory", settings=None, run=None) -> tuple[float, str, str]:

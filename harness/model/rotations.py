@@ -83,6 +83,11 @@ def xz_plane_angle(q_wxyz: np.ndarray) -> np.ndarray:
     return np.arctan2(R[..., 2, 0], R[..., 0, 0])
 
 
+def wrap_angle(x: np.ndarray) -> np.ndarray:
+    """Angles (rad) wrapped into (-pi, pi]: the difference of two angles as the shortest turn."""
+    return np.angle(np.exp(1j * np.asarray(x, dtype=float)))
+
+
 def skew(v: np.ndarray) -> np.ndarray:
     """Cross-product matrix ``[v]x`` so that ``skew(v) @ u == cross(v, u)``."""
     x, y, z = v

@@ -40,3 +40,12 @@ def test_xz_plane_angle_is_the_turn_about_minus_y():
     angles = np.array([-3.0, -1.2, 0.0, 0.7, 2.9])
     q = np.stack([from_axis_angle(np.array([0.0, -1.0, 0.0]), a) for a in angles])
     assert np.allclose(xz_plane_angle(q), angles, atol=1e-14)
+
+
+def test_wrap_angle_gives_the_shortest_turn():
+    import numpy as np
+
+    from harness.model.rotations import wrap_angle
+
+    assert np.allclose(wrap_angle(np.array([0.1, 2 * np.pi + 0.1, -2 * np.pi - 0.1, 3.0 * np.pi / 2])),
+                       [0.1, 0.1, -0.1, -np.pi / 2], atol=1e-12)
