@@ -177,6 +177,22 @@ ERRATA: tuple[Erratum, ...] = (
             "Ex. 6.1.1 was carried into a printed result, about 1 % off.",
         tests=("tests/references/test_double_pendulum.py::test_double_pendulum_textbook_ex611_ex621_numbers",),
     ),
+    Erratum(
+        location="Problem 5.12 (answer l. 3515)",
+        title="the φ equation of the semicylinder on a smooth plane",
+        kind="wrong result",
+        printed="(4/(3π)) ẍ cos φ + R φ̈ + (4/(3π)) g sin φ = 0",
+        correct="(8/(3π)) ẍ cos φ + R φ̈ + (8/(3π)) g sin φ = 0, i.e. m c ẍ cos φ + (m R²/2) φ̈ + m g c sin φ = 0 "
+                "with c = 4R/(3π) (the x equation, ẍ + c φ̈ cos φ − c φ̇² sin φ = 0, is right)",
+        why="Lagrange in φ gives m c ẍ cos φ + I_O φ̈ + m g c sin φ = 0 with I_O = m R²/2, the semicylinder's moment "
+            "about its axis (the same as the whole cylinder's); the printed coefficients hold for I_O = m R². "
+            "Small oscillations: ω² = g c/(R²/2 − c²) = 1.327 g/R, the printed equations give g c/(R² − c²) = "
+            "0.518 g/R (a period 1.60 times too long). The engines agree with the corrected equations (scene "
+            "rocking_semicylinder, phi0 = 0.5 rad, 3 s): in-house, MuJoCo and Pinocchio to 1.6e-9 rad, Drake to "
+            "1.5e-8, Exudyn (order 2) to 1.5e-4; the printed ones are 0.99 rad away. (A lost "
+            "factor ½ in front of R φ̈ would also explain it; as printed, the equation is wrong.)",
+        tests=("tests/references/test_rocking_semicylinder.py::test_problem_512_printed_phi_equation_is_wrong",),
+    ),
 )
 
 # OCR damage and typos that do not change a printed result.
@@ -219,6 +235,12 @@ VERIFIED: tuple[tuple[str, str, str], ...] = (
      "tests/references/test_torque_free.py::test_torque_free_textbook_stability_beta"),
     ("Ex. 5.1.1", "sin φ = (a/b) sin θ, x = a cos θ + √(b² − a² sin² θ), δx (the Q_θ that follows: erratum)",
      "tests/references/test_slider_crank.py::test_ex_511_printed_generalized_force_has_the_wrong_sign"),
+    ("Problem 5.12 (answer l. 3515)", "the x equation ẍ + (4/(3π)) R φ̈ cos φ − (4/(3π)) R φ̇² sin φ = 0 (the φ "
+     "equation: erratum)",
+     "tests/references/test_rocking_semicylinder.py::test_lagrange_equations_against_newton_euler"),
+    ("Problem 5.13 (answer l. 3519)", "rolling cylinder (4m, R) with a pinned bar (m, 4R) released horizontal: "
+     "θ̇ = √(21g/(25R)) at the vertical",
+     "tests/references/test_rolling_cylinder_bar.py::test_textbook_release_reaches_the_printed_rate"),
     ("Ex. 5.3.1", "Lagrange's equations, r* = L + mg/k, ω_1 = √(k/m), ω_2 = √(g/r*)",
      "tests/references/test_spring_pendulum.py::test_textbook_frequencies_from_small_oscillations"),
     ("Ex. 6.1.1", "ω = 0.86, 2.30 √(g/L); mode ratios 1.43, −2.10; unit vectors",

@@ -12,7 +12,7 @@ import numpy as np
 from harness.measure import invariants
 from harness.model import loop_closure as closure
 from harness.model import rotations
-from harness.model.joints import JOINTS, joint_frames
+from harness.model.joints import HINGE, JOINTS, joint_frames
 from harness.model.joints import angular_conditions as joints_angular_conditions
 from harness.model.multibody import Multibody
 from harness.measure.trajectory import Trajectory
@@ -205,16 +205,38 @@ def reaction_scales(traj: Trajectory, model: Multibody) -> tuple[float, float]:
     return force, force * motion_scales(traj, model)["length"]
 
 
-def reaction_error(a: Trajectory, b: Trajectory) -> dict[str, float]:
+def plane_normal(model: Multibody) -> np.ndarray | None:
+    """The unit normal (world) of a planar mechanism's plane: every joint of the tree and every
+    cut joint a hinge, all axes parallel in world at the initial state; None otherwise."""
+    from harness.model import kinematics
+
+    hinge = HINGE.name
+    if any(b.joint != hinge for b in model.bodies) or any(loop.kind != hinge for loop in model.loops):
+        return None
+    states = kinematics.forward(model, model.q0, model.v0)
+    axes = [rotations.matrix(states[b.name].quat_WB) @ np.asarray(b.axis_B, float) for b in model.bodies]
+    axes += [rotations.matrix(states[loop.body_a].quat_WB) @ np.asarray(loop.axis_A, float) for loop in model.loops]
+    n = axes[0] / np.linalg.norm(axes[0])
+    if any(np.linalg.norm(np.cross(n, x / np.linalg.norm(x))) > 1e-9 for x in axes):
+        return None
+    return n
+
+
+def reaction_error(a: Trajectory, b: Trajectory, normal: np.ndarray | None = None) -> dict[str, float]:
     """Max over joints and shared samples of the reaction differences: ``force_max`` (N),
     ``moment_max`` (N m, about the joint point); joints are those of ``b``. A joint missing
-    from ``a`` gives NaN."""
+    from ``a`` gives NaN. With a plane ``normal`` (unit, world), only the force's component in
+    the plane and the moment's along the normal are compared (a planar mechanism's determinate
+    part, ``plane_normal``)."""
     n = _same_grid(a, b)
     out = {"samples": n, "force_max": 0.0, "moment_max": 0.0}
     for name, (fb, mb) in b.reactions.items():
         if name not in a.reactions:
             return {"samples": n, "force_max": float("nan"), "moment_max": float("nan")}
         fa, ma = a.reactions[name]
+        if normal is not None:
+            fa, fb = (f - np.outer(f @ normal, normal) for f in (fa, fb))
+            ma, mb = (np.outer(m @ normal, normal) for m in (ma, mb))
         if n:
             out["force_max"] = max(out["force_max"], float(np.max(np.linalg.norm(fa[:n] - fb[:n], axis=-1))))
             out["moment_max"] = max(out["moment_max"], float(np.max(np.linalg.norm(ma[:n] - mb[:n], axis=-1))))

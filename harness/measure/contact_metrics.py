@@ -2,7 +2,8 @@
 
 Computed from the common trajectory (maximal coordinates), whatever engine made it, for the
 scene's ``RollingContact``s (``harness.model.multibody``): the contact point C is the lowest point of
-the lower rim edge (``harness.model.rolling_contact``), r = r_AC its offset from the centre A.
+the lower rim edge, or of the contact's one rolling circle (``RollingContact.circle_z``;
+``harness.model.rolling_contact``), r = r_AC its offset from the centre A.
 
 * slip velocity: the velocity of the body's material point at C, ``v_A + w x r`` (m/s, world);
   its horizontal part is the slip (zero for rolling without slip), its vertical part the rate of
@@ -37,7 +38,7 @@ def contact_series(traj: Trajectory, contact: RollingContact) -> dict[str, np.nd
     ``r`` (n, 3) m (offset A -> C, world); NaN where the disk lies flat."""
     i = traj.body_index(contact.body)
     R = rotations.matrix(traj.quat_WB[:, i].reshape(-1, 4)).reshape(-1, 3, 3)
-    r = contact_offset(R, contact.radius, contact.half_thickness)
+    r = contact_offset(R, contact.radius, contact.half_thickness, contact.circle_z)
     flat = is_flat(R)
     r[flat] = np.nan
     height = traj.p_WCm_W[:, i, 2] + r[:, 2]

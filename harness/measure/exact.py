@@ -16,6 +16,10 @@ them live together in that one module. What a reference module provides:
   its docstring says what it measures (``series_description``).
 * ``exact_reaction(scene, traj) -> (value, detail) | None`` (optional): max over samples of
   |F(t) - F_exact(t)| (N) of the joint reaction force against the exact support force.
+* ``published_state(scene, traj) -> dict | None`` (optional): for a system whose source publishes
+  a reference state, the run's number of correct digits of it (``{"t": s, "positions": digits,
+  "velocities": digits}``), None when it does not apply (other parameters, the time not
+  sampled).
 
 ``extra_run`` makes one of those extra runs with the caller's ``run``. Generic measurements on
 sampled signals (frequencies from zero crossings) are in ``harness.measure.signals``.
@@ -112,6 +116,13 @@ def exact_error(scene: "Scene", traj: "Trajectory", settings: "RunSettings",
     if run is None and needs_runs(scene):
         raise ValueError(f"the exact check of scene {scene.name!r} makes runs of its own: pass run(scene, settings)")
     return fn(scene, traj, settings, run)
+
+
+def published_state(scene: "Scene", traj: "Trajectory") -> dict | None:
+    """The run's correct digits of its system's published reference state (the reference
+    module's optional ``published_state``), None where there is none or it does not apply."""
+    fn = getattr(reference_module(scene), "published_state", None)
+    return fn(scene, traj) if callable(fn) else None
 
 
 def exact_error_series(scene: "Scene", traj: "Trajectory"):

@@ -15,6 +15,15 @@ Element types
 * ``JointSpring``: a linear spring on a slide joint's coordinate, generalised force
   ``-stiffness (q - q_ref)``, potential ``stiffness (q - q_ref)^2 / 2``. MJCF: the joint's
   ``stiffness`` with ``springref``; URDF: none (Pinocchio gets it in ``tau``).
+* ``JointTorque``: a constant torque (N m) on a hinge joint's coordinate (a motor), on the child
+  about the axis and the opposite on the parent; it does work (power ``torque q'``). MJCF: a
+  ``<general>`` actuator on the joint with constant bias (``biastype="affine"``,
+  ``biasprm="torque 0 0"``, zero gain); URDF: none (Pinocchio gets it in ``tau``).
+* ``PointSpring``: a linear spring between a point fixed in a body and a point fixed in another
+  body or in the world, force ``-stiffness (L - rest_length)`` along the line (L the distance,
+  m), potential ``stiffness (L - rest_length)^2 / 2``. MJCF: a spatial ``<tendon>`` through the
+  sites ``<name>_a`` and ``<name>_b`` with ``stiffness`` and ``springlength``; URDF: none
+  (Pinocchio gets it as ``fext``).
 
 Adding a force type: its element dataclass and a ``ForceType`` here, its ``Multibody`` field
 (``harness.model.multibody``), the in-house force (``harness.engines.inhouse.model`` and
@@ -64,6 +73,49 @@ class JointSpring:
     body: str
     stiffness: float
     q_ref: float
+
+
+@dataclass(frozen=True)
+class JointTorque:
+    """A constant torque on the coordinate of a ``hinge`` joint (the joint of ``body``): the
+    torque ``torque`` (N m) about the hinge axis on the body and its opposite on the parent (a
+    motor between them); generalised force ``torque`` on the joint coordinate.
+
+    Attributes:
+        body: name of the body whose hinge carries the torque.
+        torque: N m, finite (sign: about the joint's axis, right-handed).
+        name: name of the MJCF actuator that states it.
+    """
+
+    body: str
+    torque: float
+    name: str = "motor"
+
+
+@dataclass(frozen=True)
+class PointSpring:
+    """A linear spring between the point ``p_A`` fixed in ``body_a`` and the point ``p_B`` fixed
+    in ``body_b`` (or in the world when ``body_b`` is None). With ``d = x_A - x_B`` (world, m) and
+    ``L = |d|``, the force on body_a at its point is ``-stiffness (L - rest_length) d / L`` (N,
+    world) and its opposite acts on body_b; potential ``stiffness (L - rest_length)^2 / 2`` (J).
+
+    Attributes:
+        name: the spring's name (MJCF tendon ``<name>``, sites ``<name>_a``, ``<name>_b``).
+        body_a: name of the body carrying the first end.
+        p_A: the first end in body_a's frame (m).
+        body_b: name of the body carrying the second end, or None for the world.
+        p_B: the second end in body_b's frame, or in world for the world (m).
+        stiffness: N/m, >= 0.
+        rest_length: m, >= 0.
+    """
+
+    name: str
+    body_a: str
+    p_A: np.ndarray
+    body_b: str | None
+    p_B: np.ndarray
+    stiffness: float
+    rest_length: float
 
 
 @dataclass(frozen=True)
@@ -148,6 +200,79 @@ def _check_spring(spring: JointSpring, model, source: str) -> None:
         raise InputError(f"{source}: spring on {spring.body!r}: stiffness must be finite and >= 0, rest position finite")
 
 
+# --------------------------------------------------------------------------- joint torques
+
+
+def _joint_rate(traj, model, body_name: str) -> np.ndarray:
+    """The hinge rate q' (n,) rad/s of body ``body_name``'s joint from maximal coordinates: the
+    child's angular velocity relative to the parent along the axis (world)."""
+    body = model.body(body_name)
+    i = traj.body_index(body_name)
+    R = rotations.matrix(traj.quat_WB[:, i])
+    axis_W = R @ (np.asarray(body.axis_B, float) / np.linalg.norm(body.axis_B))
+    w_rel = traj.w_WB_W[:, i] - (0.0 if body.parent is None else traj.w_WB_W[:, traj.body_index(body.parent)])
+    return np.einsum("ti,ti->t", w_rel, axis_W)
+
+
+def _torque_power(traj, model, torque: JointTorque) -> np.ndarray:
+    """torque q' (W)."""
+    return torque.torque * _joint_rate(traj, model, torque.body)
+
+
+def _torque_joint_force(torque: JointTorque, q: float, v: float) -> float:
+    return torque.torque
+
+
+def _check_torque(torque: JointTorque, model, source: str) -> None:
+    if not np.isfinite(torque.torque):
+        raise InputError(f"{source}: torque on {torque.body!r}: torque must be finite")
+
+
+# --------------------------------------------------------------------------- point springs
+
+
+def spring_ends(traj, model, spring: PointSpring) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(x_A, x_B, v_A, v_B)``: the spring's two ends and their velocities in world (n, 3) (m,
+    m/s) from maximal coordinates (the world end at rest)."""
+    def end(body_name, p):
+        p = np.asarray(p, float)
+        if body_name is None:
+            n = len(traj.t)
+            return np.broadcast_to(p, (n, 3)), np.zeros((n, 3))
+        i = traj.body_index(body_name)
+        r = rotations.matrix(traj.quat_WB[:, i]) @ (p - model.body(body_name).p_BCm_B)
+        return traj.p_WCm_W[:, i] + r, traj.v_WCm_W[:, i] + np.cross(traj.w_WB_W[:, i], r)
+
+    (x_A, v_A), (x_B, v_B) = end(spring.body_a, spring.p_A), end(spring.body_b, spring.p_B)
+    return x_A, x_B, v_A, v_B
+
+
+def spring_force(spring: PointSpring, x_A: np.ndarray, x_B: np.ndarray) -> np.ndarray:
+    """The force (N, world) on body_a's end of a point spring with ends ``x_A``, ``x_B`` (m,
+    world; broadcasts over leading axes): ``-k (L - L0) (x_A - x_B) / L``."""
+    d = np.asarray(x_A, float) - np.asarray(x_B, float)
+    L = np.linalg.norm(d, axis=-1, keepdims=True)
+    return -spring.stiffness * (L - spring.rest_length) * d / L
+
+
+def _point_spring_potential(traj, model, spring: PointSpring) -> np.ndarray:
+    x_A, x_B = spring_ends(traj, model, spring)[:2]
+    return 0.5 * spring.stiffness * (np.linalg.norm(x_A - x_B, axis=-1) - spring.rest_length) ** 2
+
+
+def _check_point_spring(spring: PointSpring, model, source: str) -> None:
+    for body in (spring.body_a, spring.body_b):
+        if body is not None and body not in model.body_names:
+            raise InputError(f"{source}: spring {spring.name!r}: no body named {body!r}")
+    if spring.body_a == spring.body_b:
+        raise InputError(f"{source}: spring {spring.name!r}: both ends on {spring.body_a!r}")
+    if not (np.isfinite(spring.stiffness) and spring.stiffness >= 0.0
+            and np.isfinite(spring.rest_length) and spring.rest_length >= 0.0):
+        raise InputError(f"{source}: spring {spring.name!r}: stiffness and rest length must be finite and >= 0")
+    if not (np.all(np.isfinite(spring.p_A)) and np.all(np.isfinite(spring.p_B))):
+        raise InputError(f"{source}: spring {spring.name!r}: its end points are not finite")
+
+
 # --------------------------------------------------------------------------- the table
 
 
@@ -163,7 +288,19 @@ JOINT_SPRINGS = ForceType(
     check=_check_spring, mjcf="stiffness and springref of the body's joint", urdf=None,
 )
 
-FORCES: dict[str, ForceType] = {ft.name: ft for ft in (POINT_FORCES, JOINT_SPRINGS)}
+JOINT_TORQUES = ForceType(
+    name="joint_torque", element=JointTorque, field="torques", label="torque", joints=(joints.HINGE.name,),
+    potential=None, power=_torque_power, joint_force=_torque_joint_force, joint_potential=None, check=_check_torque,
+    mjcf="<general> actuator <name> on the body's joint: gainprm 0, biastype affine, biasprm \"torque 0 0\"",
+    urdf=None,
+)
+POINT_SPRINGS = ForceType(
+    name="point_spring", element=PointSpring, field="point_springs", label="spring", joints=None,
+    potential=_point_spring_potential, power=None, joint_force=None, joint_potential=None, check=_check_point_spring,
+    mjcf="spatial <tendon> <name> through sites <name>_a, <name>_b: stiffness, springlength", urdf=None,
+)
+
+FORCES: dict[str, ForceType] = {ft.name: ft for ft in (POINT_FORCES, JOINT_SPRINGS, JOINT_TORQUES, POINT_SPRINGS)}
 
 
 def elements(model):

@@ -61,3 +61,19 @@ def forward(model: Multibody, q: dict[str, np.ndarray], v: dict[str, np.ndarray]
             w_WB_W=w_WB,
         )
     return out
+
+
+def circle_intersection(c1: np.ndarray, r1: float, c2: np.ndarray, r2: float, side: float) -> np.ndarray | None:
+    """The intersection of two circles in a plane, the circle about ``c1`` (2,) of radius ``r1``
+    and the one about ``c2`` of radius ``r2`` (m), on ``side``: the sign of the cross product
+    (c2 - c1) x (point - c1) (+1: left of the directed line c1 -> c2). None when they do not
+    intersect in two points (|c2 - c1| outside (|r1 - r2|, r1 + r2)). A linkage's builder
+    assembles its loop with it."""
+    u = np.asarray(c2, float) - np.asarray(c1, float)
+    L = float(np.hypot(*u))
+    if not (abs(r1 - r2) < L < r1 + r2):
+        return None
+    s = (r1 * r1 - r2 * r2 + L * L) / (2.0 * L)
+    h = np.sqrt(max(r1 * r1 - s * s, 0.0))
+    uh = u / L
+    return np.asarray(c1, float) + s * uh + float(np.sign(side)) * h * np.array([-uh[1], uh[0]])

@@ -4,8 +4,9 @@ This is the one description of the truth from which the in-house model is built 
 which the MJCF and URDF models are edited and checked. Everything is in SI units.
 
 Frames, units and joint coordinates are those of ``harness.model.joints`` (the joint table:
-one ``JointType`` per kind in ``JOINTS``). Force elements (``PointForce``, ``JointSpring``) and
-their table ``FORCES`` are in ``harness.model.forces``; they are importable from here too.
+one ``JointType`` per kind in ``JOINTS``). Force elements (``PointForce``, ``JointSpring``,
+``JointTorque``, ``PointSpring``) and their table ``FORCES`` are in ``harness.model.forces``; they
+are importable from here too.
 """
 
 from __future__ import annotations
@@ -14,9 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from harness.model.forces import JointSpring, PointForce
+from harness.model.forces import JointSpring, JointTorque, PointForce, PointSpring
 
-__all__ = ["Body", "JointSpring", "LoopJoint", "Multibody", "PointForce", "RollingContact"]
+__all__ = ["Body", "JointSpring", "JointTorque", "LoopJoint", "Multibody", "PointForce", "PointSpring", "RollingContact"]
 
 
 @dataclass(frozen=True)
@@ -54,12 +55,22 @@ class RollingContact:
     rolling without slip makes the material point there have zero velocity (two nonholonomic
     rows and the holonomic height row z = 0).
 
+    With ``circle_z`` set, the body rolls on one circle instead: radius ``radius``, centred on
+    the symmetry axis at body z = ``circle_z`` (m, measured from the centre of mass along body
+    z); the contact point is the lowest point of that circle (``harness.model.rolling_contact``).
+    A cylinder lying on its side whose axis stays horizontal touches the plane along a segment
+    whose midpoint is the lowest point of its mid circle (``circle_z = 0``); ``half_thickness``
+    is then only the cylinder's half-length (the MJCF geom's size).
+
     Attributes:
-        body: name of the rolling body (a ``free`` body, frame at its centre of mass).
+        body: name of the rolling body (a ``free`` body, frame at its centre of mass); it may
+            have children.
         radius: m, > 0.
         half_thickness: m, >= 0 (0: a thin disk).
         name: name of the contact in trajectories (its force columns ``<name>.Fx`` ...).
         geom: name of the cylinder geom in the MJCF (its size is rewritten from the scene).
+        circle_z: None (the lower of the two rim edges at +-half_thickness touches), or the
+            body z (m) of the one rolling circle's centre.
     """
 
     body: str
@@ -67,6 +78,7 @@ class RollingContact:
     half_thickness: float
     name: str = "contact"
     geom: str = "rim"
+    circle_z: float | None = None
 
 
 @dataclass(frozen=True)
@@ -115,6 +127,8 @@ class Multibody:
         q0, v0: initial joint coordinates per body name (conventions: ``harness.model.joints``).
         forces: prescribed point forces (empty when the scene is unforced).
         springs: joint springs (empty when the scene has none).
+        torques: constant joint torques (motors; empty when the scene has none).
+        point_springs: springs between body points (empty when the scene has none).
         (Every force-element field is named in ``harness.model.forces.FORCES``.)
         contacts: rolling contacts with the plane z = 0 (empty when the scene has none).
         loops: cut joints closing kinematic loops (empty for a tree). The initial state
@@ -127,6 +141,8 @@ class Multibody:
     v0: dict[str, np.ndarray]
     forces: tuple[PointForce, ...] = field(default_factory=tuple)
     springs: tuple[JointSpring, ...] = field(default_factory=tuple)
+    torques: tuple[JointTorque, ...] = field(default_factory=tuple)
+    point_springs: tuple[PointSpring, ...] = field(default_factory=tuple)
     contacts: tuple[RollingContact, ...] = field(default_factory=tuple)
     loops: tuple[LoopJoint, ...] = field(default_factory=tuple)
 

@@ -23,6 +23,17 @@ derivative with respect to a rotation of the body is that of the material point:
 row of the Jacobian is the z row of the no-slip rows. The geometry is singular when the disk
 lies flat (|n_z| = 1).
 
+One circle instead of two edges (``circle_z``, ``RollingContact.circle_z``): when the body rolls
+on a single circle of radius ``R`` centred on its axis at body z = ``c`` (m, from A along n) -- a
+cylinder lying on its side rolls on its mid circle c = 0 as long as its axis stays horizontal (the
+contact segment's midpoint); a cone's base rim -- the contact point is the lowest point of that
+circle and the edge term becomes a constant axial offset::
+
+    r_AC_W = -R u + c n,   r_AC_W' = -R u' + c n'
+
+(the same formulas with ``h sgn(n_z)`` replaced by ``-c``; no edge switch exists, and the height,
+envelope argument and bias are unchanged).
+
 Everything broadcasts over leading axes: rotations ``[..., 3, 3]``, vectors ``[..., 3]``.
 """
 
@@ -52,27 +63,39 @@ def axis_and_up(R_WB: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return n, u, s
 
 
-def contact_offset(R_WB: np.ndarray, radius: float, half_thickness: float) -> np.ndarray:
-    """``r_AC_W`` (m, world): from the centre A to the contact point C (module docstring)."""
+def _axial(n_z, half_thickness: float, circle_z: float | None):
+    """The coefficient k of the axial term ``k n`` of r_AC: ``-h sgn(n_z)`` (the lower of the two
+    rim edges) or, for one circle, ``circle_z``."""
+    if circle_z is not None:
+        return float(circle_z) * np.ones_like(n_z)
+    return -half_thickness * np.sign(n_z)
+
+
+def contact_offset(R_WB: np.ndarray, radius: float, half_thickness: float, circle_z: float | None = None) -> np.ndarray:
+    """``r_AC_W`` (m, world): from the centre A to the contact point C (module docstring); with
+    ``circle_z`` (m) the body rolls on the one circle centred at body z = circle_z."""
     n, u, _ = axis_and_up(R_WB)
-    sigma = np.sign(n[..., 2])[..., None]
-    return -radius * u - half_thickness * sigma * n
+    k = _axial(n[..., 2], half_thickness, circle_z)[..., None]
+    return -radius * u + k * n
 
 
-def contact_offset_rate(R_WB: np.ndarray, w_W: np.ndarray, radius: float, half_thickness: float) -> np.ndarray:
+def contact_offset_rate(R_WB: np.ndarray, w_W: np.ndarray, radius: float, half_thickness: float,
+                        circle_z: float | None = None) -> np.ndarray:
     """``d r_AC_W / dt`` (m/s, world) at world angular velocity ``w_W`` (rad/s): the motion of
-    the contact point around the rim, plus the body's rotation of it (module docstring)."""
+    the contact point around the rim, plus the body's rotation of it (module docstring; with
+    ``circle_z`` the one circle at body z = circle_z)."""
     n, u, s = axis_and_up(R_WB)
     s = np.maximum(s, FLAT)[..., None]
     nz = n[..., 2:3]
     ndot = cross(np.asarray(w_W, dtype=float), n)
     nzdot = ndot[..., 2:3]
     udot = (-nzdot * n - nz * ndot + u * nz * nzdot / s) / s
-    sigma = np.sign(nz)
-    return -radius * udot - half_thickness * sigma * ndot
+    k = _axial(nz, half_thickness, circle_z)
+    return -radius * udot + k * ndot
 
 
-def offset_and_rate(R_WB: np.ndarray, w_W: np.ndarray | None, radius: float, half_thickness: float):
+def offset_and_rate(R_WB: np.ndarray, w_W: np.ndarray | None, radius: float, half_thickness: float,
+                    circle_z: float | None = None):
     """One body (R_WB 3x3, w_W (3,) or None): ``(r_AC_W, r_AC_W' or None, s)`` with
     s = sqrt(1 - n_z^2), the same formulas as ``contact_offset`` / ``contact_offset_rate`` in
     scalar arithmetic (the engines' right-hand sides call it at every stage)."""
@@ -80,7 +103,10 @@ def offset_and_rate(R_WB: np.ndarray, w_W: np.ndarray | None, radius: float, hal
     s = (max(1.0 - nz * nz, 0.0)) ** 0.5
     si = 1.0 / max(s, FLAT)
     u0, u1, u2 = -nz * n0 * si, -nz * n1 * si, (1.0 - nz * nz) * si
-    hs = half_thickness * (1.0 if nz > 0.0 else (-1.0 if nz < 0.0 else 0.0))
+    if circle_z is None:
+        hs = half_thickness * (1.0 if nz > 0.0 else (-1.0 if nz < 0.0 else 0.0))
+    else:
+        hs = -float(circle_z)
     r = np.array([-radius * u0 - hs * n0, -radius * u1 - hs * n1, -radius * u2 - hs * nz])
     if w_W is None:
         return r, None, s
@@ -94,17 +120,18 @@ def offset_and_rate(R_WB: np.ndarray, w_W: np.ndarray | None, radius: float, hal
     return r, rdot, s
 
 
-def contact_height(p_WA_W: np.ndarray, R_WB: np.ndarray, radius: float, half_thickness: float) -> np.ndarray:
+def contact_height(p_WA_W: np.ndarray, R_WB: np.ndarray, radius: float, half_thickness: float,
+                   circle_z: float | None = None) -> np.ndarray:
     """Height z (m) of the contact point above the plane (negative: penetration)."""
-    return p_WA_W[..., 2] + contact_offset(R_WB, radius, half_thickness)[..., 2]
+    return p_WA_W[..., 2] + contact_offset(R_WB, radius, half_thickness, circle_z)[..., 2]
 
 
 def slip_velocity(v_WA_W: np.ndarray, w_W: np.ndarray, R_WB: np.ndarray, radius: float,
-                  half_thickness: float) -> np.ndarray:
+                  half_thickness: float, circle_z: float | None = None) -> np.ndarray:
     """Velocity (m/s, world) of the body's material point at the contact point:
     ``v_A + w x r_AC``. Zero for rolling without slip; its z component is the rate of the
     contact height."""
-    return v_WA_W + cross(w_W, contact_offset(R_WB, radius, half_thickness))
+    return v_WA_W + cross(w_W, contact_offset(R_WB, radius, half_thickness, circle_z))
 
 
 def is_flat(R_WB: np.ndarray) -> np.ndarray:

@@ -49,6 +49,7 @@ from harness.tools.loaded_models import (
     gravity_discrepancy,
     gravity_problem,
     mujoco_bodies,
+    mujoco_force_discrepancies,
     mujoco_loop_discrepancies,
     pinocchio_bodies,
     pinocchio_joint_bodies,
@@ -105,6 +106,7 @@ def as_written(scene: Scene, engine: str, model0: Multibody | None = None) -> As
         m = _compile_as_written(scene)
         found = body_discrepancies(mujoco_bodies(m, model0), model0, rtol=AS_WRITTEN_RTOL)
         found += mujoco_loop_discrepancies(m, model0, rtol=AS_WRITTEN_RTOL)  # cut joints: the <connect> sites
+        found += mujoco_force_discrepancies(m, model0, rtol=AS_WRITTEN_RTOL)  # motors and tendon springs
         found.append(gravity_discrepancy(np.asarray(m.opt.gravity, dtype=float), model0.gravity_W, APPLIED_RTOL))
         return AsWritten(engine, scene.mjcf, m, found)
     if engine == "pinocchio":
@@ -236,7 +238,8 @@ def inspect_scene(scene: Scene, *, n_states: int = dc.DEFAULT_STATES, seed: int 
     mb = mujoco_bodies(m, model)
     ld.details = [_mujoco_options(m, scene)] + _loaded_lines(mb) + _mujoco_loop_lines(m)
     ld.problems = (compare_bodies(mb, model, rtol=APPLIED_RTOL) + _gravity(m.opt.gravity, model)
-                   + [d.message for d in mujoco_loop_discrepancies(m, model, rtol=APPLIED_RTOL) if not d.passed])
+                   + [d.message for d in mujoco_loop_discrepancies(m, model, rtol=APPLIED_RTOL) if not d.passed]
+                   + [d.message for d in mujoco_force_discrepancies(m, model, rtol=APPLIED_RTOL) if not d.passed])
     loads.append(ld)
     pmodel, _ = load_urdf(scene.urdf, scene.urdf_root_joint, model)
     lp = Load(f"Pinocchio <- {scene.urdf.name} with the scene's parameters (load_urdf, root joint {scene.urdf_root_joint})", True)
@@ -299,7 +302,8 @@ def _exudyn_load(scene: Scene, model: Multibody) -> Load:
         obj = system.mbs.GetObject(joint)
         marker = system.mbs.GetMarker(obj["markerNumbers"][1])
         ld.details.append(f"  {name}: {obj['objectType']} on {body}, disc radius {obj['discRadius']:.6g} m, "
-                          f"centre at body {_v(marker['localPosition'])} m (the lower rim edge), axis {_v(obj['discAxis'])}")
+                          f"centre at body {_v(marker['localPosition'])} m ({'the lower rim edge' if edge else 'the rolling circle'}), "
+                          f"axis {_v(obj['discAxis'])}")
     ld.problems = compare_bodies(bodies, model, rtol=APPLIED_RTOL) + _gravity(gravity, model)
     return ld
 

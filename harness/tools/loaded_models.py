@@ -25,7 +25,7 @@ from harness.engines.mujoco.model import joint_kind as mujoco_joint_kind
 from harness.engines.pinocchio.model import joint_kind as pin_joint_kind
 from harness.engines.pinocchio.model import joint_type as pin_joint_type
 from harness.model import rotations
-from harness.model.forces import JOINT_SPRINGS
+from harness.model.forces import JOINT_SPRINGS, JOINT_TORQUES, POINT_SPRINGS
 from harness.model.joints import FREE, JOINTS, ROTATIONAL, TRANSLATIONAL, by_drake, by_exudyn
 from harness.model.multibody import Multibody
 
@@ -246,6 +246,53 @@ def mujoco_loop_discrepancies(m, model: Multibody, rtol: float = 1e-9) -> list[D
                 out.append(Discrepancy(eq_name, f"site{k}", float(np.linalg.norm(got_pos - pos)) / length, rtol,
                                        "rel", f"{loop.name}: {eq_name} site{k} at {got_pos.tolist()} m in {want}, "
                                               f"scene says {pos.tolist()} m"))
+    return out
+
+
+def mujoco_force_discrepancies(m, model: Multibody, rtol: float = 1e-9) -> list[Discrepancy]:
+    """The description's joint torques and point springs (``harness.model.forces``) against a
+    compiled MJCF: each torque's ``<general>`` actuator present, on its body's joint, with zero
+    gain and constant bias equal to the torque (N m); each spring's tendon present with its
+    stiffness (N/m) and rest length (m), and its two sites on the right bodies at the right
+    points. Named by the element (``body`` = the actuator or tendon, ``quantity`` e.g.
+    ``stiffness``), so a validation check reads ``model.spring.stiffness``."""
+    out = []
+    for tq in JOINT_TORQUES.elements(model):
+        aid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, tq.name)
+        bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, tq.body)
+        if aid < 0 or bid < 0 or m.actuator_trntype[aid] != mujoco.mjtTrn.mjTRN_JOINT \
+                or m.actuator_trnid[aid, 0] != m.body_jntadr[bid]:
+            out.append(Discrepancy(tq.name, "present", 1.0, 0.0, "", f"{tq.name}: no actuator on the joint of {tq.body!r}"))
+            continue
+        got = float(m.actuator_biasprm[aid, 0]) * float(m.actuator_gear[aid, 0])
+        constant = not np.any(m.actuator_gainprm[aid, :1]) and not np.any(m.actuator_biasprm[aid, 1:3])
+        out.append(Discrepancy(tq.name, "torque", abs(got - tq.torque) / max(abs(tq.torque), 1e-12) if constant else 1.0,
+                               rtol, "rel", f"{tq.name}: constant torque {got:.9g} N m"
+                               + ("" if constant else " (not constant: gain or state-dependent bias)")
+                               + f", scene says {tq.torque:.9g} N m"))
+    for sp in POINT_SPRINGS.elements(model):
+        tid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, sp.name)
+        if tid < 0:
+            out.append(Discrepancy(sp.name, "present", 1.0, 0.0, "", f"{sp.name}: no tendon named {sp.name!r}"))
+            continue
+        k = float(np.atleast_1d(m.tendon_stiffness[tid])[0])
+        rest = np.asarray(m.tendon_lengthspring[tid], dtype=float)
+        out.append(Discrepancy(sp.name, "stiffness", abs(k - sp.stiffness) / max(sp.stiffness, 1e-12), rtol, "rel",
+                               f"{sp.name}: stiffness {k:.9g} N/m, scene says {sp.stiffness:.9g} N/m"))
+        scale = max(sp.rest_length, 1e-3)
+        out.append(Discrepancy(sp.name, "rest_length", float(np.max(np.abs(rest - sp.rest_length))) / scale, rtol, "rel",
+                               f"{sp.name}: spring length {rest.tolist()} m, scene says {sp.rest_length:.9g} m"))
+        for end, body, point in (("a", sp.body_a, sp.p_A), ("b", sp.body_b, sp.p_B)):
+            sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"{sp.name}_{end}")
+            want = 0 if body is None else mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body)
+            if sid < 0 or m.site_bodyid[sid] != want:
+                out.append(Discrepancy(sp.name, f"site_{end}_body", 1.0, 0.0, "",
+                                       f"{sp.name}: site {sp.name}_{end} not on {body or 'world'!r}"))
+                continue
+            pos = np.asarray(m.site_pos[sid], dtype=float)
+            length = max(1e-3, float(np.linalg.norm(point)))
+            out.append(Discrepancy(sp.name, f"site_{end}", float(np.linalg.norm(pos - point)) / length, rtol, "rel",
+                                   f"{sp.name}: site {sp.name}_{end} at {pos.tolist()} m, scene says {np.asarray(point).tolist()} m"))
     return out
 
 
@@ -513,6 +560,19 @@ def _drake_line(text: str, path: Path) -> str:
 
 def _drake_joints(plant) -> list:
     return [plant.get_joint(j) for j in plant.GetJointIndices()]
+
+
+def _drake_joints_root_first(plant) -> list:
+    """Drake's joints, the floating joints on the world first (Drake adds a root link's floating
+    joint after the file's joints; MuJoCo and Pinocchio list the root first, as
+    ``drake_joint_details`` reports them), the others in Drake's order."""
+    joints = _drake_joints(plant)
+    world = int(plant.world_body().index())
+
+    def floating_root(j) -> bool:
+        return int(j.parent_body().index()) == world and j.num_velocities() == 6
+
+    return [j for j in joints if floating_root(j)] + [j for j in joints if not floating_root(j)]
 
 
 def load_drake(path, *, root_joint: str = "none") -> DrakeLoad:
@@ -793,7 +853,8 @@ def mujoco_joint_details(m: mujoco.MjModel) -> list[JointDetails]:
 
 
 def drake_joint_details(source) -> list[JointDetails]:
-    """Per moving Drake joint (as ``drake_joint_bodies``): the origin of the joint's child frame
+    """Per moving Drake joint (as ``drake_joint_bodies``, but a floating root joint first, as
+    MuJoCo and Pinocchio list it: ``_drake_joints_root_first``): the origin of the joint's child frame
     in the real body's frame at zero joint coordinates, the position limits of a 1-dof joint, its
     default damping, and the reflected inertia (rotor inertia x gear ratio^2, where Drake's MJCF
     parser puts an ``armature``) of the actuators on it."""
@@ -805,7 +866,7 @@ def drake_joint_details(source) -> list[JointDetails]:
         act = plant.get_joint_actuator(a)
         reflected[int(act.joint().index())] = reflected.get(int(act.joint().index()), 0.0) + float(act.default_reflected_inertia())
     out = []
-    for j in _drake_joints(plant):
+    for j in _drake_joints_root_first(plant):
         if j.type_name() == "weld":
             continue
         B = plant.get_body(_index(plant, real(int(j.child_body().index()))))

@@ -109,3 +109,36 @@ def test_reaction_balances_newton_for_the_whole_chain():
     F = tr.reactions["bar1"][0][2:-2][:, [0, 2]]
     weight = model.total_mass * model.gravity_W[[0, 2]]
     assert np.abs(dp - weight - F).max() < 1e-6 * model.total_mass * 9.81
+
+
+def test_loop_engines_agree_on_the_determinate_part_of_every_reaction():
+    """On the Andrews squeezer (three cut hinges, a motor, a tendon spring) every engine that
+    runs loops reports every tree joint and cut joint; their in-plane forces agree with the
+    in-house multipliers and the moments about the plane normal vanish (a hinge transmits none:
+    MuJoCo's motor torque and Pinocchio's applied torque are taken out), while the out-of-plane
+    parts differ between engines (indeterminate: the loops' redundant rows)."""
+    scene = with_reactions(load_scene("andrews_squeezer"))
+    model = scene.multibody()
+    normal = compare.plane_normal(model)
+    assert np.allclose(np.abs(normal), [0.0, 1.0, 0.0])
+    names = {b.name for b in model.bodies} | {loop.name for loop in model.loops}
+    got = {}
+    for e in ("inhouse", "mujoco", "pinocchio", "exudyn"):
+        tr = get_engine(e).simulate(scene, RunSettings(0.004, 1e-5, 1e-3, DEFAULT[e]))
+        assert tr.ok, tr.message
+        assert set(tr.reactions) == names, e
+        got[e] = tr
+    scale = compare.reaction_scales(got["inhouse"], model)[0]
+    for e, tr in got.items():
+        err = compare.reaction_error(tr, got["inhouse"], normal)
+        assert err["force_max"] < 1e-3 * scale and err["moment_max"] < 1e-9 * scale, (e, err)
+        for name in names:
+            assert np.max(np.abs(tr.reactions[name][1] @ normal)) < 1e-9 * scale, (e, name)
+    full = compare.reaction_error(got["mujoco"], got["inhouse"])  # all components: the indeterminate part differs
+    assert full["moment_max"] > 1e3 * compare.reaction_error(got["mujoco"], got["inhouse"], normal)["moment_max"]
+
+
+def test_a_non_planar_or_tree_model_has_no_plane_normal():
+    assert compare.plane_normal(load_scene("bricard").multibody()) is None
+    assert compare.plane_normal(load_scene("cart_pendulum").multibody()) is None  # a slide joint
+    assert np.allclose(np.abs(compare.plane_normal(load_scene("four_bar").multibody())), [0.0, 1.0, 0.0])

@@ -6,7 +6,8 @@ import pytest
 
 from harness.engines.mujoco.model import load_mjcf, read_spec
 from harness.engines.pinocchio.model import load_urdf, read_urdf
-from harness.tools.loaded_models import compare_bodies, mujoco_bodies, mujoco_loop_discrepancies, pinocchio_bodies
+from harness.tools.loaded_models import (compare_bodies, mujoco_bodies, mujoco_force_discrepancies, mujoco_loop_discrepancies,
+                                         pinocchio_bodies)
 from harness.model.scene import available_scenes, load_scene
 
 SCENES = available_scenes()
@@ -19,12 +20,15 @@ OVERRIDES = {
     "plate_pendulum": {"m": 0.7, "a": 0.15, "b": 0.4, "h": 0.02},
     "cart_pendulum": {"M": 3.5, "m": 0.4, "L": 0.6, "r": 0.03},
     "rolling_disk": {"mass": 0.02, "R": 0.03, "h": 0.004},
+    "rolling_cylinder_bar": {"M": 2.0, "m": 0.7, "R": 0.15, "h": 0.08, "L": 0.5, "a": 0.01},
     "spring_pendulum": {"m": 0.5, "k": 90.0, "L": 0.3, "rb": 0.03, "m_hub": 0.2, "r_hub": 0.02},
     "rotating_plate": {"m": 2.0, "a": 0.3, "h": 0.02, "phi": 0.9},
     "four_bar": {"a": 0.15, "b": 0.55, "c": 0.35, "d": 0.5, "m_coupler": 1.7, "theta0": 2.0},
     "four_bar_near_singular": {"a": 0.25, "c": 0.31, "m_rocker": 0.3, "branch": -1.0},
     "slider_crank": {"a": 0.12, "b": 0.4, "e": 0.03, "w": 0.08, "m_slider": 2.0},
     "bricard": {"L": 0.7, "s": 0.05, "m": 2.5, "dq0": 0.4},
+    "rocking_semicylinder": {"m": 3.0, "R": 0.15, "w": 0.05, "phi0": -0.7},
+    "andrews_squeezer": {"m3": 0.03, "i5": 2e-5, "sa": 0.02, "mom": -0.05, "c0": 3000.0, "l0": 0.07, "theta0": 0.3},
 }
 
 
@@ -51,6 +55,7 @@ def test_overrides_reach_mujoco_and_pinocchio(name):
     assert compare_bodies(mujoco_bodies(m, model), model) == []
     assert compare_bodies(pinocchio_bodies(pmodel, model), model) == []
     assert [d.message for d in mujoco_loop_discrepancies(m, model) if not d.passed] == []
+    assert [d.message for d in mujoco_force_discrepancies(m, model) if not d.passed] == []
 
 
 def test_a_loop_site_moved_in_the_mjcf_is_named():
@@ -88,3 +93,17 @@ def test_full_inertia_tensor_reaches_mujoco():
     model = replace(model, bodies=(replace(model.bodies[0], I_Cm_B=I),))
     m = load_mjcf(scene.mjcf, model)
     assert compare_bodies(mujoco_bodies(m, model), model) == []
+
+
+def test_a_motor_or_spring_changed_in_the_mjcf_is_named():
+    """A tendon spring's stiffness or site, or the motor's torque, off in the file fails the
+    as-written check, naming the element and the quantity."""
+    scene = load_scene("andrews_squeezer")
+    model = scene.multibody()
+    spec = read_spec(scene.mjcf)
+    spec.tendon("spring").stiffness = [4000.0, 0.0, 0.0]
+    spec.site("spring_b").pos = [0.014, 0.0, 0.07]
+    spec.actuator("motor").biasprm = [0.05] + [0.0] * 9
+    found = [d for d in mujoco_force_discrepancies(spec.compile(), model) if not d.passed]
+    assert sorted((d.body, d.quantity) for d in found) == [("motor", "torque"), ("spring", "site_b"), ("spring", "stiffness")]
+    assert [d for d in mujoco_force_discrepancies(load_mjcf(scene.mjcf, model), model) if not d.passed] == []

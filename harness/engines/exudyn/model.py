@@ -16,7 +16,10 @@ the child's joint point in that reference configuration, as the joint table says
 (``JointPrismaticX``: free translation along its x), ball -> ``CreateSphericalJoint``; a free
 body has none. A ``JointSpring`` on a slide is a
 ``CreateLinearSpringDamper`` along the same axis with zero force at ``q = q_ref``; a
-``PointForce`` is a ``CreateForce`` with a load user function ``f_W(t)`` at the point.
+``PointForce`` is a ``CreateForce`` with a load user function ``f_W(t)`` at the point; a
+``JointTorque`` is a body-fixed ``CreateTorque`` about the hinge axis on the child (and its
+opposite on the parent); a ``PointSpring`` is a ``CreateSpringDamper`` between the two points
+(the ground's point in world) with its stiffness and reference length, no damping.
 
 A ``RollingContact`` is Exudyn's own ideal rolling-disc joint (``CreateRollingDisc``,
 ``ObjectJointRollingDisc``): a thin disc of radius R that rolls without slip on the plane z = 0.
@@ -25,6 +28,8 @@ the circle of radius R at body z = -h sgn(n_z) (``harness.model.rolling_contact`
 itself a thin disc, centred at body (0, 0, -h sgn(n_z)): the rolling-disc joint is attached
 there, with the sign of the initial state. The model is exact as long as the same edge stays
 down (sgn(n_z) constant); a run in which the axis crosses the horizontal is reported failed.
+A contact with one rolling circle (``RollingContact.circle_z``) has the joint at that circle's
+centre, body (0, 0, circle_z) from the centre of mass, and no edge to switch.
 
 Loop (cut) joints (``Multibody.loops``, ``harness.model.multibody.LoopJoint``): each is one more
 joint object, an ``ObjectJointGeneric`` between two rigid markers (``MarkerBodyRigid``), one on
@@ -90,7 +95,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from harness.model import loop_closure, rotations
-from harness.model.forces import JOINT_SPRINGS, POINT_FORCES, elements
+from harness.model.forces import JOINT_SPRINGS, JOINT_TORQUES, POINT_FORCES, POINT_SPRINGS, elements
 from harness.model.joints import ALIGNED, JOINTS, POINT, TRANSLATIONAL, keeps_axis
 from harness.model.kinematics import forward
 from harness.model.multibody import LoopJoint, Multibody
@@ -207,7 +212,7 @@ def build(model: Multibody, node_type: str, *, reactions: bool = False) -> Exudy
                                                   writeToFile=False)) for t in outputs]
             system.joint_sensors[body.name] = (sensors[0], sensors[1] if len(sensors) > 1 else None)
     for ft, _ in elements(model):
-        if ft not in (JOINT_SPRINGS, POINT_FORCES):
+        if ft not in (JOINT_SPRINGS, POINT_FORCES, JOINT_TORQUES, POINT_SPRINGS):
             raise NotImplementedError(f"Exudyn does not model {ft.label}s ({ft.name})")
     for spring in JOINT_SPRINGS.elements(model):
         body = model.body(spring.body)
@@ -225,14 +230,32 @@ def build(model: Multibody, node_type: str, *, reactions: bool = False) -> Exudy
         mbs.CreateForce(itemNumber=system.bodies[force.body], loadVector=list(map(float, f_W(0.0))),
                         localPosition=list(map(float, force.p_BQ_B)), bodyFixed=False,
                         loadVectorUserFunction=lambda mbs_, t, load, f_W=f_W: list(map(float, f_W(t))), show=False)
+    for torque in JOINT_TORQUES.elements(model):  # about the hinge axis, the same vector in both bodies' frames
+        body = model.body(torque.body)
+        m_B = torque.torque * np.asarray(body.axis_B, float) / np.linalg.norm(body.axis_B)
+        mbs.CreateTorque(itemNumber=system.bodies[body.name], loadVector=list(map(float, m_B)), bodyFixed=True, show=False)
+        if body.parent is not None:
+            mbs.CreateTorque(itemNumber=system.bodies[body.parent], loadVector=list(map(float, -m_B)), bodyFixed=True,
+                             show=False)
+    for spring in POINT_SPRINGS.elements(model):
+        ends = [ground if b is None else system.bodies[b] for b in (spring.body_a, spring.body_b)]
+        mbs.CreateSpringDamper(itemNumbers=ends, localPosition0=list(map(float, spring.p_A)),
+                               localPosition1=list(map(float, spring.p_B)), referenceLength=float(spring.rest_length),
+                               stiffness=float(spring.stiffness), damping=0.0, show=False)
     for contact in model.contacts:
         body = model.body(contact.body)
         if JOINTS[body.joint].constrained or body.parent is not None:
             raise NotImplementedError(f"rolling contact {contact.name!r}: the rolling body must be free (no joint)")
-        n_z = frames[body.name][1][2, 2]
-        edge = float(np.sign(n_z))
+        if contact.circle_z is None:  # the lower rim edge at the initial state
+            n_z = frames[body.name][1][2, 2]
+            edge = float(np.sign(n_z))
+            centre = np.array([0.0, 0.0, -contact.half_thickness * edge])
+        else:  # one rolling circle: no edge to switch (edge 0: ``_edge_flip`` skips it)
+            edge = 0.0
+            centre = np.array([0.0, 0.0, float(contact.circle_z)])
+        centre = centre + np.asarray(body.p_BCm_B, float)  # from the node (body frame origin)
         joint = mbs.CreateRollingDisc(bodyNumbers=[ground, system.bodies[body.name]],
-                                      axisPosition=[0.0, 0.0, -contact.half_thickness * edge], axisVector=[0.0, 0.0, 1.0],
+                                      axisPosition=list(map(float, centre)), axisVector=[0.0, 0.0, 1.0],
                                       discRadius=contact.radius, planePosition=[0.0, 0.0, 0.0], planeNormal=[0.0, 0.0, 1.0],
                                       show=False)
         system.contacts[contact.name] = (joint, body.name, edge)

@@ -37,7 +37,8 @@ with parallel frames (slide):
 * ``free``: no constraint.
 
 Force elements (``harness.model.forces``): prescribed point forces enter ``NEModel.forces``;
-joint springs (slide joints only) are ``SpringElement``s (see ``newton_euler``), not constraints.
+joint springs (slide joints only) are ``SpringElement``s, hinge torques ``TorqueElement``s and
+springs between body points ``PointSpringElement``s (see ``newton_euler``), not constraints.
 A force type the in-house engine does not model is refused when the model is built.
 
 Rolling contacts (``harness.model.multibody.RollingContact``: a rim edge rolling without slip on the
@@ -63,7 +64,7 @@ import numpy as np
 
 from harness.model import kinematics
 from harness.model import rotations
-from harness.model.forces import FORCES, JOINT_SPRINGS, POINT_FORCES
+from harness.model.forces import FORCES, JOINT_SPRINGS, JOINT_TORQUES, POINT_FORCES, POINT_SPRINGS
 from harness.model.joints import ALIGNED, JOINTS, ON_AXIS, PARALLEL, POINT
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.rolling import RollingRows, build_contacts
@@ -108,6 +109,31 @@ class SpringElement:
     q_ref: float
 
 
+@dataclass(frozen=True)
+class TorqueElement:
+    """A constant hinge torque (``harness.model.forces.JointTorque``): ``torque axis_B`` (N m, the
+    child's frame) on body ``child``, its opposite on ``parent`` (index ``nb``: the world)."""
+
+    child: int
+    parent: int
+    axis_B: np.ndarray
+    torque: float
+
+
+@dataclass(frozen=True)
+class PointSpringElement:
+    """A spring between two body points (``harness.model.forces.PointSpring``): ends at ``r_a``
+    from body ``body_a``'s centre of mass (its frame, m) and ``r_b`` from ``body_b``'s (index
+    ``nb``: the world, ``r_b`` the world point); stiffness ``k`` (N/m), ``rest_length`` (m)."""
+
+    body_a: int
+    r_a: np.ndarray
+    body_b: int
+    r_b: np.ndarray
+    k: float
+    rest_length: float
+
+
 _ROT_U = np.eye(3)[[1, 2, 0]]  # (u_k, v_k) = (e_y, e_z), (e_z, e_x), (e_x, e_y)
 _ROT_V = np.eye(3)[[2, 0, 1]]
 
@@ -116,7 +142,7 @@ _ROT_V = np.eye(3)[[2, 0, 1]]
 # ball/hinge block); "line": 2 rows for the point on the axis line and 3 for parallel frames
 # (``SlideJoint``, rows in ``constraints.slide_rows``); "none": a free joint.
 _BLOCKS = {(): "none", (POINT,): "point", (POINT, ALIGNED): "point", (ON_AXIS, PARALLEL): "line"}
-_MODELLED_FORCES = (POINT_FORCES, JOINT_SPRINGS)
+_MODELLED_FORCES = (POINT_FORCES, JOINT_SPRINGS, JOINT_TORQUES, POINT_SPRINGS)
 
 
 def row_block(kind: str) -> str:
@@ -200,6 +226,8 @@ class NEModel:
     slides: tuple[SlideJoint, ...] = ()
     springs: tuple[SpringElement, ...] = ()
     contacts: tuple[RollingRows, ...] = ()  # rolling contacts: 3 rows each, after the slide rows (``rolling``)
+    torques: tuple[TorqueElement, ...] = ()
+    point_springs: tuple[PointSpringElement, ...] = ()
     redundant: bool = False  # the model has loop joints: its rows may be dependent (``constraints.solve_rows``)
 
     @property
@@ -335,6 +363,18 @@ def build(model: Multibody) -> NEModel:
                     for sp in JOINT_SPRINGS.elements(model))
 
     contacts = build_contacts(model, index)
+    torques = tuple(TorqueElement(index[tq.body], nb if model.body(tq.body).parent is None else index[model.body(tq.body).parent],
+                                  np.asarray(model.body(tq.body).axis_B, float) / np.linalg.norm(model.body(tq.body).axis_B),
+                                  float(tq.torque)) for tq in JOINT_TORQUES.elements(model))
+
+    def spring_end(body, p):
+        if body is None:
+            return nb, np.asarray(p, dtype=float)
+        return index[body], np.asarray(p, dtype=float) - np.asarray(model.body(body).p_BCm_B, dtype=float)
+
+    point_springs = tuple(PointSpringElement(*spring_end(ps.body_a, ps.p_A), *spring_end(ps.body_b, ps.p_B),
+                                             float(ps.stiffness), float(ps.rest_length))
+                          for ps in POINT_SPRINGS.elements(model))
 
     return NEModel(
         body_names=names,
@@ -361,6 +401,8 @@ def build(model: Multibody) -> NEModel:
         slides=tuple(slides),
         springs=springs,
         contacts=contacts,
+        torques=torques,
+        point_springs=point_springs,
         redundant=bool(loops),
     )
 

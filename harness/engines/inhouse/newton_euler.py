@@ -63,6 +63,7 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
     I_B, Minv, weight = nem.I_B, nem.Minv, nem.weight_W
     forces = nem.forces
     springs, slides = nem.springs, nem.slides
+    torques, point_springs = nem.torques, nem.point_springs
     kp, kd = float(gains.kp), float(gains.kd)
     redundant = nem.redundant
     n3, n7, n10 = 3 * nb, 7 * nb, 10 * nb
@@ -72,12 +73,12 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
     def dynamics(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         W = y[n10:].reshape(nb, 3)
         tau = -cross(W, (I_B @ W[:, :, None])[:, :, 0])  # gyroscopic moment, body frame
-        if nc:
-            Q, R_ext, P_ext, w_ext = frames(nb, y)
+        if nc or torques or point_springs:
+            Q, R_ext, P_ext, w_ext = frames(nb, y, with_velocity=bool(nc))
         else:
             Q = algebra.normalized(y[n3:n7].reshape(nb, 4))
             R_ext = quat_matrix(Q) if forces else None
-        if forces or springs:
+        if forces or springs or torques or point_springs:
             F = weight.copy()
             for i, r_B, force_W in forces:
                 f_W = np.asarray(force_W(t), dtype=float)
@@ -85,6 +86,10 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
                 tau[i] += cross(r_B, f_W @ R_ext[i])  # r_B x (R^T f_W), body frame
             for sp in springs:
                 spring_force(slides[sp.slide], sp, P_ext, R_ext, F, tau)
+            for tq in torques:
+                joint_torque(tq, R_ext, tau)
+            for ps in point_springs:
+                point_spring_force(ps, P_ext, R_ext, F, tau)
             f = np.concatenate([F.ravel(), tau.ravel()])
         else:
             f = np.concatenate([weight.ravel(), tau.ravel()])
@@ -128,6 +133,33 @@ def spring_force(sl, sp, P_ext: np.ndarray, R_ext: np.ndarray, F: np.ndarray, ta
         tau[p] -= moments[1]
     else:
         tau[c] += algebra.cross(sl.r_c, Rc.T @ f)
+
+
+def joint_torque(tq, R_ext: np.ndarray, tau: np.ndarray) -> None:
+    """Add a hinge torque (``model.TorqueElement``) to ``tau`` (nb, 3) N m body frames: ``torque
+    axis`` on the child, its opposite on the parent (none on the world)."""
+    m_B = tq.torque * tq.axis_B
+    tau[tq.child] += m_B
+    if tq.parent < len(tau):
+        tau[tq.parent] -= R_ext[tq.parent].T @ (R_ext[tq.child] @ m_B)
+
+
+def point_spring_force(ps, P_ext: np.ndarray, R_ext: np.ndarray, F: np.ndarray, tau: np.ndarray) -> None:
+    """Add a point spring's forces (``model.PointSpringElement``) to ``F`` (nb, 3) N world and
+    ``tau`` (nb, 3) N m body frames: ``f = -k (L - L0) d / L`` at end a, ``-f`` at end b,
+    d = x_a - x_b (world, m)."""
+    nb = len(F)
+    a, b = ps.body_a, ps.body_b
+    arm_a = R_ext[a] @ ps.r_a
+    arm_b = R_ext[b] @ ps.r_b
+    d = (P_ext[a] + arm_a) - (P_ext[b] + arm_b)
+    L = float(np.sqrt(d @ d))
+    f = -ps.k * (L - ps.rest_length) / L * d
+    F[a] += f
+    tau[a] += algebra.cross(ps.r_a, R_ext[a].T @ f)
+    if b < nb:
+        F[b] -= f
+        tau[b] -= algebra.cross(ps.r_b, R_ext[b].T @ f)
 
 
 def make_rhs(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[float, np.ndarray], np.ndarray]:

@@ -3,7 +3,8 @@
 A rolling contact (``harness.model.multibody.RollingContact``) adds three rows to the KKT system,
 after the joint rows (ball/hinge, then slide): the velocity of the body's material point at the
 contact point C is zero. With ``r = r_AC_W`` the offset from the centre of mass A to C (world;
-``harness.model.rolling_contact``: C is the lowest point of the lower rim edge and moves around the
+``harness.model.rolling_contact``: C is the lowest point of the lower rim edge, or of the one
+rolling circle of a contact with ``circle_z``, and moves around the
 rim) and ``u = [v_WA_W, w_WB_B]`` the generalised velocity of the model::
 
     v_C = v_A + w x r = [ I3 | -[r]x R ] u = J u = 0                          (3 rows, m/s)
@@ -48,12 +49,15 @@ class RollingRows:
         name: the contact's name (``RollingContact.name``).
         body: index of the rolling body.
         radius, half_thickness: rim radius and half-thickness (m).
+        circle_z: None (two rim edges), or the body z (m) of the one rolling circle's centre
+            (``RollingContact.circle_z``).
     """
 
     name: str
     body: int
     radius: float
     half_thickness: float
+    circle_z: float | None = None
 
 
 class FlatDiskError(ArithmeticError):
@@ -62,7 +66,8 @@ class FlatDiskError(ArithmeticError):
 
 def build_contacts(model, index: dict[str, int]) -> tuple[RollingRows, ...]:
     """The rolling contacts of a ``Multibody`` (none when it has no ``contacts``)."""
-    return tuple(RollingRows(c.name, index[c.body], float(c.radius), float(c.half_thickness))
+    return tuple(RollingRows(c.name, index[c.body], float(c.radius), float(c.half_thickness),
+                             None if c.circle_z is None else float(c.circle_z))
                  for c in getattr(model, "contacts", ()))
 
 
@@ -77,7 +82,8 @@ def rolling_rows(contacts: tuple[RollingRows, ...], nb: int, P_ext: np.ndarray, 
     for j, c in enumerate(contacts):
         i = c.body
         R = R_ext[i]
-        r, r_dot, s = rolling_contact.offset_and_rate(R, None if w_ext is None else w_ext[i], c.radius, c.half_thickness)
+        r, r_dot, s = rolling_contact.offset_and_rate(R, None if w_ext is None else w_ext[i], c.radius, c.half_thickness,
+                                                  c.circle_z)
         if s < rolling_contact.FLAT:
             raise FlatDiskError(f"rolling contact {c.name!r}: the disk lies flat, the contact point is undefined")
         rows = slice(3 * j, 3 * j + 3)

@@ -13,10 +13,12 @@ output; ``mj_rnePostConstraint`` after ``mj_forward`` gives ``cfrc_int[b]``, the
 [moment; force] that the parent exerts on the subtree of body b, in world axes about the centre
 of mass of b's kinematic tree (``subtree_com[body_rootid[b]]``). It is Newton-Euler of the
 subtree, "inertial minus ``cfrc_ext``", so it also carries what MuJoCo does not hold as an
-external Cartesian force: the joint's own passive force (spring, damper: ``qfrc_passive`` of the
-joint's dof along its world axis) and the prescribed point forces, which reach MuJoCo as motor
-(generalised) forces. Both are removed here (``joint_reaction``), so the reaction is the
-joint's constraint force alone, with the moment taken about the joint point (``xpos``).
+external Cartesian force: the joint's own passive force (its spring and damper along its world
+axis), an actuator acting on the joint (a motor torque) and the prescribed point forces, which
+reach MuJoCo as motor (generalised) forces. They are removed here (``joint_reaction``), so the
+reaction is the joint's constraint force alone, with the moment taken about the joint point
+(``xpos``). A cut joint's reaction comes from the constraint forces of its ``<connect>``
+equalities (``loops.cut_reactions``).
 
 MuJoCo's warnings (e.g. "Nan, Inf or huge value in QACC at DOF 1. The simulation is
 unstable.") are not printed: while a run steps, ``warning_capture.captured_warnings`` routes
@@ -35,6 +37,7 @@ import numpy as np
 
 from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
 from harness.engines.mujoco.integrators import INTEGRATOR_METHODS
+from harness.engines.mujoco.loops import cut_reactions
 from harness.engines.mujoco.loops import settings_text as loop_settings
 from harness.engines.mujoco.model import joint_type, load_mjcf, set_initial_state
 from harness.engines.mujoco.rolling import ContactForceReader, describe_contact
@@ -70,6 +73,8 @@ class MujocoEngine:
 
         n = settings.n_saves + 1
         react = {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name, _ in jointed}
+        cuts = [loop.name for loop in model.loops] if jointed else []
+        react |= {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name in cuts}
         buf = SampleBuffer(n, len(body_ids))
         res6 = np.zeros(6)
         status, message, saved = "ok", "", 0
@@ -102,6 +107,8 @@ class MujocoEngine:
                     mujoco.mj_rnePostConstraint(m, d)
                     for name, bid in jointed:
                         react[name][0][k], react[name][1][k] = joint_reaction(m, d, bid, force_sites)
+                    for name, (force, moment) in cut_reactions(m, d, model).items():
+                        react[name][0][k], react[name][1][k] = force, moment
                 if rolling is not None:
                     rolling.read(m, d, k)
                 saved = k + 1
@@ -126,26 +133,44 @@ def joint_reaction(m: mujoco.MjModel, d: mujoco.MjData, bid: int, force_sites=()
     """Constraint reaction that the parent exerts on body ``bid`` through its single joint:
     force (N) and moment about the joint point (N m), world frame, from ``cfrc_int``
     (``mj_rnePostConstraint`` must have run on ``d``). ``force_sites``: ``(site id, body id,
-    motor ids)`` of the prescribed point forces (``_force_sites``); those acting in the body's
-    subtree are removed, as is the joint's passive force (see the module docstring)."""
+    force_W)`` of the prescribed point forces, which reach MuJoCo as motor forces
+    (``_force_sites``); those acting in the body's subtree are removed, as are the joint's own
+    passive force (its spring and damper) and the force of an actuator on the joint (a motor)
+    (see the module docstring). A tendon spring needs nothing: ``cfrc_int`` already leaves it
+    out of the joint's reaction (measured on the Andrews squeezer: the hinge's moment about
+    its axis is zero to round-off, and its force agrees with the in-house multipliers)."""
     c = d.subtree_com[m.body_rootid[bid]]
     force = d.cfrc_int[bid][3:].copy()
     p_joint = d.xpos[bid]
     moment = d.cfrc_int[bid][:3] + np.cross(c - p_joint, force)
     jid = m.body_jntadr[bid]
-    passive = d.qfrc_passive[m.jnt_dofadr[jid]]
+    own = _joint_own_force(m, d, jid)
     jt = joint_type(m, jid)
     axis = jt.axis if jt is not None else None  # a passive force along a joint axis: a force or a moment
     if axis == TRANSLATIONAL:
-        force -= passive * d.xaxis[jid]
+        force -= own * d.xaxis[jid]
     elif axis == ROTATIONAL:
-        moment -= passive * d.xaxis[jid]
-    for site, body, ids in force_sites:
+        moment -= own * d.xaxis[jid]
+    for site, body, f_of in force_sites:
         if _in_subtree(m, body, bid):
-            f = d.actuator_force[ids]  # gear 1 along world x, y, z (refsite at the world origin)
+            f = f_of(d)
             force -= f
             moment -= np.cross(d.site_xpos[site] - p_joint, f)
     return force, moment
+
+
+def _joint_own_force(m: mujoco.MjModel, d: mujoco.MjData, jid: int) -> float:
+    """The generalised force of joint ``jid``'s own elements on its single dof: its spring
+    ``-stiffness (q - springref)``, its damper ``-damping q'`` and the actuators that act on it
+    through a joint transmission (force times gear); not the tendons' share of ``qfrc_passive``
+    (a tendon spring is a Cartesian force, ``_spring_sites``)."""
+    dof, qadr = m.jnt_dofadr[jid], m.jnt_qposadr[jid]  # the joint has one dof (``body_joint``)
+    k = float(np.atleast_1d(m.jnt_stiffness[jid])[0])
+    own = -k * (d.qpos[qadr] - m.qpos_spring[qadr]) - float(np.atleast_1d(m.dof_damping[dof])[0]) * d.qvel[dof]
+    for a in range(m.nu):
+        if m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT and m.actuator_trnid[a, 0] == jid:
+            own += d.actuator_force[a] * m.actuator_gear[a, 0]
+    return float(own)
 
 
 def _in_subtree(m: mujoco.MjModel, body: int, root: int) -> bool:
@@ -157,14 +182,15 @@ def _in_subtree(m: mujoco.MjModel, body: int, root: int) -> bool:
     return False
 
 
-def _force_sites(m: mujoco.MjModel, model) -> list[tuple[int, int, list[int]]]:
-    """``(site id, body id, motor ids)`` of each prescribed force (motors ``<name>_fx/_fy/_fz``)."""
+def _force_sites(m: mujoco.MjModel, model) -> list:
+    """``(site id, body id, force_W(d))`` of each prescribed force: its three motors
+    ``<name>_fx/_fy/_fz`` (gear 1 along world x, y, z, reference site at the world origin)."""
     out = []
     for force in POINT_FORCES.elements(model):
         site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, force.name)
         ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{force.name}_f{a}") for a in "xyz"]
         if site >= 0 and min(ids) >= 0:
-            out.append((site, int(m.site_bodyid[site]), ids))
+            out.append((site, int(m.site_bodyid[site]), lambda d, ids=ids: d.actuator_force[ids].copy()))
     return out
 
 

@@ -94,3 +94,33 @@ def loop_points(m: mujoco.MjModel) -> dict[str, tuple[tuple[str, np.ndarray], tu
             ends.append((body, np.array(m.site_pos[sid], dtype=float)))
         out[name] = tuple(ends)
     return out
+
+
+def cut_reactions(m: mujoco.MjModel, d: mujoco.MjData, model: Multibody) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Each cut joint's reaction on its body_a: force (N, world) and moment about the joint point
+    (N m, world), from the constraint forces of its ``<connect>`` equalities (``mj_forward`` must
+    have run on ``d``). A site-based ``connect`` has three rows along world x, y, z for the
+    difference site1 - site2, and ``efc_force`` of those rows is the force on site1's body at
+    site1 (its opposite acts on site2's body); the hinge's second ``connect`` adds its force at
+    its own point, whose arm gives the moment."""
+    rows: dict[int, list[int]] = {}
+    for r in range(d.nefc):
+        if d.efc_type[r] == mujoco.mjtConstraint.mjCNSTR_EQUALITY:
+            rows.setdefault(int(d.efc_id[r]), []).append(r)
+    out = {}
+    for loop in model.loops:
+        force, moment = np.zeros(3), np.zeros(3)
+        origin = None
+        for eq_name, (site1, _, _), _ in connects(loop):
+            eq = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, eq_name)
+            sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site1)
+            if eq < 0 or sid < 0 or len(rows.get(eq, ())) != 3:
+                force = moment = np.full(3, np.nan)
+                break
+            f = np.asarray(d.efc_force[rows[eq]], dtype=float)
+            point = np.array(d.site_xpos[sid])
+            origin = point if origin is None else origin
+            force = force + f
+            moment = moment + np.cross(point - origin, f)
+        out[loop.name] = (force, moment)
+    return out

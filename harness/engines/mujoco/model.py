@@ -20,7 +20,8 @@ import numpy as np
 
 from harness.model import rotations
 from harness.model.errors import InputError
-from harness.model.forces import FORCES, JOINT_SPRINGS, POINT_FORCES, JointSpring, PointForce
+from harness.model.forces import (FORCES, JOINT_SPRINGS, JOINT_TORQUES, POINT_FORCES, POINT_SPRINGS, JointSpring,
+                                  JointTorque, PointForce, PointSpring)
 from harness.model.joints import JOINTS, JointType
 from harness.model.multibody import Multibody
 
@@ -127,7 +128,46 @@ def _write_point_force(spec: mujoco.MjSpec, force: PointForce, source: Path) -> 
     site.pos = force.p_BQ_B
 
 
-MJCF_WRITERS = {JOINT_SPRINGS.name: _write_spring, POINT_FORCES.name: _write_point_force}
+def _write_torque(spec: mujoco.MjSpec, torque: JointTorque, source: Path) -> None:
+    """The actuator ``<name>`` on the body's joint as a constant force: zero gain, affine bias
+    ``torque + 0 q + 0 q'`` (N m), whatever its control."""
+    act = spec.actuator(torque.name)
+    joints = spec.body(torque.body).joints if spec.body(torque.body) is not None else []
+    if act is None or len(joints) != 1 or act.target != joints[0].name:
+        raise InputError(f"{source}: MJCF needs an actuator {torque.name!r} on the joint of body {torque.body!r} "
+                         f"for its torque")
+    act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+    act.gainprm = np.zeros(len(act.gainprm))
+    act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+    bias = np.zeros(len(act.biasprm))
+    bias[0] = torque.torque
+    act.biasprm = bias
+    act.gear = np.eye(1, len(act.gear)).ravel()
+    act.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
+
+
+def _write_point_spring(spec: mujoco.MjSpec, spring: PointSpring, source: Path) -> None:
+    """The sites ``<name>_a``, ``<name>_b`` at the spring's ends and the tendon ``<name>``'s
+    ``stiffness`` (N/m) and ``springlength`` (m, both ends of MuJoCo's dead band)."""
+    for end, body, point in (("a", spring.body_a, spring.p_A), ("b", spring.body_b, spring.p_B)):
+        site = spec.site(f"{spring.name}_{end}")
+        parent = spec.worldbody if body is None else spec.body(body)
+        if site is None or parent is None or site.parent.name != parent.name:
+            where = "the world" if body is None else f"body {body!r}"
+            raise InputError(f"{source}: MJCF needs a site {spring.name}_{end} on {where} for spring {spring.name!r}")
+        site.pos = point
+    tendon = spec.tendon(spring.name)
+    if tendon is None:
+        raise InputError(f"{source}: MJCF needs a spatial tendon {spring.name!r} for the spring")
+    stiffness = np.zeros(len(np.atleast_1d(tendon.stiffness)))
+    stiffness[0] = spring.stiffness  # linear spring; MuJoCo's higher-order coefficients zero
+    tendon.stiffness = stiffness if stiffness.size > 1 else float(stiffness[0])
+    tendon.springlength = [spring.rest_length, spring.rest_length]
+    tendon.damping = np.zeros(len(np.atleast_1d(tendon.damping))) if np.ndim(tendon.damping) else 0.0
+
+
+MJCF_WRITERS = {JOINT_SPRINGS.name: _write_spring, POINT_FORCES.name: _write_point_force,
+                JOINT_TORQUES.name: _write_torque, POINT_SPRINGS.name: _write_point_spring}
 
 
 def load_mjcf(path: Path, model: Multibody, *, dt: float | None = None, integrator: str | None = None) -> mujoco.MjModel:

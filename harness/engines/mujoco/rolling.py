@@ -89,7 +89,7 @@ class ContactForceReader:
         """Store sample ``k`` (``mj_forward`` must have run on ``d``)."""
         for contact, gid, bid in self.items:
             R = d.xmat[bid].reshape(3, 3)
-            c_W = d.xipos[bid] + contact_offset(R, contact.radius, contact.half_thickness)
+            c_W = d.xipos[bid] + contact_offset(R, contact.radius, contact.half_thickness, contact.circle_z)
             f_tot, m_tot = np.zeros(3), np.zeros(3)
             for i in range(d.ncon):
                 con = d.contact[i]

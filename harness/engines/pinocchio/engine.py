@@ -4,9 +4,10 @@ Maximal coordinates are read from Pinocchio's own kinematics (``forwardKinematic
 placements ``oMi`` and ``getVelocity`` in the LOCAL_WORLD_ALIGNED frame); energies from
 ``computeKineticEnergy``/``computePotentialEnergy`` (plus the potential of the joint-space force
 elements, joint springs, which Pinocchio does not model). Prescribed point forces enter ``aba``
-as external forces ``fext`` expressed in the local frame of the joint that moves the body; every
+and the springs between body points (``PointSpring``, from the current configuration) enter
+``aba`` as external forces ``fext`` expressed in the local frame of the joint that moves the body; every
 force element acting on a joint coordinate (``ForceType.joint_force`` in
-``harness.model.forces``: joint springs) enters as its generalised force in ``tau`` (``aba``
+``harness.model.forces``: joint springs, joint torques) enters as its generalised force in ``tau`` (``aba``
 has no springs).
 
 Joint reactions (when the scene asks, ``[checks.reaction]``): at each saved sample, ``rnea`` at
@@ -29,7 +30,7 @@ from dataclasses import replace
 import numpy as np
 import pinocchio as pin
 
-from harness.model.forces import POINT_FORCES, elements
+from harness.model.forces import POINT_FORCES, POINT_SPRINGS, elements, spring_force
 from harness.model.joints import JOINTS
 from harness.engines.base import RunSettings, check_settings
 from harness.engines.pinocchio.lie_group_integrators import METHODS, STEPPERS
@@ -81,7 +82,8 @@ class PinocchioEngine:
                     break
                 read_maximal(pmodel, data, ids, model, q, v, k, buf)
                 buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
-                buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q) + spring_energy(joint_slots, q)
+                buf.potential[k] = (pin.computePotentialEnergy(pmodel, data, q) + spring_energy(joint_slots, q)
+                                    + point_spring_energy(pmodel, data, ids, model, q))
                 if jointed:
                     t_k = steps * h
                     for name, (force, moment) in joint_reactions(pmodel, data, jointed, applied, accel, t_k, q, v).items():
@@ -116,6 +118,22 @@ def spring_energy(slots, q) -> float:
     return float(sum(ft.joint_potential(element, q[iq]) for iq, _, ft, element in slots if ft.joint_potential is not None))
 
 
+def point_spring_energy(pmodel, data, ids, model, q) -> float:
+    """Potential energy (J) of the springs between body points (``PointSpring``) at
+    configuration q: k (L - L0)^2 / 2 each (Pinocchio does not model them)."""
+    springs = POINT_SPRINGS.elements(model)
+    if not springs:
+        return 0.0
+    pin.forwardKinematics(pmodel, data, q)
+    body_index = {b.name: i for i, b in enumerate(model.bodies)}
+
+    def end(body, p):
+        return np.asarray(p, float) if body is None else data.oMi[ids[body_index[body]]].act(np.asarray(p, float))
+
+    return float(sum(0.5 * sp.stiffness * (np.linalg.norm(end(sp.body_a, sp.p_A) - end(sp.body_b, sp.p_B)) - sp.rest_length) ** 2
+                     for sp in springs))
+
+
 def _applied_function(pmodel, data, ids, model):
     """``applied(t, q, v) -> (tau, fext)``: the joint-space forces and the scene's prescribed
     point forces as ``fext`` in the local frame of each body's joint (None without forces).
@@ -135,18 +153,31 @@ def _applied_function(pmodel, data, ids, model):
         return tau
 
     point_forces = POINT_FORCES.elements(model)
-    if not point_forces:
+    point_springs = POINT_SPRINGS.elements(model)
+    if not point_forces and not point_springs:
         return lambda t, q, v: (joint_forces(q, v), None)
     body_index = {b.name: i for i, b in enumerate(model.bodies)}
+
+    def push(fext, body, p_B, f_W):
+        """Add the world force f_W at the point p_B of ``body`` (its joint frame) to ``fext``."""
+        jid = ids[body_index[body]]
+        f_L = data.oMi[jid].rotation.T @ f_W
+        fext[jid] += pin.Force(f_L, np.cross(p_B, f_L))
+
+    def end(body, p):  # a spring's end in world
+        return np.asarray(p, float) if body is None else data.oMi[ids[body_index[body]]].act(np.asarray(p, float))
 
     def applied(t, q, v):
         tau = joint_forces(q, v)
         pin.forwardKinematics(pmodel, data, q)
         fext = [pin.Force.Zero() for _ in range(pmodel.njoints)]
         for force in point_forces:
-            jid = ids[body_index[force.body]]
-            f_L = data.oMi[jid].rotation.T @ force.force_W(t)
-            fext[jid] += pin.Force(f_L, np.cross(force.p_BQ_B, f_L))
+            push(fext, force.body, force.p_BQ_B, force.force_W(t))
+        for spring in point_springs:  # -k (L - L0) d / L on end a, the opposite on end b
+            f = spring_force(spring, end(spring.body_a, spring.p_A), end(spring.body_b, spring.p_B))
+            push(fext, spring.body_a, spring.p_A, f)
+            if spring.body_b is not None:
+                push(fext, spring.body_b, spring.p_B, -f)
         return tau, fext
 
     return applied

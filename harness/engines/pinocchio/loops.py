@@ -98,7 +98,7 @@ from harness.engines.base import RunSettings
 from harness.engines.pinocchio.lie_group_integrators import STEPPERS
 from harness.engines.pinocchio.model import blowup_reason, initial_configuration, load_urdf, read_maximal
 from harness.measure.trajectory import SampleBuffer, Trajectory
-from harness.model.joints import keeps_axis, loop_kinds
+from harness.model.joints import JOINTS, keeps_axis, loop_kinds
 from harness.model.multibody import Multibody
 
 MU_RELATIVE = 1e-6  # proximal regularisation mu, relative to the largest diagonal entry of the Delassus matrix
@@ -180,6 +180,33 @@ class LoopConstraints:
         return out
 
 
+def tree_reactions(pmodel: pin.Model, rdata: pin.Data, jointed, applied, constraints: LoopConstraints, lam: np.ndarray,
+                   t: float, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The reactions of the tree's joints ``jointed`` (``(name, joint id)``) at (q, v) with the
+    constrained acceleration ``a``: ``engine.joint_reactions`` (``rnea``) with each constraint
+    model's force added to ``fext`` (``lam[3k:3k+3]``, world axes, on joint1 at its point, the
+    opposite on joint2) beside the scene's applied forces. Force (N) and moment about the joint
+    origin (N m), world, that the parent exerts on the child."""
+    from harness.engines.pinocchio.engine import joint_reactions
+
+    pin.forwardKinematics(pmodel, rdata, q)
+
+    def with_constraints(t_, q_, v_):
+        tau, fext = applied(t_, q_, v_)
+        fext = [pin.Force(f) for f in fext] if fext is not None else [pin.Force.Zero() for _ in range(pmodel.njoints)]
+        for k, (cm, cd) in enumerate(zip(constraints.models, constraints.datas)):
+            f_W = lam[3 * k : 3 * k + 3]
+            for jid, x_W, sign in ((cm.joint1_id, cd.oMc1.translation, 1.0), (cm.joint2_id, cd.oMc2.translation, -1.0)):
+                if jid == 0:
+                    continue
+                oMi = rdata.oMi[jid]
+                f_L = oMi.rotation.T @ (sign * f_W)
+                fext[jid] += pin.Force(f_L, np.cross(oMi.rotation.T @ (np.asarray(x_W) - oMi.translation), f_L))
+        return tau, fext
+
+    return joint_reactions(pmodel, rdata, jointed, with_constraints, lambda *_: a, t, q, v)
+
+
 def _baumgarte_off(constraints: LoopConstraints) -> None:
     """Set every model's Baumgarte gains to zero (Pinocchio's default, made explicit)."""
     for cm in constraints.models:
@@ -222,7 +249,7 @@ def proximal_settings(pmodel: pin.Model, data: pin.Data, q: np.ndarray, constrai
 def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Trajectory:
     """Run a scene with cut joints in Pinocchio (module docstring); the trajectory carries each cut
     joint's reaction on body_a in ``reactions[<loop name>]``."""
-    from harness.engines.pinocchio.engine import _applied_function, _joint_slots, spring_energy
+    from harness.engines.pinocchio.engine import _applied_function, _joint_slots, point_spring_energy, spring_energy
 
     pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
     data = pmodel.createData()
@@ -238,6 +265,10 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
     n = settings.n_saves + 1
     buf = SampleBuffer(n, len(ids))
     react = {loop.name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for loop in model.loops}
+    jointed = ([(b.name, ids[i]) for i, b in enumerate(model.bodies) if JOINTS[b.joint].constrained]
+               if "reaction" in scene.checks else [])
+    react |= {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name, _ in jointed}
+    rdata = pmodel.createData()
     status, message, saved, steps = "ok", "", 0, 0
     prox = None
 
@@ -291,13 +322,17 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
             if reason:
                 status, message = "blowup", reason
                 break
-            solve(steps * h, q, v)  # the multipliers at the sample (data.lambda_c)
+            a = solve(steps * h, q, v)  # the multipliers at the sample (data.lambda_c)
             lam = np.array(data.lambda_c)
             for name, (force, moment) in constraints.reactions(lam).items():
                 react[name][0][k], react[name][1][k] = force, moment
+            if jointed:  # the tree's joints: rnea at the constrained acceleration, cut forces as fext
+                for name, fm in tree_reactions(pmodel, rdata, jointed, applied, constraints, lam, steps * h, q, v, a).items():
+                    react[name][0][k], react[name][1][k] = fm
             read_maximal(pmodel, data, ids, model, q, v, k, buf)
             buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
-            buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q) + spring_energy(joint_slots, q)
+            buf.potential[k] = (pin.computePotentialEnergy(pmodel, data, q) + spring_energy(joint_slots, q)
+                                    + point_spring_energy(pmodel, data, ids, model, q))
             saved = k + 1
     except (RuntimeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
         status, message = "failed", f"{type(err).__name__} at t = {steps * h:.6g} s: {err}"

@@ -27,6 +27,13 @@ space, ``q <- integrate(q, -M^-1 J_z^T (J_z M^-1 J_z^T)^-1 z_C)``, then the velo
 ``J v = 0``, ``v <- v - M^-1 J^T (J M^-1 J^T)^-1 J v`` (mass-weighted, M from ``crba``): the same
 choice as the in-house engine's fixed-step methods (Baumgarte terms inside Runge-Kutta stages
 cost accuracy there). ``damping`` (the KKT regularisation) is 0.
+
+Joint reactions of the rolling model's jointed bodies (a rolling body's children, or a rolling
+body on a joint; when the scene asks, ``[checks.reaction]``): ``rnea`` at (q, v, a) with a from
+the constrained forward dynamics and the contact forces lambda as external forces
+(``fext``: lambda at C, about each rolling body's joint origin, in its local frame) leaves in
+``data.f[j]`` the spatial force the parent exerts on the subtree of joint j (as in
+``harness.engines.pinocchio.engine``), rotated to world.
 """
 
 from __future__ import annotations
@@ -80,7 +87,7 @@ class RollingRows:
                 vel = data.v[jid]
                 w, v_O = np.array(vel.angular), np.array(vel.linear)
                 w_W = R @ w
-            r_W, r_dot, s = offset_and_rate(R, None if v is None else w_W, c.radius, c.half_thickness)
+            r_W, r_dot, s = offset_and_rate(R, None if v is None else w_W, c.radius, c.half_thickness, c.circle_z)
             if s < FLAT:
                 raise FlatDiskError(f"rolling contact {c.name!r}: the disk lies flat, the contact point is undefined")
             p = lever + R.T @ r_W
@@ -94,6 +101,32 @@ class RollingRows:
                 gamma[rows] = R @ (cross(w, v_O + cross(w, p)) + cross(w, p_dot))
         return C, J, gamma
 
+    def external_forces(self, lam: np.ndarray) -> list:
+        """``fext`` per joint for ``rnea``: contact k's force lambda_k (N, world) at its contact
+        point, as a spatial force about its joint's origin in the joint's local frame. Needs
+        ``forwardKinematics`` at the state of ``lam``."""
+        fext = [pin.Force.Zero() for _ in range(self.pmodel.njoints)]
+        for k, (c, jid, lever) in enumerate(self.items):
+            R = self.data.oMi[jid].rotation
+            r_W, _, _ = offset_and_rate(R, None, c.radius, c.half_thickness, c.circle_z)
+            p = lever + R.T @ r_W  # contact point from the joint origin, local frame
+            f = R.T @ lam[3 * k : 3 * k + 3]
+            fext[jid] = fext[jid] + pin.Force(f, np.cross(p, f))
+        return fext
+
+
+def joint_reactions(pmodel: pin.Model, data: pin.Data, rolling: RollingRows, jointed, q, v, a, lam):
+    """Per ``(name, joint id)`` of ``jointed``: the force (N) and moment about the joint origin
+    (N m), world, that the parent exerts on the joint's child (module docstring)."""
+    pin.forwardKinematics(pmodel, data, q, v)
+    pin.rnea(pmodel, data, q, v, a, rolling.external_forces(lam))
+    out = {}
+    for name, jid in jointed:
+        f = data.f[jid]
+        R = data.oMi[jid].rotation
+        out[name] = (R @ np.array(f.linear), R @ np.array(f.angular))
+    return out
+
 
 def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
     """Run a scene with rolling contacts in Pinocchio (module docstring); the trajectory carries
@@ -104,6 +137,8 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
     q, v = initial_configuration(pmodel, ids, model)
     rolling = RollingRows(pmodel, data, ids, model)
     tau = np.zeros(pmodel.nv)
+    jointed = ([(b.name, jid) for b, jid in zip(model.bodies, ids) if JOINTS[b.joint].constrained]
+               if "reaction" in scene.checks else [])
 
     def solve(q, v):
         pin.forwardKinematics(pmodel, data, q, v)
@@ -137,6 +172,7 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
     n = settings.n_saves + 1
     buf = SampleBuffer(n, len(ids))
     force = {c.name: np.full((n, 3), np.nan) for c in model.contacts}
+    react = {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name, _ in jointed}
     status, message, saved, steps = "ok", "", 0, 0
     t0 = time.perf_counter()
     try:
@@ -154,9 +190,12 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
             read_maximal(pmodel, data, ids, model, q, v, k, buf)
             buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
             buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q)
-            lam = solve(q, v)[1]
+            a, lam = solve(q, v)
             for j, (c, _, _) in enumerate(rolling.items):
                 force[c.name][k] = lam[3 * j : 3 * j + 3]
+            if jointed:
+                for name, (f, mo) in joint_reactions(pmodel, data, rolling, jointed, q, v, a, lam).items():
+                    react[name][0][k], react[name][1][k] = f, mo
             saved = k + 1
     except (RuntimeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
         status, message = "failed", f"{type(err).__name__} at t = {steps * h:.6g} s: {err}"
@@ -165,4 +204,6 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
                          f"Lie group, step {h:g} s, projection after each step, root joint {scene.urdf_root_joint}"}
     traj = buf.trajectory(engine.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
                           saved, stats, status, message)
-    return replace(traj, reactions={name: (f[:saved], np.zeros((saved, 3))) for name, f in force.items()})
+    reactions = {name: (f[:saved], mo[:saved]) for name, (f, mo) in react.items()}
+    reactions.update({name: (f[:saved], np.zeros((saved, 3))) for name, f in force.items()})
+    return replace(traj, reactions=reactions)

@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from harness.model.errors import InputError
+from harness.model.kinematics import circle_intersection
 from harness.model.multibody import Body, LoopJoint, Multibody
 
 AXIS = np.array([0.0, -1.0, 0.0])  # every hinge: world -y (a positive angle turns +x toward +z)
@@ -40,16 +41,11 @@ def assemble(a: float, b: float, c: float, d: float, theta: float, branch: float
     """Absolute coupler and rocker angles (beta, gamma) in rad at crank angle ``theta`` on
     ``branch`` (module docstring); InputError when the linkage cannot close there."""
     B = a * np.array([np.cos(theta), np.sin(theta)])
-    u = np.array([d, 0.0]) - B
-    L = float(np.linalg.norm(u))
-    if not (abs(b - c) < L < b + c):
+    C = circle_intersection(B, b, np.array([d, 0.0]), c, branch)
+    if C is None:
+        L = float(np.hypot(d - B[0], B[1]))
         raise InputError(f"four-bar cannot close at theta = {theta:g} rad: |BD| = {L:.6g} m must lie strictly "
                          f"between |b - c| = {abs(b - c):.6g} and b + c = {b + c:.6g} m")
-    s = (b * b - c * c + L * L) / (2.0 * L)
-    h = np.sqrt(max(b * b - s * s, 0.0))
-    uh = u / L
-    n = np.array([-uh[1], uh[0]])
-    C = B + s * uh + float(np.sign(branch)) * h * n
     return float(np.arctan2(C[1] - B[1], C[0] - B[0])), float(np.arctan2(C[1], C[0] - d))
 
 

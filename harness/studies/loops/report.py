@@ -159,8 +159,10 @@ def markdown(study: LoopStudy, prov: dict, pngs: list[Path], command: str) -> st
 
 def scene_lines(s: SceneStudy, study: LoopStudy) -> list[str]:
     """One scene's section: its settings, the table and the findings."""
+    from harness.studies.loops.run import horizon
+
     sc = s.scene
-    t_end = study.t_end if study.t_end is not None else sc.t_end
+    t_end = horizon(sc, study.t_end)
     loops = ", ".join(f"`{loop.name}` ({loop.kind}, {loop.body_a} – {loop.body_b or 'world'})"
                       for loop in sc.multibody().loops)
     from harness.studies.loops.run import describe_settings
@@ -175,8 +177,42 @@ def scene_lines(s: SceneStudy, study: LoopStudy) -> list[str]:
         "",
     ]
     lines += table_lines(s)
+    lines += published_lines(s)
     lines += [""] + [" ".join(findings(s, study))] + [""]
     return lines
+
+
+def published_lines(s: SceneStudy) -> list[str]:
+    """For a system whose source publishes a reference state (``published_digits_q``): a table of
+    each run's correct digits of it, positions / velocities, per step; nothing otherwise."""
+    rows = [r for r in s.rows if r["status"] == "ok" and math.isfinite(r.get("published_digits_q", math.nan))]
+    if not rows:
+        return []
+    t = rows[0]["published_t"]
+    lines = ["", f"The published reference state at t = {t:g} s: correct digits of each run (−log10 of the largest "
+                 "relative error), positions / velocities. The reference (DOP853 at rtol 1e-13) has "
+                 + _reference_digits(s) + ".", "",
+             "| engine / variant | " + " | ".join(_ms(dt) for dt in s.steps) + " |", "|---|" + "---|" * len(s.steps)]
+    for key in s.variants():
+        cells = []
+        for dt in s.steps:
+            r = s.row(key, dt)
+            ok = r is not None and r["status"] == "ok" and math.isfinite(r.get("published_digits_q", math.nan))
+            cells.append(f"{r['published_digits_q']:.1f} / {r['published_digits_v']:.1f}" if ok else "—")
+        lines.append(f"| {_label(s, key)} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def _reference_digits(s: SceneStudy) -> str:
+    """The scene's own reference solution's correct digits of the published state."""
+    from harness.measure.exact import reference_module
+
+    module = reference_module(s.scene)
+    digits = getattr(module, "reference_digits", None)
+    if not callable(digits):
+        return "no digit count"
+    q, v = digits(s.scene)
+    return f"{q:.1f} / {v:.1f}"
 
 
 def table_lines(s: SceneStudy) -> list[str]:

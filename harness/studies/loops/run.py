@@ -2,7 +2,7 @@
 (``harness loop-study``; the report is ``harness.studies.loops.report``).
 
 Scenes: every scene whose multibody has cut joints (``Multibody.loops``), over its own horizon
-(``--quick``: 0.5 s). Steps: the scene's dt times ``FACTORS`` (2, 1, 1/2, 1/4; quick: 2, 1).
+(``--quick``: at most 0.5 s). Steps: the scene's dt times ``FACTORS`` (2, 1, 1/2, 1/4; quick: 2, 1).
 
 Variants (``VARIANTS``), each run at every step:
 
@@ -28,7 +28,10 @@ hang or exception is that run's status, never the study's end) and measured ther
 for a scene whose forces do work the balance max |E - E0 - W| over it
 (``compare.energy_balance``); ``exact`` (rad for the linkages), the error against the scene's
 closed-form reference (``harness.measure.exact.exact_error``; NaN for a scene without one);
-``wall_s`` (s) the time of the engine's ``simulate``.
+``wall_s`` (s) the time of the engine's ``simulate``; for a system whose source publishes a
+reference state (``harness.measure.exact.published_state``: the Andrews squeezer at t = 0.03 s),
+``published_digits_q`` and ``published_digits_v``, the run's correct digits of its positions and
+velocities (NaN otherwise).
 
 Samples are saved every ``scene.save_every`` s, or, for a scene whose forces do work, at every
 step (as ``harness validate`` does): the energy balance integrates the forces' power over the
@@ -119,6 +122,12 @@ def full_label(variant: Variant, integrator: str | None) -> str:
     """The row's name with the integrator after the engine: "MuJoCo RK4, solref 2·dt"."""
     head, sep, tail = variant.label.partition(",")
     return f"{head} {integrator}{sep}{tail}" if integrator else variant.label
+
+
+def horizon(scene: Scene, t_end: float | None) -> float:
+    """A run's horizon (s): the scene's own, or ``t_end`` (the study's, e.g. ``--quick``) when
+    that is shorter."""
+    return scene.t_end if t_end is None else min(t_end, scene.t_end)
 
 
 def save_interval(scene: Scene, dt: float) -> float:
@@ -238,6 +247,10 @@ def measure(scene: Scene, traj, settings, engine: str) -> dict:
 
         value, unit, detail = exact.exact_error(scene, traj, settings, run=get_engine(engine).simulate)
         out |= {"exact": float(value), "exact_unit": unit, "exact_detail": detail}
+    published = exact.published_state(scene, traj)
+    if published is not None:
+        out |= {"published_t": published["t"], "published_digits_q": published["positions"],
+                "published_digits_v": published["velocities"]}
     return out
 
 
@@ -337,7 +350,7 @@ def loop_study(*, quick: bool = False, models_dir: Path | None = None, jobs: int
     cases, meta = [], {}
     with tempfile.TemporaryDirectory(prefix="loop-study-") as tmp:
         for scene in scenes:
-            t_end = QUICK_T_END if quick else scene.t_end
+            t_end = horizon(scene, QUICK_T_END if quick else None)
             names = loop_equalities(scene)
             written = written_settings(read_spec(scene.mjcf), names, scene.mjcf)
             steps = [f * scene.dt for f in factors]
@@ -387,7 +400,8 @@ def measure_nan() -> dict:
     """``measure``'s keys for a run that produced nothing."""
     nan = math.nan
     return {"closure_position": nan, "closure_velocity": nan, "closure_axis": nan, "closure_axis_rate": nan,
-            "energy": nan, "energy_quadrature": nan, "exact": nan, "exact_unit": "", "exact_detail": ""}
+            "energy": nan, "energy_quadrature": nan, "exact": nan, "exact_unit": "", "exact_detail": "",
+            "published_t": nan, "published_digits_q": nan, "published_digits_v": nan}
 
 
 # ------------------------------------------------------------------------------ verdict and findings

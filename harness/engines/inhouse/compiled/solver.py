@@ -20,7 +20,7 @@ are the per-state engine's (``harness.engines.inhouse.model``: ``[p_WCm_W | quat
 v_WCm_W | w_WB_B]``, SI units, body-frame angular velocity); times in s.
 
 Scope: free, ball, hinge and slide joints, springs on slide joints and gravity; ``pack`` raises
-NotImplementedError for rolling contacts, prescribed forces and loop joints (the engine turns that into an
+NotImplementedError for rolling contacts, prescribed forces, joint torques, point springs and loop joints (the engine turns that into an
 "unsupported" trajectory: not run, rather than failed).
 
 The first call in a fresh environment compiles the kernel it needs (``warm_up``); later
@@ -73,6 +73,8 @@ def pack(nem: NEModel) -> tuple:
         raise NotImplementedError("the compiled in-house solver does not model rolling contacts")
     if nem.forces:
         raise NotImplementedError("the compiled in-house solver does not model prescribed forces")
+    if nem.torques or nem.point_springs:
+        raise NotImplementedError("the compiled in-house solver does not model joint torques or point springs")
     if nem.redundant:
         raise NotImplementedError("the compiled in-house solver does not model loop joints")
     nj = nem.nj
