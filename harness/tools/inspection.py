@@ -56,6 +56,7 @@ from harness.tools.loaded_models import (
 )
 from harness.engines.mujoco.loops import loop_points
 from harness.engines.mujoco.loops import settings_text as loop_settings
+from harness.model.forces import elements
 from harness.model.joints import keeps_axis
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene, load_scene
@@ -203,6 +204,10 @@ def describe_multibody(model: Multibody) -> list[str]:
         axes = f", axis {_v(lp.axis_A)} in {lp.body_a}, {_v(lp.axis_B)} in {lp.body_b or 'world'}" if keeps_axis(lp.kind) else ""
         lines.append(f"  loop joint {lp.name}: {lp.kind} closing the tree between {lp.body_a} at {_v(lp.p_A)} m "
                      f"and {lp.body_b or 'world'} at {_v(lp.p_B)} m (body frames){axes}")
+    for ft, element in elements(model):  # force elements: each type's own fields (harness.model.forces)
+        fields = ", ".join(f"{k} {_v(v) if isinstance(v, np.ndarray) else v}" for k, v in vars(element).items()
+                           if not callable(v))
+        lines.append(f"  {ft.label} ({ft.name}): {fields} (SI units, body frames; MJCF: {ft.mjcf})")
     return lines
 
 
