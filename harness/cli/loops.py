@@ -29,7 +29,7 @@ def add_parser(sub) -> None:
                                    "every ideal-constraint engine closes the loop below 1e-9 m at every step and "
                                    "every run ends ok, 1 otherwise, 2 on bad input.")
     add_out_dir(r, "loop-study", "loop_closure.md, loop_closure.json, loop_closure_<scene>.png", SUBSET)
-    r.add_argument("--quick", action="store_true", help="0.5 s at two steps (2 dt and dt; a smoke run)")
+    r.add_argument("--quick", action="store_true", help="0.5 s (at most a tenth of a scene's horizon) at two steps (2 dt and dt; a smoke run)")
     r.add_argument("--models-dir", type=models_dir_arg, metavar="DIR",
                    help=MODELS_DIR_HELP + "; its scenes with a cut joint are studied")
     r.add_argument("--jobs", type=int_arg, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")

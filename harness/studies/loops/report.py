@@ -16,7 +16,7 @@ from pathlib import Path
 from harness.io import atomic
 from harness.io.provenance import made_with
 from harness.studies.loops.run import (IDEAL_CLOSURE, MUJOCO_DEFAULT_SOLIMP, MUJOCO_DEFAULT_SOLREF, VARIANT,
-                                       LoopStudy, SceneStudy, failures, loglog_slope, series)
+                                       LoopStudy, SceneStudy, failures, horizon, loglog_slope, series)
 
 NAME = "loop_closure"
 #: A measure's name in the report and JSON key, with its unit.
@@ -159,8 +159,6 @@ def markdown(study: LoopStudy, prov: dict, pngs: list[Path], command: str) -> st
 
 def scene_lines(s: SceneStudy, study: LoopStudy) -> list[str]:
     """One scene's section: its settings, the table and the findings."""
-    from harness.studies.loops.run import horizon
-
     sc = s.scene
     t_end = horizon(sc, study.t_end)
     loops = ", ".join(f"`{loop.name}` ({loop.kind}, {loop.body_a} – {loop.body_b or 'world'})"
@@ -547,7 +545,7 @@ def as_json(study: LoopStudy, prov: dict, command: str) -> dict:
             "scene": s.scene.name,
             "title": s.scene.title,
             "dt_s": s.scene.dt,
-            "t_end_s": study.t_end if study.t_end is not None else s.scene.t_end,
+            "t_end_s": horizon(s.scene, study.t_end),
             "steps_s": s.steps,
             "save_every_s": s.saves,
             "energy": energy_name(s),

@@ -2,7 +2,7 @@
 (``harness loop-study``; the report is ``harness.studies.loops.report``).
 
 Scenes: every scene whose multibody has cut joints (``Multibody.loops``), over its own horizon
-(``--quick``: at most 0.5 s). Steps: the scene's dt times ``FACTORS`` (2, 1, 1/2, 1/4; quick: 2, 1).
+(``--quick``: 0.5 s, at most a tenth of the scene's own). Steps: the scene's dt times ``FACTORS`` (2, 1, 1/2, 1/4; quick: 2, 1).
 
 Variants (``VARIANTS``), each run at every step:
 
@@ -55,7 +55,7 @@ from harness.model.scene import MODELS_DIR, Scene, available_scenes, load_scene
 
 FACTORS = (2.0, 1.0, 0.5, 0.25)  # steps: the scene's dt times these
 QUICK_FACTORS = (2.0, 1.0)
-QUICK_T_END = 0.5  # s, the horizon of --quick
+QUICK_T_END = 0.5  # s, the horizon of --quick (at most a tenth of a scene's own)
 IDEAL_CLOSURE = 1e-9  # m: the largest closure gap an ideal-constraint engine may leave (exit code)
 DEFAULT_TIMEOUT = 300.0  # s per run
 MUJOCO_INTEGRATOR = "RK4"
@@ -125,9 +125,9 @@ def full_label(variant: Variant, integrator: str | None) -> str:
 
 
 def horizon(scene: Scene, t_end: float | None) -> float:
-    """A run's horizon (s): the scene's own, or ``t_end`` (the study's, e.g. ``--quick``) when
-    that is shorter."""
-    return scene.t_end if t_end is None else min(t_end, scene.t_end)
+    """A run's horizon (s): the scene's own, or for a study with its own ``t_end`` (``--quick``)
+    the shorter of that and a tenth of the scene's (a smoke run of every scene)."""
+    return scene.t_end if t_end is None else min(t_end, 0.1 * scene.t_end)
 
 
 def save_interval(scene: Scene, dt: float) -> float:
