@@ -25,12 +25,29 @@ Then, in order:
 
 * the models (``vote``): per joint and per quantity (``QUANTITIES``: type, mass, centre of mass,
   inertia about it, position and orientation in the parent, axis, joint point, range, damping,
-  armature) and for gravity, which loaders agree within the tolerance. Where two agree against
-  the third, the third is *the odd one out* and the report names it with both values ("Pinocchio
-  is the odd one out: 8.37758 kg where MuJoCo and Drake read 1 kg"). The odd one out reads the
+  friction loss, armature) and for gravity, which loaders agree within the tolerance. Where two
+  agree against the third, the third is *the odd one out* and the report names it with both
+  values and by how much they differ ("Pinocchio is the odd one out: 8.37758 kg where MuJoCo and
+  Drake read 1 kg; they differ by 7.37758 kg (88.1% of 8.37758 kg)"). The odd one out reads the
   file differently from the two others: usually the importer that is wrong, but the file decides
-  (only MuJoCo honours ``<compiler settotalmass>``, for instance). Importer differences that are
-  not compared (fused links, friction loss, mimic joints, what Drake's parser ignores) are notes;
+  (only MuJoCo honours ``<compiler settotalmass>``, for instance). The joint settings (range rad
+  or m, damping, friction loss, armature) of an MJCF and a URDF are listed, not counted (a URDF
+  cannot state an armature); friction loss never counts (only MuJoCo applies it, Drake's parsers
+  do not read it). The report's joint-settings table says per joint "same", "differs (by how
+  much)" or "only <loader> reads it", and lists each actuator's gear (MuJoCo's ``gear``, Drake's
+  gear ratio from a URDF transmission) as not compared. Importer differences that are not
+  compared (fused links, masses MuJoCo derives from geoms where the file gives no
+  ``<inertial>``, actuators, mimic joints, what Drake's parser ignores) are notes;
+* what the differences come from (``diagnose``, ``Finding``), each named only when putting it
+  back reconciles the two readings within the tolerance: a URDF ``<inertial><origin rpy>`` that
+  one reading applies and the other does not (mujoco #3559: the difference of the inertias is
+  R I0 R^T - I0 of the link's written tensor I0); a fixed child (URDF fixed joint, MJCF body
+  without a joint) whose mass properties are missing or different in one reading of the body
+  it is merged into (the bodies' ``parts``: with that child's part swapped the readings agree;
+  e.g. MuJoCo's ``fusestatic`` dropping a massless link's inertia, an MJCF body without
+  ``<inertial>``); an armature only some loaders read, with what it adds to M's diagonal entry
+  at zero joint coordinates, and M differing by exactly that diagonal at every state
+  (``diagnose_dynamics``);
 * the dynamics terms at random states (``harness.tools.dynamics_terms``) of every loader whose
   joints are MuJoCo's (same names and types; Drake's roll-pitch-yaw ball joints excluded),
   pair by pair, with the odd one out per term where one pair agrees and two differ;
@@ -41,7 +58,7 @@ Then, in order:
 
 The report ``check_<model>.md`` is written atomically after everything has loaded. Its verdict
 fails on any disagreement between the loaders that read the file (a refusal is reported, not
-judged), on a dynamics term or a free motion beyond tolerance.
+judged), on a dynamics term or a free motion beyond tolerance, and ends with the causes found.
 
 MuJoCo's warnings while the dynamics terms and the free motions run (e.g. "Nan, Inf or huge value
 in QACC ... The simulation is unstable.") are captured into the result (``CheckResult.warnings``,
@@ -308,14 +325,18 @@ class Reading:
     Attributes:
         loader: ``MuJoCo``, ``Pinocchio`` or ``Drake``; ``source``: the file it read; ``version``.
         refusal: why it does not load the file (one line), None when it does.
-        bodies, details: per joint, the body it moves and the joint's point, range, damping
-            and armature (``harness.tools.loaded_models``: ``JointBody``, ``JointDetails``).
+        bodies, details: per joint, the body it moves (with its merged parts) and the joint's
+            point, range, damping, armature and friction loss (``harness.tools.loaded_models``:
+            ``JointBody``, ``JointDetails``).
         gravity: m/s^2, world.
         model: what it holds (``MjModel``, ``pin.Model``, ``DrakeLoad``).
         slots: Pinocchio only: joint name -> ``PinocchioSlot`` (composite joints split).
         parser: what its parser said while loading (Drake's warnings, one line each).
         dynamics: why its dynamics terms are not compared with MuJoCo's ("" when they are).
         hints: quantity -> a known cause, shown when this loader is the odd one out in it.
+        geom_masses: MuJoCo only: body name -> how MuJoCo got the mass of a body whose file gives
+            no ``<inertial>`` (from its geoms: geom density or mass), shown where that body's
+            joint differs in mass (``_geom_masses``).
     """
 
     loader: str
@@ -330,6 +351,7 @@ class Reading:
     parser: tuple[str, ...] = ()
     dynamics: str = ""
     hints: dict = field(default_factory=dict)
+    geom_masses: dict = field(default_factory=dict)
 
     @property
     def loaded(self) -> bool:
@@ -349,7 +371,9 @@ class Vote:
         hint: a known cause, when the values show it (e.g. a range read as degrees).
         counted: whether a disagreement fails the check (``SETTINGS`` are not counted when
             the loaders read an MJCF and a URDF: a URDF revolute joint must state limits and
-            cannot state an armature).
+            cannot state an armature; ``NOT_COUNTED`` never are).
+        detail: by how much the values differ, with the unit (``_difference``: the odd one out
+            against the majority, or the two values when two loaders read it); "" when they agree.
     """
 
     joint: str
@@ -359,6 +383,7 @@ class Vote:
     groups: tuple[tuple[str, ...], ...]
     hint: str = ""
     counted: bool = True
+    detail: str = ""
 
     @property
     def agree(self) -> bool:
@@ -386,13 +411,56 @@ class Vote:
             else:
                 text = f"only in {' and '.join(have)}, not in {' and '.join(lack)}"
             return f"{who}: {text}{hint}"
+        detail = f"; {self.detail}" if self.detail else ""
         if odd is not None:
             a, b = self.groups[0]
             return (f"{who}: {self.quantity}: {odd} is the odd one out: {self.values[odd]} where {a} and {b} read "
-                    f"{self.values[a]}{hint}")
+                    f"{self.values[a]}{detail}{hint}")
         parts = ", ".join(f"{v} in {k}" for k, v in self.values.items())
         lead = "all three differ: " if len(self.groups) == 3 else ""
-        return f"{who}: {self.quantity}: {lead}{parts}{hint}"
+        return f"{who}: {self.quantity}: {lead}{parts}{detail}{hint}"
+
+
+@dataclass(frozen=True)
+class Finding:
+    """A cause that accounts for a disagreement, checked against the readings (``diagnose``).
+
+    Attributes:
+        kind: ``inertial rotation`` (a URDF ``<inertial><origin rpy>`` that one reading lacks),
+            ``fixed child`` (a fixed child's mass properties missing or different in one reading
+            of the body they are merged into), ``armature`` (a joint's armature that only some
+            loaders read), ``dynamics armature`` (M differing by exactly the armature on its
+            diagonal).
+        joint, body: where ("" for the dynamics).
+        short: a few words for the verdict; ``text``: the whole finding, with figures and units.
+        group: findings with the same group are one item of the verdict when there are several
+            (``causes_line``: e.g. an armature only one loader reads, on many joints).
+    """
+
+    kind: str
+    joint: str
+    body: str
+    short: str
+    text: str
+    group: str = ""
+
+
+def causes_line(findings: list[Finding]) -> str:
+    """The findings' ``short`` texts for the verdict, one item per group of several (with the
+    number of joints and the first three), in order."""
+    groups: dict[str, list[Finding]] = {}
+    for f in findings:
+        if f.group:
+            groups.setdefault(f.group, []).append(f)
+    items, done = [], set()
+    for f in findings:
+        if not f.group or len(groups[f.group]) == 1:
+            items.append(f.short)
+        elif f.group not in done:
+            done.add(f.group)
+            joints = [g.joint for g in groups[f.group]]
+            items.append(f"{f.group} on {len(joints)} joints ({', '.join(joints[:3])}{', ...' if len(joints) > 3 else ''})")
+    return "; ".join(items)
 
 
 @dataclass
@@ -410,6 +478,7 @@ class CheckResult:
     free_skipped: str = ""   # why the free motion was not run ("" when it was)
     settings: dict = field(default_factory=dict)
     warnings: dict = field(default_factory=dict)  # MuJoCo's warnings during the comparison: {"count", "first"}
+    findings: list[Finding] = field(default_factory=list)  # what the differences come from (``diagnose``)
 
     @property
     def model_problems(self) -> list[str]:
@@ -418,8 +487,14 @@ class CheckResult:
 
     @property
     def setting_differences(self) -> list[str]:
-        """Disagreements in joint settings between an MJCF and a URDF (listed, not counted)."""
+        """Disagreements in joint settings that do not fail the check (listed, not counted): between an
+        MJCF and a URDF (``SETTINGS``), and friction loss always (``NOT_COUNTED``)."""
         return [v.message for v in self.votes if not v.agree and not v.counted]
+
+    @property
+    def two_files(self) -> bool:
+        """Whether the loaders read two files (an MJCF and a URDF)."""
+        return len({r.source for r in self.readings.values() if r.loaded}) > 1
 
     @property
     def refusals(self) -> list[str]:
@@ -512,7 +587,8 @@ def load_models(mjcf: Path | None, urdf: Path | None, *, floating_base: bool = F
         raise InputError(f"{mj_file}: the model has no moving joint, nothing to compare "
                          f"(a URDF's root link is fixed unless --floating-base)")
     mjr = Reading("MuJoCo", mj_file, mujoco.__version__, bodies=bodies,
-                  details=mujoco_joint_details(m), gravity=mujoco_gravity(m), model=m, hints=_mujoco_hints(m, mj_file))
+                  details=mujoco_joint_details(m), gravity=mujoco_gravity(m), model=m, hints=_mujoco_hints(m, mj_file),
+                  geom_masses=_geom_masses(m, mj_file))
     if pin_bad is not None:  # MuJoCo reads the bodies as physical: Pinocchio's reading is what differs
         pinr.dynamics = f"its reading of a body is not physical ({_refusal(pin_bad, other_file)})"
     if pinr.loaded:
@@ -704,15 +780,87 @@ QUANTITIES = {
               lambda x, d: _range_text(d.limits, x.kind)),
     "damping": (lambda x: JOINTS.get(x.kind) is not None and JOINTS[x.kind].axis is not None,
                 lambda x, y, dx, dy, r: bool(np.isclose(dx.damping, dy.damping, rtol=r, atol=1e-12)),
-                lambda x, d: _fmt(d.damping)),
+                lambda x, d: _fmt(d.damping, _unit("damping", x.kind))),
+    "friction loss": (lambda x: JOINTS.get(x.kind) is not None and JOINTS[x.kind].axis is not None,
+                      lambda x, y, dx, dy, r: bool(np.isclose(dx.friction, dy.friction, rtol=r, atol=1e-12)),
+                      lambda x, d: _fmt(d.friction, _unit("friction loss", x.kind))),
     "armature": (lambda x: JOINTS.get(x.kind) is not None and JOINTS[x.kind].axis is not None,
                  lambda x, y, dx, dy, r: bool(np.isclose(dx.armature, dy.armature, rtol=r, atol=1e-12)),
-                 lambda x, d: _fmt(d.armature)),
+                 lambda x, d: _fmt(d.armature, _unit("armature", x.kind))),
 }
 # a quantity a loader does not hold for a joint (None in its JointDetails) is not voted on
-_DETAIL_FIELD = {"joint point": "point_B", "range": None, "damping": "damping", "armature": "armature"}
+_DETAIL_FIELD = {"joint point": "point_B", "range": None, "damping": "damping", "friction loss": "friction",
+                 "armature": "armature"}
 # joint settings: counted when every loader reads one file, listed only between an MJCF and a URDF
-SETTINGS = ("range", "damping", "armature")
+SETTINGS = ("range", "damping", "friction loss", "armature")
+# never counted: only MuJoCo applies a friction loss (Pinocchio stores it, Drake's parsers do not read it)
+NOT_COUNTED = ("friction loss",)
+# per joint setting, hinge unit and slide unit
+_SETTING_UNITS = {"damping": ("N m s/rad", "N s/m"), "friction loss": ("N m", "N"), "armature": ("kg m^2", "kg"),
+                  "range": ("rad", "m")}
+
+
+def _unit(quantity: str, kind: str) -> str:
+    """The unit of a joint setting (``_SETTING_UNITS``) for a joint of kind ``kind``: the slide's
+    for a translational joint, else the hinge's."""
+    hinge, slide = _SETTING_UNITS[quantity]
+    jt = JOINTS.get(kind)
+    return slide if jt is not None and jt.axis == TRANSLATIONAL else hinge
+
+
+def _principal_rotation(Ia: np.ndarray, Ib: np.ndarray) -> float:
+    """The smallest rotation angle (rad) taking the principal axes of inertia ``Ia`` onto those of
+    ``Ib`` (each axis up to its sign); NaN when two principal moments coincide (axes not unique)."""
+    ea, Va = np.linalg.eigh(Ia)
+    eb, Vb = np.linalg.eigh(Ib)
+    top = max(float(np.abs(ea).max()), 1e-300)
+    if min(np.diff(ea).min(), np.diff(eb).min()) <= 1e-6 * top:
+        return float("nan")
+    best = np.pi
+    for signs in ((1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1)):
+        R = Vb @ np.diag(signs) @ Va.T
+        if np.linalg.det(R) < 0:
+            R = Vb @ np.diag([-s for s in signs]) @ Va.T
+        best = min(best, float(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
+    return best
+
+
+def _difference(quantity: str, x: JointBody, y: JointBody, dx: JointDetails, dy: JointDetails, rtol: float) -> str:
+    """By how much loader reading ``x`` differs from ``y`` in ``quantity``, in words with the unit
+    ("" where there is no figure to give: type, presence)."""
+    if quantity == "mass":
+        dm, big = abs(x.mass - y.mass), max(x.mass, y.mass)
+        return f"they differ by {dm:.6g} kg ({100 * dm / big:.3g}% of {big:.6g} kg)" if big > 0 else ""
+    if quantity == "centre of mass":
+        return f"they differ by {np.linalg.norm(x.p_BCm_B - y.p_BCm_B):.3g} m"
+    if quantity == "inertia about the centre of mass":
+        diff = float(np.abs(x.I_Cm_B - y.I_Cm_B).max())
+        big = max(float(np.abs(x.I_Cm_B).max()), float(np.abs(y.I_Cm_B).max()), 1e-300)
+        text = f"they differ by up to {diff:.3g} kg m^2 in an entry ({100 * diff / big:.3g}% of the largest entry)"
+        ex, ey = np.linalg.eigvalsh(x.I_Cm_B), np.linalg.eigvalsh(y.I_Cm_B)
+        if np.abs(ex - ey).max() <= rtol * max(float(np.abs(ey).max()), 1e-300):
+            angle = _principal_rotation(x.I_Cm_B, y.I_Cm_B)
+            text += ("; same principal moments: the same inertia in a rotated frame"
+                     + (f" (principal axes turned by {angle:.3g} rad)" if np.isfinite(angle) else ""))
+        else:
+            text += f"; principal moments {_fmt(ex)} and {_fmt(ey)} kg m^2"
+        return text
+    if quantity == "position in parent":
+        return f"they differ by {np.linalg.norm(x.p_PB_P - y.p_PB_P):.3g} m"
+    if quantity == "orientation in parent":
+        return f"they differ by a rotation of {np.linalg.norm(_rotvec(x.R_PB.T @ y.R_PB)):.3g} rad"
+    if quantity == "axis":
+        return f"the axes are {float(np.arccos(np.clip(x.axis_B @ y.axis_B, -1.0, 1.0))):.3g} rad apart"
+    if quantity == "joint point":
+        return f"the points are {_point_gap(x, y, dx, dy):.3g} m apart (across the axis)"
+    if quantity == "range" and dx.limits is not None and dy.limits is not None:
+        unit = _unit("range", x.kind)
+        return (f"the lower bounds differ by {abs(dx.limits[0] - dy.limits[0]):.6g} {unit}, the upper by "
+                f"{abs(dx.limits[1] - dy.limits[1]):.6g} {unit}")
+    field_name = {"damping": "damping", "friction loss": "friction", "armature": "armature"}.get(quantity)
+    if field_name is not None:
+        return f"they differ by {abs(getattr(dx, field_name) - getattr(dy, field_name)):.6g} {_unit(quantity, x.kind)}"
+    return ""
 
 
 def _groups(labels: list[str], same) -> tuple[tuple[str, ...], ...]:
@@ -757,12 +905,19 @@ def vote(readings: dict[str, Reading], rtol: float) -> list[Vote]:
             d = {k: details[k].get(name) for k in who}
             groups = _groups(who, lambda a, b, x=x, d=d, same=same: bool(same(x[a], x[b], d[a], d[b], rtol)))
             values = {k: text(x[k], d[k]) for k in who}
-            counted = one_file or quantity not in SETTINGS
+            counted = (one_file or quantity not in SETTINGS) and quantity not in NOT_COUNTED
             v = Vote(name, body, quantity, values, groups, counted=counted)
-            hint = readings[v.odd].hints.get(quantity, "") if v.odd is not None else ""
-            if quantity == "range" and v.odd is not None:
-                hint = _degrees_hint(d[v.odd].limits, d[groups[0][0]].limits) or hint
-            out.append(Vote(name, body, quantity, values, groups, hint, counted) if hint else v)
+            detail, hint = "", ""
+            if not v.agree and (v.odd is not None or len(who) == 2):
+                a, b = (v.odd, groups[0][0]) if v.odd is not None else (who[0], who[1])
+                detail = _difference(quantity, x[a], x[b], d[a], d[b], rtol)
+            if v.odd is not None:
+                hint = readings[v.odd].hints.get(quantity, "")
+                if quantity == "range":
+                    hint = _degrees_hint(d[v.odd].limits, d[groups[0][0]].limits) or hint
+            if not v.agree and quantity == "mass":
+                hint = hint or _geom_mass_hint(readings, x, [k for g in groups[1:] for k in g] + list(groups[0]))
+            out.append(Vote(name, body, quantity, values, groups, hint, counted, detail))
     g = {r.loader: r.gravity for r in loaded if r.gravity is not None}
     if len(g) >= 2:
         groups = _groups(list(g), lambda a, b: np.linalg.norm(g[a] - g[b]) <= rtol * max(np.linalg.norm(g[a]), 1.0))
@@ -787,6 +942,342 @@ def dynamics_odd(diffs: list[dc.TermDiff]) -> dict[str, str]:
             (odd,) = sources - {ok[0].a, ok[0].b}
             out[term] = odd
     return out
+
+
+# --------------------------------------------------------------------------- what the differences come from
+#
+# Each finding is tested, not guessed: a cause is named only when putting it back reconciles the
+# readings within the check's tolerance (rotating the tensor by the URDF's rpy, swapping one fixed
+# child's part between two readings, taking the armature off M's diagonal).
+
+_MASS_QUANTITIES = ("mass", "centre of mass", "inertia about the centre of mass")
+
+
+def _geom_masses(m: mujoco.MjModel, path: Path) -> dict[str, str]:
+    """MuJoCo body name -> how MuJoCo got its mass, for the bodies whose file gives no
+    ``<inertial>`` (MJCF body, URDF link; all of them under ``<compiler inertiafromgeom="true">``):
+    MuJoCo derives their mass and inertia from their geoms (each geom's ``mass``, else its
+    ``density`` times its volume) where another loader may read none (a URDF link without
+    ``<inertial>``: mass 0). Bodies ``fusestatic`` fused away are left out."""
+    spec = read_mujoco_spec(path)
+    from_geoms = spec.compiler.inertiafromgeom == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
+    out = {}
+    for body in spec.bodies:
+        bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body.name) if body.name else -1
+        if body.name == "world" or bid < 0 or (body.explicitinertial and not from_geoms):
+            continue
+        n = int(m.body_geomnum[bid])
+        why = 'the compiler\'s inertiafromgeom="true" ignores its <inertial>' if from_geoms and body.explicitinertial \
+            else f"the {file_format(path)} gives it no <inertial>"
+        out[body.name] = (f"MuJoCo derives the mass of body {body.name!r} from its geoms since {why}: "
+                          + (f"{float(m.body_mass[bid]):.6g} kg from {n} geom(s)" if n else "no geoms, 0 kg"))
+    return out
+
+
+def _geom_mass_hint(readings: dict[str, Reading], x: dict[str, JointBody], who: list[str]) -> str:
+    """The ``geom_masses`` text of MuJoCo's parts of a joint's body, when MuJoCo reads it."""
+    mjr = readings.get("MuJoCo")
+    if mjr is None or "MuJoCo" not in who or "MuJoCo" not in x or not mjr.geom_masses:
+        return ""
+    texts = [mjr.geom_masses[p.name] for p in x["MuJoCo"].parts if p.name in mjr.geom_masses]
+    return "; ".join(texts)
+
+
+def urdf_inertial_frames(path: Path) -> dict[str, tuple[str, np.ndarray, np.ndarray]]:
+    """Link name -> (the ``rpy`` of its ``<inertial><origin>`` as written, R: the inertial frame's
+    orientation in the link frame (fixed-axis roll, pitch, yaw: R = Rz(y) Ry(p) Rx(r)), the
+    ``<inertia>`` tensor as written, in the inertial frame (kg m^2)), for the links whose
+    inertial frame is rotated. Empty for a file that does not parse as a URDF."""
+    import xml.etree.ElementTree as ET
+
+    from scipy.spatial.transform import Rotation
+
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError):
+        return {}
+    out = {}
+    for link in root.findall("link"):
+        inertial = link.find("inertial")
+        origin = inertial.find("origin") if inertial is not None else None
+        tensor = inertial.find("inertia") if inertial is not None else None
+        if origin is None or tensor is None or not origin.get("rpy"):
+            continue
+        try:
+            rpy = [float(c) for c in origin.get("rpy").split()]
+            c = {k: float(tensor.get(k, "0")) for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")}
+        except ValueError:
+            continue
+        if len(rpy) != 3 or not any(rpy):
+            continue
+        I0 = np.array([[c["ixx"], c["ixy"], c["ixz"]], [c["ixy"], c["iyy"], c["iyz"]], [c["ixz"], c["iyz"], c["izz"]]])
+        out[link.get("name")] = (" ".join(origin.get("rpy").split()), Rotation.from_euler("xyz", rpy).as_matrix(), I0)
+    return out
+
+
+def _who(loaders) -> str:
+    loaders = list(loaders)
+    return " and ".join(loaders) if len(loaders) <= 2 else ", ".join(loaders[:-1]) + " and " + loaders[-1]
+
+
+def _reading(readings: dict[str, Reading], loaders) -> str:
+    """``MuJoCo's reading (of the MJCF)``: the loaders' reading and the file they read."""
+    loaders = list(loaders)
+    formats = {file_format(readings[k].source) for k in loaders}
+    return f"{_who(k + chr(39) + 's' for k in loaders)} reading" + (f" (of the {formats.pop()})" if len(formats) == 1 else "")
+
+
+def _inertial_rotation(readings: dict[str, Reading], joint: str, body: str, rest: list[str], majority: list[str],
+                       bodies, rtol: float) -> Finding | None:
+    """A URDF ``<inertial><origin rpy>`` that one group of loaders (``rest`` or ``majority``) applies
+    and the other does not: the difference between the two readings of the joint's body is exactly
+    the rotation's contribution R I0 R^T - I0 of the link's tensor I0 (within ``rtol`` of the
+    largest entry)."""
+    y, x = majority[0], rest[0]
+    Iy, Ix = bodies[y][joint].I_Cm_B, bodies[x][joint].I_Cm_B
+    scale = max(float(np.abs(Ix).max()), float(np.abs(Iy).max()), 1e-300)
+    for source in dict.fromkeys(readings[k].source for k in (y, x) if file_format(readings[k].source) == "URDF"):
+        frames = urdf_inertial_frames(source)
+        if body not in frames:
+            continue
+        rpy, R, I0 = frames[body]
+        turn = R @ I0 @ R.T - I0
+        for sign, rotated, plain in ((+1, x, y), (-1, y, x)):   # Ix - Iy = +turn: x rotates, y does not
+            residual = float(np.abs(Ix - Iy - sign * turn).max())
+            if residual > rtol * scale:
+                continue
+            rot = majority if rotated == y else rest
+            unrot = majority if plain == y else rest
+            diff = float(np.abs(Ix - Iy).max())
+            angle = float(np.linalg.norm(_rotvec(R)))
+            text = (f"joint {joint!r} (body {body!r}): inertia about the centre of mass differs by up to {diff:.3g} "
+                    f"kg m^2 in an entry ({100 * diff / scale:.3g}% of the largest entry). Cause: the URDF's inertial-frame "
+                    f"rotation (rpy): link {body!r} has <inertial><origin rpy=\"{rpy}\"> (a rotation of {angle:.3g} rad); "
+                    f"{_reading(readings, rot)} has the tensor rotated by it, {_reading(readings, unrot)} has it "
+                    f"unrotated: rotating the unrotated tensor by that rpy reconciles the readings (to {residual:.1e} "
+                    "kg m^2). Check which file states the inertial frame as intended")
+            return Finding("inertial rotation", joint, body,
+                           f"inertial frame of link {body!r} rotated by the URDF's rpy=\"{rpy}\" "
+                           f"(not in {_who(unrot)}'s reading)", text)
+    return None
+
+
+def _same_body(x: JointBody, mass: float, com: np.ndarray, inertia: np.ndarray, rtol: float) -> bool:
+    """Whether (mass, com, inertia) is the body ``x`` within the check's tolerance (``QUANTITIES``)."""
+    from dataclasses import replace
+
+    y = replace(x, mass=mass, p_BCm_B=com, I_Cm_B=inertia)
+    return all(bool(QUANTITIES[q][1](x, y, None, None, rtol)) for q in _MASS_QUANTITIES)
+
+
+def urdf_link_masses(path: Path) -> dict[str, float]:
+    """Link name -> the ``<inertial><mass value>`` a URDF states (kg); empty for a file that does
+    not parse as a URDF."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError):
+        return {}
+    out = {}
+    for link in root.findall("link"):
+        mass = link.find("inertial/mass")
+        try:
+            out[link.get("name")] = float(mass.get("value")) if mass is not None else 0.0
+        except (TypeError, ValueError):
+            continue
+    return out
+
+
+def _fixed_child(readings: dict[str, Reading], joint: str, body: str, xs: list[str], ys: list[str], bodies,
+                 rtol: float) -> Finding | None:
+    """One fixed child whose mass properties account for the difference between the readings
+    ``xs`` and ``ys`` (each a group of loaders that agree) of a joint's merged body: a reading of
+    ``ys`` with that child's part taken from the ``xs`` reading (or removed, where that reading
+    has no such part) is the ``xs`` reading exactly (within ``rtol``)."""
+    from harness.tools.loaded_models import _composite
+
+    x = bodies[xs[0]][joint]
+    x_parts = {p.name: p for p in x.parts}
+    for y_name in ys:
+        y = bodies[y_name][joint]
+        if not y.parts:
+            continue
+        y_parts = {p.name: p for p in y.parts}
+        for child in [n for n in dict.fromkeys(list(y_parts) + list(x_parts)) if n not in (x.body, y.body)]:
+            swapped = [p for p in y.parts if p.name != child] + ([x_parts[child]] if child in x_parts else [])
+            if not swapped or not _same_body(x, *_composite(swapped), rtol):
+                continue
+            m_x = x_parts[child].mass if child in x_parts else 0.0
+            m_y = y_parts[child].mass if child in y_parts else 0.0
+            state_x = f"{m_x:.6g} kg" if child in x_parts else "absent"
+            state_y = f"{m_y:.6g} kg" if child in y_parts else "absent"
+            (heavy, m_heavy), light = ((xs, m_x), ys) if m_x > m_y else ((ys, m_y), xs)
+            m_light = min(m_x, m_y)
+            dm = abs(x.mass - y.mass)
+            stated, file_mass = "", None
+            for k in dict.fromkeys(xs + ys):
+                if file_format(readings[k].source) == "URDF":
+                    file_mass = urdf_link_masses(readings[k].source).get(child)
+                    if file_mass is not None:
+                        stated = f"; the URDF states <mass value=\"{file_mass:g}\"> for link {child!r}"
+                        break
+            where = f"link {child!r}, on a fixed joint below {body!r},"
+            tol_m = rtol * max(x.mass, y.mass, 1e-300)
+            if dm > tol_m and m_light == 0.0 and file_mass is not None and abs(file_mass - m_light) <= tol_m:
+                text = (f"joint {joint!r} (body {body!r}): the merged body's mass differs by {dm:.6g} kg. Cause: a fixed "
+                        f"child's mass that the file does not state: {where} weighs {m_heavy:.6g} kg in "
+                        f"{_reading(readings, heavy)}, where the URDF states <mass value=\"{file_mass:g}\"> for it, as "
+                        f"{_reading(readings, light)} has it; the mass difference equals that {m_heavy:.6g} kg, and with "
+                        "the child's part swapped the readings agree")
+                short = (f"fixed child {child!r} of body {body!r} given {m_heavy:.6g} kg by {_who(heavy)} "
+                         f"(the URDF states {file_mass:g} kg)")
+            elif dm > tol_m and m_light == 0.0:
+                text = (f"joint {joint!r} (body {body!r}): the merged body's mass differs by {dm:.6g} kg. Cause: a fixed "
+                        f"child's inertia is missing in {_reading(readings, light)}: {where} weighs {m_heavy:.6g} kg "
+                        f"in {_reading(readings, heavy)} and 0 kg in {_reading(readings, light)}; the mass "
+                        f"difference equals the child's mass, and with the child's part put back the readings agree{stated}")
+                short = f"fixed child {child!r} of body {body!r} missing in {_who(light)}'s reading ({m_heavy:.6g} kg)"
+            elif dm > tol_m:
+                text = (f"joint {joint!r} (body {body!r}): the merged body's mass differs by {dm:.6g} kg. Cause: the fixed "
+                        f"child {child!r} (on a fixed joint below {body!r}) weighs {state_x} in "
+                        f"{_reading(readings, xs)} and {state_y} in {_reading(readings, ys)}; with its part swapped the "
+                        f"readings agree{stated}")
+                short = f"fixed child {child!r} of body {body!r} read differently by {_who(xs)}"
+            else:
+                I_x = x_parts[child].I_Cm_B if child in x_parts else None
+                I_y = y_parts[child].I_Cm_B if child in y_parts else None
+                lacking = xs if I_x is None or not np.any(I_x) else (ys if I_y is None or not np.any(I_y) else None)
+                mj = bodies.get("MuJoCo", {}).get(joint)
+                fused = (" (MuJoCo fused the link into its parent: fusestatic)"
+                         if lacking is not None and "MuJoCo" in lacking and mj is not None
+                         and child not in {p.name for p in mj.parts} else "")
+                if lacking is not None:
+                    has = ys if lacking is xs else xs
+                    I_has = I_y if lacking is xs else I_x
+                    text = (f"joint {joint!r} (body {body!r}): the merged body's inertia differs, its mass does not. Cause: "
+                            f"a fixed child's inertia is missing in {_reading(readings, lacking)}: {where} of mass "
+                            f"{max(m_x, m_y):.6g} kg, has the rotational inertia {_fmt(I_has, 'kg m^2')} in "
+                            f"{_reading(readings, has)} and none in {_reading(readings, lacking)}{fused}; with its part put "
+                            f"back the readings agree{stated}")
+                    short = f"inertia of fixed child {child!r} of body {body!r} missing in {_who(lacking)}'s reading"
+                else:
+                    text = (f"joint {joint!r} (body {body!r}): the merged body's inertia differs, its mass does not. Cause: "
+                            f"the fixed child {child!r}'s rotational inertia: {_fmt(I_x, 'kg m^2')} in "
+                            f"{_reading(readings, xs)}, {_fmt(I_y, 'kg m^2')} in {_reading(readings, ys)}{stated}")
+                    short = f"inertia of fixed child {child!r} of body {body!r} read differently by {_who(xs)}"
+            hint = _geom_mass_hint(readings, {k: bodies[k][joint] for k in xs + ys}, xs + ys)
+            return Finding("fixed child", joint, body, short, text + (f"; {hint}" if hint else ""))
+    return None
+
+
+def _armature_finding(readings: dict[str, Reading], v: Vote, details) -> Finding | None:
+    """A joint's armature that some loaders read and others do not (0: a URDF cannot state one),
+    with what it adds to M's diagonal entry of the joint (MuJoCo's M at zero joint coordinates)."""
+    values = {k: details[k][v.joint].armature for k in v.values}
+    nonzero = [k for k, a in values.items() if a]
+    zero = [k for k, a in values.items() if not a]
+    if not nonzero or not zero or any(set(nonzero) - set(g) and set(nonzero) & set(g) for g in v.groups):
+        return None   # nothing read as 0, or the loaders that read an armature read different ones
+    kind = next(x.kind for x in readings[nonzero[0]].bodies if x.joint == v.joint)
+    unit = _unit("armature", kind)
+    arm = values[nonzero[0]]
+    urdf_zero = all(file_format(readings[k].source) == "URDF" for k in zero)
+    zeros = f"{_who(zero)} read{'s' if len(zero) == 1 else ''} 0"
+    only = "only one loader reads it" if len(nonzero) == 1 else f"only {_who(nonzero)} read it"
+    text = (f"joint {v.joint!r} (body {v.body!r}): armature: {_who(nonzero)} read{'s' if len(nonzero) == 1 else ''} "
+            f"{arm:.6g} {unit}, " + (f"the URDF has no armature ({zeros} — {only})" if urdf_zero else f"{zeros}: {only}"))
+    mjr = readings["MuJoCo"]
+    jid = mujoco.mj_name2id(mjr.model, mujoco.mjtObj.mjOBJ_JOINT, v.joint)
+    if jid >= 0:
+        m = mjr.model
+        d = mujoco.MjData(m)
+        d.qpos[:] = _zero_qpos(m)
+        mujoco.mj_forward(m, d)
+        M = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, M)
+        dof = int(m.jnt_dofadr[jid])
+        rigid = float(M[dof, dof]) - float(m.dof_armature[dof])
+        text += (f"; it adds {arm:.6g} {unit} to the diagonal entry of {v.joint!r} in the mass matrix M: "
+                 f"{rigid + arm:.6g} {unit} with it, {rigid:.6g} {unit} without, at zero joint coordinates "
+                 f"(+{100 * arm / rigid:.3g}%)" if rigid > 0 else "")
+    return Finding("armature", v.joint, v.body, f"armature of joint {v.joint!r} only in {_who(nonzero)} ({arm:.6g} {unit})",
+                   text, f"armature only in {_who(nonzero)}")
+
+
+def diagnose(readings: dict[str, Reading], votes: list[Vote], rtol: float) -> list[Finding]:
+    """What the model disagreements come from, per joint: a fixed child's mass properties, a
+    rotated URDF inertial frame, an armature only some loaders read (see ``Finding``). Each
+    group of agreeing loaders of a disagreeing vote is compared with each earlier group, the
+    majority first; a cause is named only when it reconciles the two readings within ``rtol``,
+    and a pair of readings of a joint is explained once."""
+    loaded = [r for r in readings.values() if r.loaded]
+    bodies = {r.loader: {x.joint: x for x in r.bodies} for r in loaded}
+    details = {r.loader: {x.joint: x for x in r.details} for r in loaded}
+    out: list[Finding] = []
+    explained: set[tuple[str, str, str]] = set()   # (joint, loader, loader) pairs a finding covers
+    for v in votes:
+        if v.agree or not v.joint:
+            continue
+        if v.quantity == "armature":
+            f = _armature_finding(readings, v, details)
+            if f is not None:
+                out.append(f)
+            continue
+        if v.quantity not in _MASS_QUANTITIES:
+            continue
+        for i, xs in enumerate(v.groups[1:], start=1):
+            for ys in v.groups[:i]:
+                pairs = {(v.joint, a, b) for a in xs for b in ys} | {(v.joint, b, a) for a in xs for b in ys}
+                if pairs <= explained:
+                    continue
+                xs_, ys_ = list(xs), list(ys)
+                f = _fixed_child(readings, v.joint, v.body, xs_, ys_, bodies, rtol)
+                if f is None and v.quantity == "inertia about the centre of mass":
+                    f = _inertial_rotation(readings, v.joint, v.body, xs_, ys_, bodies, rtol)
+                if f is not None:
+                    out.append(f)
+                    explained |= pairs
+    return out
+
+
+def diagnose_dynamics(readings: dict[str, Reading], jmap: dc.JointMap, terms: dict[str, list], diffs, rtol: float) -> list[Finding]:
+    """M differing between two sources by exactly their armature difference on the diagonal (at
+    every state, within ``rtol`` of M's largest entry) while bias and gravity agree."""
+    failed = [d for d in diffs if d.term == "M" and not d.passed]
+    if not failed:
+        return []
+    arm = {}
+    for k in terms:
+        det = {x.joint: x for x in readings[k].details}
+        a = np.zeros(jmap.nv)
+        for s in jmap.slots:
+            if s.joint.nv == 1 and s.name in det and det[s.name].armature:
+                a[s.vc] = det[s.name].armature
+        arm[k] = a
+    explained, worst = [], 0.0
+    for d in failed:
+        delta = arm[d.a] - arm[d.b]
+        if not np.any(delta):
+            continue
+        scale = max(float(np.max(np.abs(t.M))) for k in (d.a, d.b) for t in terms[k])
+        residual = max(float(np.max(np.abs(ta.M - tb.M - np.diag(delta)))) for ta, tb in zip(terms[d.a], terms[d.b]))
+        if residual <= rtol * scale:
+            explained.append(d)
+            worst = max(worst, residual / scale)
+    if not explained:
+        return []
+    first = explained[0]
+    delta = arm[first.a] - arm[first.b]
+    entries = "; ".join(f"{s.name} {delta[s.vc]:+.6g} {_unit('armature', s.kind)}" for s in jmap.slots
+                        if s.joint.nv == 1 and delta[s.vc])
+    pairs = " and ".join(f"M_{d.a} - M_{d.b}" for d in explained)
+    involved = {e.a for e in explained} | {e.b for e in explained}
+    others = [d for d in diffs if d.term != "M" and not d.passed and {d.a, d.b} & involved]
+    text = (f"dynamics M: {pairs} {'is' if len(explained) == 1 else 'are'} exactly the armature difference on M's "
+            f"diagonal at every state ({entries}); with it taken off, M agrees to {worst:.1e} relative"
+            + ("" if others else "; bias and gravity agree: the armature is the whole difference in the dynamics terms"))
+    return [Finding("dynamics armature", "", "", "dynamics M differ by the armature on the diagonal", text)]
 
 
 # --------------------------------------------------------------------------- dynamics: joints of each loader
@@ -852,6 +1343,7 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
     m = mjr.model
     rtol = SAME_FILE_RTOL if len({r.source for r in readings.values() if r.loaded}) == 1 else TWO_FILES_RTOL
     res.votes = vote(readings, rtol)
+    res.findings = diagnose(readings, res.votes, rtol)
     res.notes += importer_notes(readings)
     pin_table = _pinocchio_table(mjr, pinr) if pinr.loaded else None
     drake_table = _drake_table(mjr, drr) if drr.loaded else None
@@ -873,6 +1365,7 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
             if len(sources) >= 2:
                 terms = dc.evaluate(sources, states)
                 res.dynamics = dc.compare_terms(terms, rtol=max(dc.DEFAULT_RTOL, rtol))
+                res.findings += diagnose_dynamics(readings, jmap, terms, res.dynamics, max(dc.DEFAULT_RTOL, rtol))
             if pin_table is None:
                 res.free_skipped = ("Pinocchio does not load the file" if not pinr.loaded
                                     else f"Pinocchio's dynamics are not compared ({pinr.dynamics})")
@@ -922,7 +1415,7 @@ def importer_notes(readings: dict[str, Reading]) -> list[str]:
                 friction.append(f"{x.joint} {mj_val:g} / {pin_val:g}")
         if friction:
             notes.append("dry friction, MuJoCo frictionloss / Pinocchio friction (only MuJoCo applies it; Drake's "
-                         "parsers do not read it): " + "; ".join(friction))
+                         "parsers do not read it): " + "; ".join(friction) + " (compared as `friction loss`, never counted)")
     if file_format(mj_file) == "URDF":
         notes.append(f"MuJoCo's URDF import: options not in URDF take MuJoCo's defaults (timestep {m.opt.timestep:g} s, "
                      f"integrator {mujoco.mjtIntegrator(m.opt.integrator).name[6:]}, gravity {np.round(m.opt.gravity, 6).tolist()} "
@@ -937,6 +1430,16 @@ def importer_notes(readings: dict[str, Reading]) -> list[str]:
         notes.append("joint damping (MuJoCo and Drake apply it as a passive force; Pinocchio's aba ignores it; "
                      "not in the dynamics terms below): " + "; ".join(f"{x.joint} {d.damping:g}" for x, d in damped)
                      + " (compared as `damping`)")
+    if mjr.geom_masses:
+        two = len({r.source for r in readings.values() if r.loaded}) > 1
+        notes.append(f"masses derived from geoms vs given: {len(mjr.geom_masses)} body(ies) whose mass MuJoCo derives from "
+                     "their geoms (a geom's mass, else its density times its volume); every other body's mass is given by "
+                     "its <inertial>" + (" (Pinocchio and Drake read the URDF's <inertial> elements)" if two else "") + ": "
+                     + "; ".join(text.removeprefix("MuJoCo derives the mass of ") for text in mjr.geom_masses.values()))
+    if m.nu:
+        acts = [f"{mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or f'actuator{a}'} gear "
+                f"{float(m.actuator_gear[a, 0]):g}" for a in range(m.nu)]
+        notes.append(f"MuJoCo has {m.nu} actuator(s), not compared (listed per joint under Joint settings): {', '.join(acts)}")
     if m.neq:
         eqs = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, i) or mujoco.mjtEq(m.eq_type[i]).name[5:].lower()
                for i in range(m.neq)]
@@ -1095,8 +1598,10 @@ def verdict(res: CheckResult) -> str:
         loaded = [r.loader for r in res.readings.values() if r.loaded]
         parts.append(f"{', '.join(loaded[:-1])} and {loaded[-1]} agree")
     if res.setting_differences:
-        parts.append(f"{len(res.setting_differences)} joint setting(s) differ between the MJCF and the URDF (listed, "
-                     "not counted)")
+        between = "between the MJCF and the URDF" if res.two_files else "between the loaders"
+        parts.append(f"{len(res.setting_differences)} joint setting(s) differ {between} (listed, not counted)")
+    if res.findings:
+        parts.append("causes: " + causes_line(res.findings))
     parts += res.refusals
     return "; ".join(parts)
 
@@ -1164,9 +1669,15 @@ def render_report(res: CheckResult, command: str) -> str:
     L += ["", "Disagreements between the loaders (the odd one out named where two agree against one):", ""]
     L += [f"- {p}" for p in res.model_problems] or ["- none"]
     if res.setting_differences:
-        L += ["", "Joint settings that differ between the MJCF and the URDF (listed, not counted: a URDF revolute joint "
-              "must state limits and cannot state an armature):", ""]
+        L += ["", ("Joint settings that differ between the MJCF and the URDF (listed, not counted: a URDF revolute joint "
+                   "must state limits and cannot state an armature; only MuJoCo applies a friction loss):" if res.two_files
+                   else "Joint settings that differ (listed, not counted: only MuJoCo applies a friction loss):"), ""]
         L += [f"- {p}" for p in res.setting_differences]
+    if res.findings:
+        L += ["", "What the differences come from (each cause checked against the readings: putting it back "
+              "reconciles them within the tolerance, or, for an armature, the loaders' values show it):", ""]
+        L += [f"- {f.text}" for f in res.findings]
+    L += settings_table(res, by_joint)
     L += ["", "Importer differences (informational, not counted):", ""]
     L += [f"- {n}" for n in res.notes] or ["- none"]
     L += ["", "## Engine warnings", ""]
@@ -1211,6 +1722,82 @@ def render_report(res: CheckResult, command: str) -> str:
     return "\n".join(L) + "\n"
 
 
+_TABLE_SETTINGS = ("damping", "friction loss", "range", "armature")
+
+
+def _setting_cell(res: CheckResult, votes: dict, joint: str, quantity: str) -> str:
+    """One joint setting across the loaders: ``same: <value>``, ``differs (<by how much>): <values>``
+    or ``only <loader> reads it: <value>``, naming the loaders that do not read it."""
+    loaded = [r for r in res.readings.values() if r.loaded]
+    v = votes.get(quantity)
+    field_name = _DETAIL_FIELD.get(quantity)
+    held = {}
+    for r in loaded:
+        x = next((b for b in r.bodies if b.joint == joint), None)
+        d = next((b for b in r.details if b.joint == joint), None)
+        if x is None or d is None or not QUANTITIES[quantity][0](x):
+            continue
+        if field_name is None or getattr(d, field_name) is not None:
+            held[r.loader] = QUANTITIES[quantity][2](x, d)
+    if not held:
+        return ""
+    absent = [r.loader for r in loaded if r.loader not in held]
+    note = f" ({_who(absent)} {'does' if len(absent) == 1 else 'do'} not read it)" if absent else ""
+    if v is None:
+        if len(held) != 1:
+            return ""
+        (k, value), = held.items()
+        return f"only {k} reads it: {value}{note}"
+    if v.agree:
+        return f"same: {next(iter(v.values.values()))}{note}"
+    if quantity == "armature":
+        f = next((f for f in res.findings if f.kind == "armature" and f.joint == joint), None)
+        if f is not None and "the URDF has no armature" in f.text:
+            nonzero = [k for k, val in v.values.items() if not val.startswith("0 ")]
+            return (f"only {_who(nonzero)} {'reads' if len(nonzero) == 1 else 'read'} it: {v.values[nonzero[0]]} "
+                    "(the URDF has no armature)")
+    by = f" ({v.detail})" if v.detail else ""
+    return f"differs{by}: " + ", ".join(f"{k} {val}" for k, val in v.values.items()) + note
+
+
+def _gear_cell(res: CheckResult, joint: str) -> str:
+    """The actuators on a joint with their gear (MuJoCo's ``gear``, Drake's gear ratio): listed, not compared."""
+    items = []
+    m = res.readings["MuJoCo"].model
+    jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, joint)
+    for a in range(m.nu):
+        if jid >= 0 and m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT and m.actuator_trnid[a, 0] == jid:
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or f"actuator{a}"
+            items.append(f"MuJoCo {float(m.actuator_gear[a, 0]):g} ({name})")
+    drr = res.readings.get("Drake")
+    if drr is not None and drr.loaded:
+        plant = drr.model.plant
+        for a in plant.GetJointActuatorIndices():
+            act = plant.get_joint_actuator(a)
+            if act.joint().name() == joint:
+                items.append(f"Drake {act.default_gear_ratio():g} ({act.name()})")
+    return ", ".join(items) + ": not compared" if items else ""
+
+
+def settings_table(res: CheckResult, by_joint: dict[str, dict[str, Vote]]) -> list[str]:
+    """The report's per-joint table of damping, friction loss, range, armature (with units) and the
+    actuators' gear, each as ``same`` / ``differs (by how much)`` / ``only <loader> reads it``."""
+    rows = []
+    for joint, votes in by_joint.items():
+        if not joint:
+            continue
+        cells = [_setting_cell(res, votes, joint, q) for q in _TABLE_SETTINGS] + [_gear_cell(res, joint)]
+        if any(cells):
+            rows.append(f"| {joint} | " + " | ".join(cells) + " |")
+    if not rows:
+        return []
+    return ["", "### Joint settings", "",
+            "Per hinge or slide joint: what each loader reads (units: damping N m s/rad or N s/m, friction loss N m or N, "
+            "range rad or m, armature kg m^2 or kg). Gear: the actuators on the joint (MuJoCo's `gear`, Drake's gear ratio "
+            "from a URDF transmission), listed, not compared (Pinocchio reads no actuators).", "",
+            "| joint | damping | friction loss | range | armature | actuator gear |", "|---|---|---|---|---|---|"] + rows
+
+
 def warning_lines(res: CheckResult) -> list[str]:
     """MuJoCo's captured warnings as report lines (none when it gave none)."""
     count = int(res.warnings.get("count", 0) or 0)
@@ -1226,6 +1813,7 @@ def summary_lines(res: CheckResult) -> list[str]:
              f"  verdict: {verdict(res)}"]
     lines += [f"  MODEL {p}" for p in res.model_problems]
     lines += [f"  setting (not counted) {p}" for p in res.setting_differences]
+    lines += [f"  CAUSE {f.text}" for f in res.findings]
     lines += [f"  warnings {line[2:]}" for line in warning_lines(res)]
     for d in res.dynamics:
         lines.append(f"  dynamics {d.term:<8} {d.a} vs {d.b}: max abs {d.max_abs:.3e}, max rel {d.max_rel:.3e}"

@@ -9,7 +9,10 @@ tolerance, unit, message); ``compare_bodies`` lists the disagreements beyond a r
 For any model file (no scene), ``mujoco_joint_bodies`` / ``pinocchio_joint_bodies`` read back,
 per joint, the rigid body it moves (fixed children merged) in the frame of its child link, and
 ``compare_joint_bodies`` compares two engines joint by joint (matched by name);
-``check_joint_bodies_physical`` rejects non-positive masses and invalid inertia tensors.
+``check_joint_bodies_physical`` rejects non-positive masses and invalid inertia tensors. Each
+``JointBody`` also lists its ``parts`` (``Part``: the body itself and the fixed children merged
+into it, each with its own mass properties, named by body/link), so that a disagreement in a
+merged body can be traced to one fixed child.
 """
 
 from __future__ import annotations
@@ -306,6 +309,22 @@ def compare_bodies(loaded: list[LoadedBody], model: Multibody, rtol: float = 1e-
 
 
 @dataclass(frozen=True)
+class Part:
+    """One body/link merged into the rigid body a joint moves (the body itself or a fixed child).
+
+    Attributes:
+        name: the body (MuJoCo, Drake) or link (Pinocchio) name.
+        mass: kg; ``p_BCm_B``: its centre of mass in the frame B of the joint's body (m);
+        ``I_Cm_B``: its inertia about its own centre of mass, in B (kg m^2).
+    """
+
+    name: str
+    mass: float
+    p_BCm_B: np.ndarray
+    I_Cm_B: np.ndarray
+
+
+@dataclass(frozen=True)
 class JointBody:
     """The rigid body a joint moves, as one engine holds it after loading (any model file).
 
@@ -320,6 +339,10 @@ class JointBody:
         p_PB_P, R_PB: B's pose in the parent body's frame at the reference configuration
             (MuJoCo ``qpos0``, Pinocchio ``neutral``) (m, rotation matrix).
         axis_B: hinge or slide axis in B (unit vector; zeros for other joints).
+        parts: the bodies merged into it (``Part``, the body itself first, then its fixed
+            children), whose composite is (mass, p_BCm_B, I_Cm_B); empty where the loader does
+            not tell them apart (a body MuJoCo's ``fusestatic`` fused is already one body) or
+            for a joint that carries no mass (not the last joint of its body).
     """
 
     joint: str
@@ -332,10 +355,12 @@ class JointBody:
     p_PB_P: np.ndarray
     R_PB: np.ndarray
     axis_B: np.ndarray
+    parts: tuple[Part, ...] = ()
 
 
 def _composite(parts) -> tuple[float, np.ndarray, np.ndarray]:
-    """Mass, centre of mass and inertia about it of ``(m, c, I)`` parts (one frame)."""
+    """Mass, centre of mass and inertia about it of ``(m, c, I)`` parts or ``Part`` records (one frame)."""
+    parts = [(p.mass, p.p_BCm_B, p.I_Cm_B) if isinstance(p, Part) else p for p in parts]
     mass = float(sum(p[0] for p in parts))
     if mass <= 0.0:
         return mass, np.zeros(3), sum((p[2] for p in parts), np.zeros((3, 3)))
@@ -368,11 +393,10 @@ def mujoco_joint_bodies(m: mujoco.MjModel, qpos: np.ndarray | None = None) -> li
         last = j == m.body_jntadr[b] + m.body_jntnum[b] - 1
         R_WB, p_WB = d.xmat[b].reshape(3, 3), d.xpos[b]
         parts = []
-        for k in range(1, m.nbody):
-            if last and owner[k] == b:
-                Rk = d.ximat[k].reshape(3, 3)
-                parts.append((float(m.body_mass[k]), R_WB.T @ (d.xipos[k] - p_WB),
-                              R_WB.T @ Rk @ np.diag(m.body_inertia[k]) @ Rk.T @ R_WB))
+        for k in ([b] + [k for k in range(1, m.nbody) if k != b and owner[k] == b]) if last else []:
+            Rk = d.ximat[k].reshape(3, 3)
+            parts.append(Part(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, k) or f"body{k}", float(m.body_mass[k]),
+                              R_WB.T @ (d.xipos[k] - p_WB), R_WB.T @ Rk @ np.diag(m.body_inertia[k]) @ Rk.T @ R_WB))
         mass, com, inertia = _composite(parts) if parts else (0.0, np.zeros(3), np.zeros((3, 3)))
         pb = owner[m.body_parentid[b]]
         R_WP, p_WP = d.xmat[pb].reshape(3, 3), d.xpos[pb]
@@ -381,7 +405,8 @@ def mujoco_joint_bodies(m: mujoco.MjModel, qpos: np.ndarray | None = None) -> li
         out.append(JointBody(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}",
                              mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}", kind, mass, com, inertia,
                              mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, pb) or "world",
-                             R_WP.T @ (p_WB - p_WP), R_WP.T @ R_WB, axis / max(np.linalg.norm(axis), 1e-300)))
+                             R_WP.T @ (p_WB - p_WP), R_WP.T @ R_WB, axis / max(np.linalg.norm(axis), 1e-300),
+                             tuple(parts)))
     return out
 
 
@@ -411,9 +436,51 @@ def _pin_body_frame(pmodel: pin.Model, jid: int) -> int:
     return joint_frame
 
 
+def _pin_parts(pmodel: pin.Model, jid: int, fid: int, jMb: pin.SE3) -> tuple[Part, ...]:
+    """The links merged into joint ``jid``'s inertia, in the frame B of its body frame ``fid``:
+    Pinocchio's parsers keep a fixed child's inertia on the child's frame (``Frame.inertia``, in
+    that frame; its placement relative to the joint), and the body's own part is the rest of
+    ``inertias[jid]``. A fixed child is named by its BODY frame (the frame after its fixed
+    joint). Empty when the frames do not add up (a part with negative mass)."""
+    children = []
+    for k, f in enumerate(pmodel.frames):
+        if k == fid or f.parentJoint != jid or f.type == pin.FrameType.JOINT:
+            continue
+        if f.inertia.mass == 0.0 and not np.any(np.asarray(f.inertia.inertia)):
+            continue
+        name = next((g.name for g in pmodel.frames if g.type == pin.FrameType.BODY and g.parentFrame == k
+                     and g.parentJoint == jid), f.name)
+        inertia = jMb.actInv(f.placement.act(f.inertia))
+        children.append(Part(name, float(inertia.mass), np.array(inertia.lever), np.array(inertia.inertia)))
+    total = jMb.actInv(pmodel.inertias[jid])
+    rest = _remainder((float(total.mass), np.array(total.lever), np.array(total.inertia)), children)
+    if rest is None:
+        return ()
+    return (Part(pmodel.frames[fid].name, *rest),) + tuple(children)
+
+
+def _remainder(whole, parts, tol: float = 1e-12):
+    """(m, c, I) of ``whole`` less ``parts`` (``Part`` records, one frame); None when the
+    remainder's mass is negative."""
+    m, c, I = whole
+    rest_m = m - sum(p.mass for p in parts)
+    if rest_m < -tol * max(m, 1.0):
+        return None
+    rest_m = max(rest_m, 0.0)
+
+    def about_origin(mk, ck, Ik):
+        return Ik + mk * (float(ck @ ck) * np.eye(3) - np.outer(ck, ck))
+
+    first = m * c - sum((p.mass * p.p_BCm_B for p in parts), np.zeros(3))
+    rest_c = first / rest_m if rest_m > 0.0 else np.zeros(3)
+    I_O = about_origin(m, c, I) - sum((about_origin(p.mass, p.p_BCm_B, p.I_Cm_B) for p in parts), np.zeros((3, 3)))
+    return rest_m, rest_c, I_O - rest_m * (float(rest_c @ rest_c) * np.eye(3) - np.outer(rest_c, rest_c))
+
+
 def pinocchio_joint_bodies(pmodel: pin.Model) -> list[JointBody]:
     """Per Pinocchio joint (model order, universe excluded): the body it moves (``inertias[j]``:
-    Pinocchio merges fixed children into it), in the frame of the child link, at ``neutral``."""
+    Pinocchio merges fixed children into it), in the frame of the child link, at ``neutral``;
+    its ``parts`` from the fixed children's frames (``_pin_parts``)."""
     data = pmodel.createData()
     q = pin.neutral(pmodel)
     pin.forwardKinematics(pmodel, data, q)
@@ -434,7 +501,7 @@ def pinocchio_joint_bodies(pmodel: pin.Model) -> list[JointBody]:
         out.append(JointBody(pmodel.names[jid], pmodel.frames[fid].name, kind, float(inertia.mass),
                              np.array(inertia.lever), np.array(inertia.inertia),
                              pmodel.frames[frames[parent]].name if parent > 0 else "world",
-                             np.array(pMb.translation), np.array(pMb.rotation), axis))
+                             np.array(pMb.translation), np.array(pMb.rotation), axis, _pin_parts(pmodel, jid, fid, jMb)))
     return out
 
 
@@ -713,9 +780,9 @@ def _index(plant, b: int):
     return BodyIndex(b)
 
 
-def _drake_inertia_parts(plant, context, owner_of, B: int):
-    """(m, c, I) of every body owned by B (B and the bodies welded to it), in B's frame:
-    mass (kg), centre of mass (m) and inertia about it (kg m^2)."""
+def _drake_inertia_parts(plant, context, owner_of, B: int) -> list[Part]:
+    """Every body owned by B (B and the bodies welded to it; B first) as a ``Part`` in B's
+    frame: mass (kg), centre of mass (m) and inertia about it (kg m^2)."""
     X_WB = plant.EvalBodyPoseInWorld(context, plant.get_body(_index(plant, B)))
     R_BW = X_WB.rotation().matrix().T
     parts = []
@@ -730,8 +797,8 @@ def _drake_inertia_parts(plant, context, owner_of, B: int):
         X_WK = plant.EvalBodyPoseInWorld(context, body)
         R_BK = R_BW @ X_WK.rotation().matrix()
         c_B = R_BW @ (X_WK.multiply(c_K) - X_WB.translation())
-        parts.append((m_k, c_B, R_BK @ I_Kcm @ R_BK.T))
-    return parts
+        parts.append(Part(body.name(), m_k, c_B, R_BK @ I_Kcm @ R_BK.T))
+    return sorted(parts, key=lambda p: p.name != plant.get_body(_index(plant, B)).name())
 
 
 def drake_joint_bodies(source, *, root_joint: str = "none") -> list[JointBody]:
@@ -792,7 +859,7 @@ def drake_joint_bodies(source, *, root_joint: str = "none") -> list[JointBody]:
             axis = axis / max(np.linalg.norm(axis), 1e-300)
         out.append(JointBody(j.name(), plant.get_body(_index(plant, B)).name(), kind, mass, com, inertia,
                              plant.get_body(_index(plant, P)).name() if P != world else "world",
-                             R_WP.T @ (p_WB - p_WP), R_WP.T @ R_WB, axis))
+                             R_WP.T @ (p_WB - p_WP), R_WP.T @ R_WB, axis, tuple(parts)))
     return out
 
 
@@ -818,6 +885,9 @@ class JointDetails:
         armature: inertia added to the diagonal of M for a hinge (kg m^2) or slide (kg): MuJoCo's
             and Pinocchio's ``armature``, Drake's reflected rotor inertia of the joint's
             actuators; None for others.
+        friction: dry friction (friction loss) of a hinge (N m) or slide (N): MuJoCo's
+            ``frictionloss``, Pinocchio's ``friction``; None for other joints and for a loader
+            that does not read it (Drake's parsers).
     """
 
     joint: str
@@ -825,6 +895,7 @@ class JointDetails:
     limits: tuple[float, float] | None
     damping: float | None
     armature: float | None
+    friction: float | None = None
 
 
 UNLIMITED = 1e15  # m or rad: a bound at least this large is no bound
@@ -839,7 +910,7 @@ def _limits(lo: float, hi: float) -> tuple[float, float] | None:
 
 def mujoco_joint_details(m: mujoco.MjModel) -> list[JointDetails]:
     """Per MuJoCo joint (model order): ``jnt_pos`` (the point, body frame), the range when
-    ``jnt_limited``, ``dof_damping`` and ``dof_armature`` of a hinge or slide."""
+    ``jnt_limited``, ``dof_damping``, ``dof_armature`` and ``dof_frictionloss`` of a hinge or slide."""
     out = []
     for j in range(m.njnt):
         kind = mujoco_joint_kind(m, j)
@@ -848,7 +919,8 @@ def mujoco_joint_details(m: mujoco.MjModel) -> list[JointDetails]:
         limits = _limits(*m.jnt_range[j]) if one and m.jnt_limited[j] else None
         point = np.zeros(3) if kind == FREE.name else np.array(m.jnt_pos[j], dtype=float)
         out.append(JointDetails(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}", point, limits,
-                                float(m.dof_damping[dof]) if one else None, float(m.dof_armature[dof]) if one else None))
+                                float(m.dof_damping[dof]) if one else None, float(m.dof_armature[dof]) if one else None,
+                                float(m.dof_frictionloss[dof]) if one else None))
     return out
 
 
@@ -958,6 +1030,7 @@ def pinocchio_split_joint_bodies(pmodel: pin.Model, slots: dict[str, PinocchioSl
         out.append(replace(x, joint=name, kind=jt.name if jt is not None else s.shortname,
                            mass=x.mass if last else 0.0,
                            p_BCm_B=x.p_BCm_B if last else np.zeros(3), I_Cm_B=x.I_Cm_B if last else np.zeros((3, 3)),
+                           parts=x.parts if last else (),
                            axis_B=axis / max(np.linalg.norm(axis), 1e-300)))
     return out
 
@@ -973,7 +1046,7 @@ def pinocchio_joint_details(pmodel: pin.Model, slots: dict[str, PinocchioSlot]) 
     """Per joint of ``slots``: the joint frame's origin in the frame of the body it moves (for a
     composite's sub-joint, its own frame at neutral), the position limits of a 1-dof joint
     (``lowerPositionLimit``/``upperPositionLimit``; a continuous joint, nq 2, has none),
-    ``damping`` and ``armature``."""
+    ``damping``, ``armature`` and ``friction``."""
     out = []
     for name, s in slots.items():
         jMb = pmodel.frames[_pin_body_frame(pmodel, s.jid)].placement
@@ -986,5 +1059,6 @@ def pinocchio_joint_details(pmodel: pin.Model, slots: dict[str, PinocchioSlot]) 
         limits = (_limits(pmodel.lowerPositionLimit[s.idx_q], pmodel.upperPositionLimit[s.idx_q])
                   if one and s.nq == 1 else None)
         out.append(JointDetails(name, point, limits, float(pmodel.damping[s.idx_v]) if one else None,
-                                float(pmodel.armature[s.idx_v]) if one else None))
+                                float(pmodel.armature[s.idx_v]) if one else None,
+                                float(pmodel.friction[s.idx_v]) if one else None))
     return out
