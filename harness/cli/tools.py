@@ -1,4 +1,4 @@
-"""Model-debugging commands of the CLI: ``harness inspect | debug | check``.
+"""Model-debugging commands of the CLI: ``harness inspect | debug | check | zoo``.
 
 ``add_parsers(sub)`` adds their subparsers to ``harness.cli.main``'s subparsers object (whose
 ``parser_class`` turns argparse errors into ``InputError``); ``COMMANDS`` maps each name to its
@@ -28,7 +28,7 @@ def _overrides(items: list[str] | None) -> dict[str, str]:
 
 
 def add_parsers(sub) -> None:
-    """Add the ``inspect``, ``debug`` and ``check`` subparsers."""
+    """Add the ``inspect``, ``debug``, ``check`` and ``zoo`` subparsers."""
     i = sub.add_parser("inspect", help="what each engine holds after loading a scene; dynamics at random states",
                        description="Load a scene into every engine and show what each holds against the scene "
                                    "description; compare the dynamics terms at random states. Exit 0 when all "
@@ -84,6 +84,31 @@ def add_parsers(sub) -> None:
     c.add_argument("--quiet", action="store_true",
                    help="print only the summary and errors: not what the engines printed on stderr during the "
                         "comparison (numpy's and the importers' warnings)")
+
+    z = sub.add_parser("zoo", help="`check` on every model of a collection or folder, each in its own process; one table",
+                       description="Run `harness check` on every model of an installed collection or a folder, each model "
+                                   "in its own worker process (a crash, hang or timeout is that model's row); write "
+                                   "<collection>.md and .csv (per model: which engines load it, the verdict, the largest "
+                                   "discrepancy, run time, suspicious inertias) and <collection>/check_<model>.md. "
+                                   "example-robot-data: the URDFs the pip package installs under <site-packages>/"
+                                   "cmeel.prefix/share/example-robot-data/robots/ (meshes stripped); dm_control: "
+                                   "<site-packages>/dm_control/suite/*.xml, checked in place. Details: the docstring of "
+                                   "harness/tools/zoo.py. Exit 0 when the zoo ran (whatever the verdicts), 2 on bad input.")
+    z.add_argument("collection", metavar="PATH|NAME",
+                   help="example-robot-data, dm_control, or a folder: its *.xml (MJCF) and *.urdf, not its subfolders "
+                        "(an MJCF and a URDF of one stem are checked as a pair)")
+    z.add_argument("--only", type=_csv_list, metavar="NAME[,NAME]", help="check only these models (names as in the table)")
+    z.add_argument("--base", choices=("auto", "fixed", "floating"), default="auto",
+                   help="auto (default): a URDF alone gets a free root joint unless its root link is `world`; an MJCF "
+                        "keeps its own root joints. fixed / floating: for every model")
+    z.add_argument("--strip-geometry", action="store_true",
+                   help="for a folder: delete geoms and meshes from MuJoCo's copy (example-robot-data always, dm_control never)")
+    z.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
+                   help="folder for the table and the per-model reports (default: reports/zoo; reports/partial/zoo "
+                        "with --only, so that only a full run refreshes the committed snapshot)")
+    z.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
+    z.add_argument("--timeout", type=_float, default=300.0, metavar="S",
+                   help="seconds allowed per model (> 0, default 300); a model over it is recorded as crashed (timeout)")
 
 
 def cmd_inspect(args) -> int:
@@ -164,4 +189,28 @@ def _command_line(args) -> str:
     return shlex.join(parts)
 
 
-COMMANDS = {"inspect": cmd_inspect, "debug": cmd_debug, "check": cmd_check}
+def cmd_zoo(args) -> int:
+    from harness.io.atomic import REPORTS_DIR, check_writable, default_out_dir
+    from harness.io.provenance import command_line, provenance
+    from harness.tools.zoo import collection, headline, made_line, run_zoo, select, write_zoo
+
+    if args.jobs < 0:
+        raise InputError(f"--jobs must be >= 0, got {args.jobs!r}")
+    if not (args.timeout > 0):
+        raise InputError(f"--timeout must be positive, got {args.timeout!r}")
+    coll = select(collection(args.collection, strip=args.strip_geometry), args.only)
+    out = args.out_dir or (default_out_dir("zoo", full_run=False) if args.only else REPORTS_DIR / "zoo")
+    check_writable(out)
+
+    def done(row) -> None:
+        print(f"  {row.verdict:<8} {row.name} ({row.wall_s:.1f} s)", flush=True)
+
+    print(f"zoo {coll.name}: {len(coll.models)} model(s)", flush=True)
+    zoo = run_zoo(coll, base=args.base, jobs=args.jobs or None, timeout=args.timeout, on_done=done)
+    paths = write_zoo(zoo, out, made_line(provenance()), command_line())
+    print(f"zoo {coll.name}: {headline(zoo)}")
+    print(f"wrote {paths[0]}, {paths[1]} and {len(paths) - 2} per-model report(s) in {out / coll.name}")
+    return EXIT_OK
+
+
+COMMANDS = {"inspect": cmd_inspect, "debug": cmd_debug, "check": cmd_check, "zoo": cmd_zoo}

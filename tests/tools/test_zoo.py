@@ -1,0 +1,243 @@
+"""``harness zoo``: ``check`` on every model of a folder or an installed collection, each model in
+its own process, one table; bad input writes nothing."""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from harness.cli.main import main
+from harness.tools import zoo
+
+# A thin rod (principal moments 1e-7, 0.01, 0.01 kg m^2: triangle margin 1e-5) on a hinge, as an
+# MJCF and the matching URDF (checked as a pair), and a box-like arm welded to the world (URDF
+# alone): a 1 kg link whose inertia is that of a uniform 0.1 x 0.2 x 0.3 m box (166.67 kg/m^3).
+ROD_MJCF = """<mujoco model="rod">
+  <worldbody>
+    <body name="rod" pos="0 0 1">
+      <joint name="hinge" type="hinge" axis="0 1 0"/>
+      <inertial pos="0 0 -0.5" mass="1" diaginertia="1e-7 0.01 0.01"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+ROD_URDF = """<?xml version="1.0"?>
+<robot name="rod">
+  <link name="world"/>
+  <joint name="hinge" type="continuous"><parent link="world"/><child link="rod"/>
+    <origin xyz="0 0 1"/><axis xyz="0 1 0"/></joint>
+  <link name="rod"><inertial><origin xyz="0 0 -0.5"/><mass value="1"/>
+    <inertia ixx="1e-7" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+</robot>
+"""
+BOX = {"ixx": (0.2**2 + 0.3**2) / 12, "iyy": (0.1**2 + 0.3**2) / 12, "izz": (0.1**2 + 0.2**2) / 12}
+ARM_URDF = f"""<?xml version="1.0"?>
+<robot name="arm">
+  <link name="world"/>
+  <joint name="j1" type="revolute"><parent link="world"/><child link="l1"/>
+    <origin xyz="0 0 1"/><axis xyz="1 0 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+  <link name="l1"><inertial><origin xyz="0 0 -0.25"/><mass value="1"/>
+    <inertia ixx="{BOX['ixx']!r}" ixy="0" ixz="0" iyy="{BOX['iyy']!r}" iyz="0" izz="{BOX['izz']!r}"/></inertial></link>
+</robot>
+"""
+BROKEN_URDF = '<?xml version="1.0"?>\n<robot name="broken">\n  <link name="l1">\n'
+
+
+def folder(tmp_path: Path) -> Path:
+    d = tmp_path / "my_models"
+    d.mkdir()
+    (d / "rod.xml").write_text(ROD_MJCF)
+    (d / "rod.urdf").write_text(ROD_URDF)
+    (d / "arm.urdf").write_text(ARM_URDF)
+    (d / "broken.urdf").write_text(BROKEN_URDF)
+    (d / "notes.txt").write_text("not a model")
+    return d
+
+
+def rows(csv_path: Path) -> dict[str, dict[str, str]]:
+    with open(csv_path, newline="") as f:
+        return {r["model"]: r for r in csv.DictReader(f)}
+
+
+def test_folder_pairs_models_and_gives_a_malformed_file_its_row(tmp_path, capsys):
+    d, out = folder(tmp_path), tmp_path / "out"
+    code = main(["zoo", str(d), "--out-dir", str(out)])
+    stdout = capsys.readouterr().out
+    assert code == 0, stdout
+    table = rows(out / "my_models.csv")
+    assert sorted(table) == ["arm", "broken", "rod"]  # rod.xml and rod.urdf are one model; notes.txt is none
+    rod, arm, broken = table["rod"], table["arm"], table["broken"]
+    assert rod["files"] == f"{d / 'rod.xml'};{d / 'rod.urdf'}" and rod["base"] == "fixed"
+    assert arm["base"] == "fixed"  # a URDF alone whose root link is `world` stays welded
+    assert rod["verdict"] == arm["verdict"] == "pass"
+    assert {rod[f"{k}_loads"] for k in ("mujoco", "pinocchio", "drake")} == {"yes"}
+    assert broken["verdict"] == "refused" and "cannot load" in broken["reason"]
+    assert broken["mujoco_loads"] == broken["pinocchio_loads"] == broken["drake_loads"] == "no"
+    assert all(broken[f"{k}_refusal"] for k in ("mujoco", "pinocchio", "drake"))
+    # the rod's triangle margin (1e-7 / 0.01 = 1e-5) is flagged, the box's inertia is not
+    assert rod["suspicious_bodies"] == "1" and "triangle margin 1e-05 < 0.001" in rod["suspicious"]
+    assert arm["bodies"] == "1" and arm["suspicious_bodies"] == "0"
+    assert float(arm["run_time_s"]) > 0
+    md = (out / "my_models.md").read_text()
+    assert ("**3 models; loaded in all three engines: 2; verdict: 2 pass, 0 fail, 1 refused, 0 crashed; "
+            "1 model(s) with a suspicious inertia;") in md
+    assert "[rod](my_models/check_rod.md)" in md and "- rod: rod (triangle margin 1e-05 < 0.001, " in md
+    report = (out / "my_models" / "check_arm.md").read_text()
+    assert report.startswith("# harness check: arm") and "Verdict: **PASS**" in report
+    assert "implied density 167 kg/m^3: plausible" in report  # 1 kg / (0.1 x 0.2 x 0.3 m)
+    assert "Verdict: **REFUSED**" in (out / "my_models" / "check_broken.md").read_text()
+    assert "pass     arm" in stdout and "refused  broken" in stdout
+
+
+def test_largest_discrepancy_is_the_planted_mass(tmp_path):
+    """An MJCF 10 % heavier than its URDF: MuJoCo is the odd one out in mass, by 0.1 kg."""
+    from harness.tools.check import run_check
+
+    (tmp_path / "rod.xml").write_text(ROD_MJCF.replace('mass="1"', 'mass="1.1"'))
+    (tmp_path / "rod.urdf").write_text(ROD_URDF)
+    res = run_check(tmp_path / "rod.xml", tmp_path / "rod.urdf", n_free=1, t_end=0.05)
+    big = zoo.largest(res)
+    assert big.kind == "model: mass, joint 'hinge' (body 'rod')"
+    assert big.between == "MuJoCo against Pinocchio and Drake"
+    assert big.size == "0.1 kg (relative 0.091)" and big.ratio == pytest.approx(0.1 / 1.1 / 1e-6)  # two files: rtol 1e-6
+    # when the loaders agree, the largest is a dynamics term or a free motion within its tolerance
+    (tmp_path / "rod.xml").write_text(ROD_MJCF)
+    big = zoo.largest(run_check(tmp_path / "rod.xml", tmp_path / "rod.urdf", n_free=1, t_end=0.05))
+    assert big.ratio < 1 and big.kind.startswith(("dynamics", "free motion"))
+
+
+def test_plausibility_of_an_inertia():
+    box = zoo.plausibility("box", 6.0, [6 * (0.2**2 + 0.3**2) / 12, 6 * (0.1**2 + 0.3**2) / 12, 6 * (0.1**2 + 0.2**2) / 12])
+    assert box.density == pytest.approx(1000.0) and not box.suspicious  # 6 kg in 0.006 m^3
+    assert box.margin == pytest.approx(2 * 0.1**2 / (0.2**2 + 0.3**2))  # (I_a + I_b - I_c) / I_c = 2 a^2 / (b^2 + c^2)
+    assert zoo.plausibility("sphere", 1.0, [0.4, 0.4, 0.4]).margin == pytest.approx(1.0)
+    bad = zoo.plausibility("base", 1e-6, [0.0, 0.0, 3e-6])  # anymal's rank-1 base
+    assert bad.margin == pytest.approx(-1.0) and np.isnan(bad.density) and bad.suspicious
+    heavy = zoo.plausibility("lump", 1.0, [1e-7, 1e-7, 1e-7])  # 1 kg with a 2.4 mm box's inertia
+    assert heavy.density > 25000 and any("density" in f for f in heavy.flags)
+    assert "point mass" in zoo.plausibility("dot", 1.0, [0, 0, 0]).flags[0]
+
+
+def test_a_crash_and_a_hang_stay_in_their_rows(tmp_path, monkeypatch):
+    """One model's worker aborts (SIGABRT), another's hangs past --timeout: each is its own row,
+    the third model passes."""
+    real = zoo.run_check
+
+    def misbehaving(mjcf, urdf, **kwargs):
+        name = Path(urdf if urdf is not None else mjcf).stem
+        if name == "arm":
+            os.abort()
+        if name == "rod":
+            time.sleep(60)
+        return real(mjcf, urdf, **kwargs)
+
+    monkeypatch.setattr(zoo, "run_check", misbehaving)
+    d = folder(tmp_path)
+    (d / "broken.urdf").write_text(ARM_URDF)  # a second, healthy arm
+    result = zoo.run_zoo(zoo.collection(str(d)), timeout=4.0)
+    by = {r.name: r for r in result.rows}
+    assert by["arm"].verdict == "crashed" and "SIGABRT" in by["arm"].reason
+    assert "last Python frame" in by["arm"].reason and "misbehaving" in by["arm"].reason
+    assert by["rod"].verdict == "crashed" and "timed out" in by["rod"].reason and by["rod"].wall_s >= 4.0
+    assert by["broken"].verdict == "pass" and by["arm"].loads == {}
+    assert (result.count("pass"), result.count("crashed")) == (1, 2)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["no_such_collection"], "no_such_collection: no such folder and not a known collection (example-robot-data, dm_control)"),
+    (["EMPTY"], "no model file (*.xml, *.urdf) in the folder"),
+    (["dm_control", "--only", "pendulum,no_such_model"], "--only: no model named 'no_such_model' in dm_control"),
+    (["dm_control", "--timeout", "0"], "--timeout must be positive"),
+])
+def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, args, message):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    (empty / "readme.txt").write_text("no model here")
+    out = tmp_path / "out"
+    code = main(["zoo", *[str(empty) if a == "EMPTY" else a for a in args], "--out-dir", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and err.startswith("harness: error:") and message in err, err
+    assert not out.exists()
+
+
+def test_dm_control_suite_models_by_name(tmp_path, capsys):
+    """Two suite MJCFs checked in place: pendulum passes; lqr (a template without a moving
+    joint) is refused with its reason, and which engines load it is still said."""
+    out = tmp_path / "out"
+    assert main(["zoo", "dm_control", "--only", "pendulum,lqr", "--out-dir", str(out)]) == 0
+    table = rows(out / "dm_control.csv")
+    assert sorted(table) == ["lqr", "pendulum"]
+    assert table["pendulum"]["verdict"] == "pass" and table["pendulum"]["files"].endswith("dm_control/suite/pendulum.xml")
+    lqr = table["lqr"]
+    assert lqr["verdict"] == "refused" and "no moving joint" in lqr["reason"]
+    assert lqr["mujoco_loads"] == "yes" and lqr["pinocchio_loads"] == "no" and lqr["pinocchio_refusal"]
+    md = (out / "dm_control.md").read_text()
+    assert "dm_control/suite/*.xml`, checked in place" in md and "verdict: 1 pass, 0 fail, 1 refused, 0 crashed" in md
+    assert (out / "dm_control" / "check_pendulum.md").is_file() and (out / "dm_control" / "check_lqr.md").is_file()
+
+
+def test_example_robot_data_is_found_from_the_installed_package(tmp_path, capsys):
+    coll = zoo.collection("example-robot-data")
+    assert coll.strip and coll.root.parts[-2:] == ("example-robot-data", "robots") and coll.root.is_dir()
+    assert len(coll.models) >= 50 and all(m.urdf.is_file() and m.mjcf is None for m in coll.models)
+    names = [m.name for m in coll.models]
+    assert len(set(names)) == len(names)
+    assert {"anymal_b_simple_description-anymal", "anymal_c_simple_description-anymal", "ur5_robot", "solo12"} <= set(names)
+    by = {m.name: m for m in coll.models}
+    assert not zoo.floating_base(by["ur5_robot"], "auto")  # root link `world`: welded by the file
+    assert zoo.floating_base(by["solo12"], "auto") and not zoo.floating_base(by["solo12"], "fixed")
+    out = tmp_path / "out"
+    assert main(["zoo", "example-robot-data", "--only", "ur5_robot,ur3", "--out-dir", str(out)]) == 0
+    table = rows(out / "example-robot-data.csv")
+    assert table["ur5_robot"]["verdict"] == "pass" and table["ur5_robot"]["base"] == "fixed"
+    assert table["ur3"]["verdict"] == "refused"  # ur3.urdf is an empty <robot/>
+    assert "--strip-geometry" in (out / "example-robot-data" / "check_ur5_robot.md").read_text()
+
+
+def _children(pid: int) -> set[int]:
+    found = set()
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            found |= {int(c) for c in (task / "children").read_text().split()}
+        except OSError:
+            pass
+    return found
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_killing_the_parent_leaves_no_worker(tmp_path):
+    """SIGKILL of `harness zoo` while two models hang in their workers: both workers die too."""
+    d = folder(tmp_path)
+    script = ("import time, sys\nimport harness.tools.zoo as z\n"
+              "z.run_check = lambda *a, **k: time.sleep(120)\n"
+              "from harness.cli.main import main\n"
+              f"sys.exit(main(['zoo', {str(d)!r}, '--out-dir', {str(tmp_path / 'out')!r}]))\n")
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 30
+        while len(workers := _children(proc.pid)) < 2 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert len(workers) >= 2
+    finally:
+        proc.kill()
+        proc.wait()
+    deadline = time.monotonic() + 10
+    while any(Path(f"/proc/{w}").exists() and "Z" not in _state(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [w for w in workers if Path(f"/proc/{w}").exists() and "Z" not in _state(w)]
+    assert not (tmp_path / "out").exists()  # nothing is written before every model ran
+
+
+def _state(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return "Z"
