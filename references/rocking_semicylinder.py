@@ -57,6 +57,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from harness.model import rotations
+from harness.model.builders.rocking_semicylinder import centroid_depth  # c = 4R/(3π) (m)
 
 if TYPE_CHECKING:  # pragma: no cover
     from harness.measure.trajectory import Trajectory
@@ -105,11 +106,6 @@ class SemicylinderParams:
 
 def _params(params) -> SemicylinderParams:
     return params if isinstance(params, SemicylinderParams) else SemicylinderParams.from_mapping(params)
-
-
-def centroid_depth(R: float) -> float:
-    """c = 4R/(3π) (m)."""
-    return 4.0 * R / (3.0 * np.pi)
 
 
 def accelerations(params, phi, dx, dphi) -> tuple[np.ndarray, np.ndarray]:

@@ -255,9 +255,15 @@ def spring_force(spring: PointSpring, x_A: np.ndarray, x_B: np.ndarray) -> np.nd
     return -spring.stiffness * (L - spring.rest_length) * d / L
 
 
+def spring_potential(spring: PointSpring, x_A: np.ndarray, x_B: np.ndarray) -> np.ndarray:
+    """The potential (J) of a point spring with ends ``x_A``, ``x_B`` (m, world; broadcasts over
+    leading axes): ``k (L - L0)^2 / 2``."""
+    L = np.linalg.norm(np.asarray(x_A, float) - np.asarray(x_B, float), axis=-1)
+    return 0.5 * spring.stiffness * (L - spring.rest_length) ** 2
+
+
 def _point_spring_potential(traj, model, spring: PointSpring) -> np.ndarray:
-    x_A, x_B = spring_ends(traj, model, spring)[:2]
-    return 0.5 * spring.stiffness * (np.linalg.norm(x_A - x_B, axis=-1) - spring.rest_length) ** 2
+    return spring_potential(spring, *spring_ends(traj, model, spring)[:2])
 
 
 def _check_point_spring(spring: PointSpring, model, source: str) -> None:

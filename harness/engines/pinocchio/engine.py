@@ -30,7 +30,7 @@ from dataclasses import replace
 import numpy as np
 import pinocchio as pin
 
-from harness.model.forces import POINT_FORCES, POINT_SPRINGS, elements, spring_force
+from harness.model.forces import POINT_FORCES, POINT_SPRINGS, elements, spring_force, spring_potential
 from harness.model.joints import JOINTS
 from harness.engines.base import RunSettings, check_settings
 from harness.engines.pinocchio.lie_group_integrators import METHODS, STEPPERS
@@ -118,6 +118,12 @@ def spring_energy(slots, q) -> float:
     return float(sum(ft.joint_potential(element, q[iq]) for iq, _, ft, element in slots if ft.joint_potential is not None))
 
 
+def _world_point(data, ids, body_index, body: str | None, p) -> np.ndarray:
+    """The point ``p`` of ``body`` (its joint frame; None: the world's, in world) in world (m),
+    from ``data.oMi`` (``forwardKinematics`` must have run)."""
+    return np.asarray(p, float) if body is None else data.oMi[ids[body_index[body]]].act(np.asarray(p, float))
+
+
 def point_spring_energy(pmodel, data, ids, model, q) -> float:
     """Potential energy (J) of the springs between body points (``PointSpring``) at
     configuration q: k (L - L0)^2 / 2 each (Pinocchio does not model them)."""
@@ -126,12 +132,8 @@ def point_spring_energy(pmodel, data, ids, model, q) -> float:
         return 0.0
     pin.forwardKinematics(pmodel, data, q)
     body_index = {b.name: i for i, b in enumerate(model.bodies)}
-
-    def end(body, p):
-        return np.asarray(p, float) if body is None else data.oMi[ids[body_index[body]]].act(np.asarray(p, float))
-
-    return float(sum(0.5 * sp.stiffness * (np.linalg.norm(end(sp.body_a, sp.p_A) - end(sp.body_b, sp.p_B)) - sp.rest_length) ** 2
-                     for sp in springs))
+    return float(sum(spring_potential(sp, _world_point(data, ids, body_index, sp.body_a, sp.p_A),
+                                      _world_point(data, ids, body_index, sp.body_b, sp.p_B)) for sp in springs))
 
 
 def _applied_function(pmodel, data, ids, model):
@@ -164,9 +166,6 @@ def _applied_function(pmodel, data, ids, model):
         f_L = data.oMi[jid].rotation.T @ f_W
         fext[jid] += pin.Force(f_L, np.cross(p_B, f_L))
 
-    def end(body, p):  # a spring's end in world
-        return np.asarray(p, float) if body is None else data.oMi[ids[body_index[body]]].act(np.asarray(p, float))
-
     def applied(t, q, v):
         tau = joint_forces(q, v)
         pin.forwardKinematics(pmodel, data, q)
@@ -174,7 +173,8 @@ def _applied_function(pmodel, data, ids, model):
         for force in point_forces:
             push(fext, force.body, force.p_BQ_B, force.force_W(t))
         for spring in point_springs:  # -k (L - L0) d / L on end a, the opposite on end b
-            f = spring_force(spring, end(spring.body_a, spring.p_A), end(spring.body_b, spring.p_B))
+            f = spring_force(spring, _world_point(data, ids, body_index, spring.body_a, spring.p_A),
+                             _world_point(data, ids, body_index, spring.body_b, spring.p_B))
             push(fext, spring.body_a, spring.p_A, f)
             if spring.body_b is not None:
                 push(fext, spring.body_b, spring.p_B, -f)
