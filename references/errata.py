@@ -63,6 +63,26 @@ ERRATA: tuple[Erratum, ...] = (
         tests=("tests/references/test_torque_free.py::test_torque_free_cone_geometry",),
     ),
     Erratum(
+        location="Ex. 4.7.1 (l. 2372–2412)",
+        title="normal force on a rolling cone's base rim",
+        kind="wrong result",
+        printed="I_x'x' = (3/10) m L² (axial moment about the apex) and N = (3/4) m g cos²β − (m v²/(L cos β)) "
+                "[3 cos³β/(10 sin β) + sin β cos β (3/5 + (3/20) tan²β)], \"for sufficiently great Ω the normal force "
+                "becomes negative\" (the cone lifts off)",
+        correct="I_x'x' = (3/10) m L² tan²β (= 3 m R²/10) and N = (3/4) m g cos²β + (m v² sin β / L)(9/10 + (3/20) tan²β): "
+                "the normal force grows with the speed and never becomes negative",
+        why="Two errors. The axial moment of a solid cone about its apex is 3 m R²/10 with R = L tan β, which turns the "
+            "bracket's first term 3 cos³β/(10 sin β) into (3/10) sin β cos β. And the moment equation about the apex, "
+            "(3/4) m g L cos β − N L/cos β = −m L² Ω² [...], gives N = (3/4) m g cos²β + m L Ω² cos β [...]: the "
+            "printed minus is a sign slip in the last step. Three routes agree to 1e-13 (closed form, moment equation, "
+            "numerical dL_O/dt along the exact rotation); runs of scene rolling_cone (m = 1 kg, L = 0.2 m, β = 0.3) hold "
+            "N = 7.052716 N at v = 0.5 m/s (printed 5.329882 N) in-house and in Pinocchio to 1e-14 of m g, Exudyn "
+            "7.052717 N, MuJoCo's soft contact 7.045885 N; at v = 1.5 m/s the printed value is −5.75 N (lift-off) where "
+            "the runs hold 9.754815 N on the rim.",
+        tests=("tests/references/test_rolling_cone.py::test_printed_normal_force_is_wrong_and_the_cone_never_lifts_off",
+               "tests/references/test_rolling_cone.py::test_apex_moments_by_quadrature"),
+    ),
+    Erratum(
         location="Ex. 4.7.2 (l. 2447, 2458)",
         title="speed of a disk rolling on a circle: v printed for v², lever arm r for R",
         kind="dimensional error",
@@ -238,6 +258,9 @@ VERIFIED: tuple[tuple[str, str, str], ...] = (
     ("Problem 5.12 (answer l. 3515)", "the x equation ẍ + (4/(3π)) R φ̈ cos φ − (4/(3π)) R φ̇² sin φ = 0 (the φ "
      "equation: erratum)",
      "tests/references/test_rocking_semicylinder.py::test_lagrange_equations_against_newton_euler"),
+    ("Ex. 3.4.1 (l. 1704)", "rolling cone: ω = v/(L sin β) along the contact generator, Ω = v/(L cos β), spin "
+     "−(Ω/sin β) along the axis",
+     "tests/references/test_rolling_cone.py::test_initial_state_rolls_without_slip"),
     ("Problem 5.13 (answer l. 3519)", "rolling cylinder (4m, R) with a pinned bar (m, 4R) released horizontal: "
      "θ̇ = √(21g/(25R)) at the vertical",
      "tests/references/test_rolling_cylinder_bar.py::test_textbook_release_reaches_the_printed_rate"),

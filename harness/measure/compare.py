@@ -49,32 +49,56 @@ def trajectory_error(a: Trajectory, b: Trajectory) -> dict[str, float]:
     return out
 
 
+#: A run whose largest angular velocity is below this fraction of the gravitational rate
+#: sqrt(|g| / length) is at rest (``motion_scales``): its rates are round-off, not a scale.
+AT_REST = 1e-6
+
+
 def motion_scales(traj: Trajectory, model: Multibody) -> dict[str, float]:
     """Scales that make trajectory errors comparable across parameter sets.
 
     ``length`` (m): the largest of max_t |p_WCm_W| over bodies and every body's largest radius
-    of gyration sqrt(I_max/m). ``angular_velocity`` (rad/s): max_t |w_WB_W| (1 if the run never
-    rotates). ``velocity`` (m/s): the larger of max_t |v_WCm_W| and length x angular_velocity.
+    of gyration sqrt(I_max/m). ``angular_velocity`` (rad/s): max_t |w_WB_W|; for a run at rest
+    (its rates below ``AT_REST`` times the gravitational rate sqrt(|g| / length): round-off, such
+    as a cone standing still on its apex and rim) the gravitational rate, or 1 without gravity.
+    ``velocity`` (m/s): the larger of max_t |v_WCm_W| and length x angular_velocity.
     """
     gyration = max(float(np.sqrt(np.linalg.eigvalsh(b.I_Cm_B)[-1] / b.mass)) for b in model.bodies)
     length = max(float(np.max(np.linalg.norm(traj.p_WCm_W, axis=-1), initial=0.0)), gyration)
-    w = float(np.max(np.linalg.norm(traj.w_WB_W, axis=-1), initial=0.0)) or 1.0
+    w = float(np.max(np.linalg.norm(traj.w_WB_W, axis=-1), initial=0.0))
+    if is_at_rest(w, float(np.linalg.norm(model.gravity_W)), length):
+        w = float(np.sqrt(np.linalg.norm(model.gravity_W) / length)) or 1.0
     v = max(float(np.max(np.linalg.norm(traj.v_WCm_W, axis=-1), initial=0.0)), length * w)
     return {"length": length, "velocity": v, "angular_velocity": w}
 
 
+def is_at_rest(rate: float, g: float, length: float) -> bool:
+    """Whether a run whose largest angular velocity is ``rate`` (rad/s) is at rest: ``rate`` is 0
+    or below ``AT_REST`` times the gravitational rate sqrt(g / length) (g in m/s^2, length in m)."""
+    return rate == 0.0 or rate <= AT_REST * np.sqrt(g / length)
+
+
 def energy_scale(traj: Trajectory, model: Multibody) -> float:
     """Energy scale (J) for relative drifts: max kinetic energy plus the range of potential
-    (gravitational plus elastic)."""
+    (gravitational plus elastic); for a run at rest (``motion_scales``; both are then round-off)
+    the total mass times the square of its velocity scale (m g length under gravity), or 1."""
     e = invariants.energies(traj, model)
     scale = float(np.max(e["kinetic"]) + np.ptp(e["potential"] + e.get("elastic", 0.0)))
+    g = float(np.linalg.norm(model.gravity_W))
+    scales = motion_scales(traj, model)
+    w = float(np.max(np.linalg.norm(traj.w_WB_W, axis=-1), initial=0.0))
+    v = float(np.max(np.linalg.norm(traj.v_WCm_W, axis=-1), initial=0.0))
+    if is_at_rest(w, g, scales["length"]) and v <= AT_REST * np.sqrt(g * scales["length"]):
+        scale = sum(b.mass for b in model.bodies) * scales["velocity"] ** 2
     return scale if scale > 0 else 1.0
 
 
-def energy_drift(traj: Trajectory, model: Multibody) -> float:
-    """max_t |E(t) - E(0)| / energy_scale (dimensionless)."""
+def energy_drift(traj: Trajectory, model: Multibody, scale_from: Trajectory | None = None) -> float:
+    """max_t |E(t) - E(0)| / energy_scale (dimensionless), the scale from ``scale_from`` (the
+    reference run of the same scene, so that an engine's own spurious motion, such as a soft
+    contact settling under a body at rest, is not its yardstick) or else from ``traj``."""
     e = invariants.energies(traj, model)["energy"]
-    return float(np.max(np.abs(e - e[0])) / energy_scale(traj, model))
+    return float(np.max(np.abs(e - e[0])) / energy_scale(traj if scale_from is None else scale_from, model))
 
 
 def energy_balance(traj: Trajectory, model: Multibody) -> tuple[float, float]:

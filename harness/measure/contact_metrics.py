@@ -46,12 +46,16 @@ def contact_series(traj: Trajectory, contact: RollingContact) -> dict[str, np.nd
     return {"height": height, "slip": slip, "r": r}
 
 
-def speed_scale(traj: Trajectory, contact: RollingContact) -> float:
-    """Speed scale (m/s) of slip: the larger of max_t |v_A| and R max_t |w| (1 if both vanish)."""
+def speed_scale(traj: Trajectory, contact: RollingContact, g: float = 0.0) -> float:
+    """Speed scale (m/s) of slip: the larger of max_t |v_A| and R max_t |w|; for a body at rest
+    (both below ``compare.AT_REST`` times sqrt(g R), g in m/s^2: round-off) sqrt(g R), or 1."""
     i = traj.body_index(contact.body)
     v = float(np.max(np.linalg.norm(traj.v_WCm_W[:, i], axis=-1), initial=0.0))
     w = float(np.max(np.linalg.norm(traj.w_WB_W[:, i], axis=-1), initial=0.0))
     scale = max(v, contact.radius * w)
+    rest = float(np.sqrt(abs(g) * contact.radius))
+    if scale <= compare.AT_REST * rest:
+        scale = rest
     return scale if scale > 0.0 else 1.0
 
 
@@ -70,7 +74,8 @@ def summary(traj: Trajectory, model: Multibody) -> dict[str, float]:
             continue
         out["slip_max"] = max(out["slip_max"], float(np.max(slip)))
         out["slip_rms"] = max(out["slip_rms"], float(np.sqrt(np.mean(slip**2))))
-        out["slip_rel"] = max(out["slip_rel"], float(np.max(slip)) / speed_scale(traj, contact))
+        out["slip_rel"] = max(out["slip_rel"], float(np.max(slip)) / speed_scale(traj, contact,
+                                                                               float(np.linalg.norm(model.gravity_W))))
         out["height_max"] = max(out["height_max"], float(np.max(np.abs(z))))
         out["penetration_max"] = max(out["penetration_max"], float(np.max(-z, initial=0.0)))
         out["gap_max"] = max(out["gap_max"], float(np.max(z, initial=0.0)))

@@ -63,8 +63,9 @@ class RollingContact:
     is then only the cylinder's half-length (the MJCF geom's size).
 
     Attributes:
-        body: name of the rolling body (a ``free`` body, frame at its centre of mass); it may
-            have children.
+        body: name of the rolling body: a root body, free (frame at its centre of mass) or on a
+            joint to the world (a cone on a ball joint at its apex: its symmetry axis is body z
+            through the centre of mass); it may have children.
         radius: m, > 0.
         half_thickness: m, >= 0 (0: a thin disk).
         name: name of the contact in trajectories (its force columns ``<name>.Fx`` ...).

@@ -13,7 +13,8 @@ Then, for each scene: an in-house reference run (DOP853, rtol = atol = 1e-12) is
 each engine runs at the scene's default integrator and step. Checks (those the scene declares
 in ``[checks.*]`` of its ``scene.toml``):
 
-* ``energy_drift`` (unforced) or ``energy_balance`` (forced: E - E0 - work of the forces);
+* ``energy_drift`` (unforced; over the reference run's energy scale) or ``energy_balance``
+  (forced: E - E0 - work of the forces);
 * ``momentum_drift.<c>`` for each conserved component the scene lists;
 * ``trajectory.position/orientation/velocity/angular_velocity`` against the reference (each
   quantity, its scale and its tolerance defined once in ``harness.validate.quantities``, which
@@ -313,7 +314,8 @@ def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Traj
             balance, quad = compare.energy_balance(traj, model)
             add("energy_balance", balance, tol, "rel", f"E - E0 - W(t) over the energy scale; quadrature error of W ~{quad:.1e}")
         else:
-            add("energy_drift", compare.energy_drift(traj, model), tol, "rel", "max |E - E0| / energy scale")
+            add("energy_drift", compare.energy_drift(traj, model, ref if ref is not None and ref.ok else None), tol, "rel",
+                "max |E - E0| / energy scale (of the reference run)")
     if "momentum_drift" in checks:
         spec = checks["momentum_drift"]
         for comp, value in compare.momentum_drift(traj, model, spec["components"]).items():

@@ -21,6 +21,7 @@ OVERRIDES = {
     "cart_pendulum": {"M": 3.5, "m": 0.4, "L": 0.6, "r": 0.03},
     "rolling_disk": {"mass": 0.02, "R": 0.03, "h": 0.004},
     "rolling_cylinder_bar": {"M": 2.0, "m": 0.7, "R": 0.15, "h": 0.08, "L": 0.5, "a": 0.01},
+    "rolling_cone": {"mass": 2.0, "L": 0.3, "beta": 0.45},
     "spring_pendulum": {"m": 0.5, "k": 90.0, "L": 0.3, "rb": 0.03, "m_hub": 0.2, "r_hub": 0.02},
     "rotating_plate": {"m": 2.0, "a": 0.3, "h": 0.02, "phi": 0.9},
     "four_bar": {"a": 0.15, "b": 0.55, "c": 0.35, "d": 0.5, "m_coupler": 1.7, "theta0": 2.0},

@@ -102,8 +102,9 @@ class ExudynEngine:
             return unsupported(self.name, method, names, f"{method}: {err}")
         n_steps = settings.n_saves * settings.steps_per_save
         ss = _solver_settings(exu, settings, n_steps)
-        if system.loop_rows is not None and system.loop_rows.singular:
-            # loop rows dependent at the initial state only: Eigen's full-pivot LU resolves them
+        if system.dependent_rows or (system.loop_rows is not None and system.loop_rows.singular):
+            # rows dependent throughout (a rolling body on a joint) or at the initial state only
+            # (loop rows): Eigen's full-pivot LU resolves them
             ss.linearSolver.solverType = exu.LinearSolverType.EigenDense
             ss.linearSolver.ignoreSingularJacobian = True
         printing = exu.config.printToConsole

@@ -29,7 +29,9 @@ itself a thin disc, centred at body (0, 0, -h sgn(n_z)): the rolling-disc joint 
 there, with the sign of the initial state. The model is exact as long as the same edge stays
 down (sgn(n_z) constant); a run in which the axis crosses the horizontal is reported failed.
 A contact with one rolling circle (``RollingContact.circle_z``) has the joint at that circle's
-centre, body (0, 0, circle_z) from the centre of mass, and no edge to switch.
+centre, body (0, 0, circle_z) from the centre of mass, and no edge to switch. The rolling body is
+a root body: free, or on a joint to the ground (the rolling cone's spherical apex), whose rows
+then include one the rolling-disc joint repeats (``ExudynSystem.dependent_rows``).
 
 Loop (cut) joints (``Multibody.loops``, ``harness.model.multibody.LoopJoint``): each is one more
 joint object, an ``ObjectJointGeneric`` between two rigid markers (``MarkerBodyRigid``), one on
@@ -140,6 +142,12 @@ class ExudynSystem:
             names), body_a, body_b or None).
         loop_sensors: loop name -> (``ForceLocal`` sensor, ``TorqueLocal`` sensor), only when asked.
         loop_rows: the rows decision (``LoopRows``), None without loops.
+        dependent_rows: a rolling body on a joint (a cone held at its apex): the rolling-disc
+            joint's no-slip row along the line from the joint to the contact repeats the joint's
+            (two points of a rigid body have equal velocities along the line joining them), at
+            every instant and in a direction that turns with the body, so no row can be left out
+            once: the engine solves with Eigen's full-pivot LU (``ignoreSingularJacobian``) and the
+            split of the force along that line between joint and contact follows the pivots.
     """
 
     SC: object
@@ -154,6 +162,7 @@ class ExudynSystem:
     loops: dict = field(default_factory=dict)
     loop_sensors: dict = field(default_factory=dict)
     loop_rows: LoopRows | None = None
+    dependent_rows: bool = False
 
 
 def initial_frames(model: Multibody) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
@@ -244,8 +253,10 @@ def build(model: Multibody, node_type: str, *, reactions: bool = False) -> Exudy
                                stiffness=float(spring.stiffness), damping=0.0, show=False)
     for contact in model.contacts:
         body = model.body(contact.body)
-        if JOINTS[body.joint].constrained or body.parent is not None:
-            raise NotImplementedError(f"rolling contact {contact.name!r}: the rolling body must be free (no joint)")
+        if body.parent is not None:
+            raise NotImplementedError(f"rolling contact {contact.name!r}: the rolling body must be a root body (free, or "
+                                      f"jointed to the ground)")
+        system.dependent_rows = system.dependent_rows or JOINTS[body.joint].constrained
         if contact.circle_z is None:  # the lower rim edge at the initial state
             n_z = frames[body.name][1][2, 2]
             edge = float(np.sign(n_z))

@@ -52,7 +52,11 @@ the tree's ball/hinge joints. A loop's rows may be redundant (a planar loop clos
 its 5 rows are implied), so ``J M^-1 J^T`` is singular: a model with loops (``NEModel.redundant``)
 solves it by the pseudo-inverse (``constraints.solve_rows``), which gives the motion uniquely and the
 minimum-norm multipliers (the reactions in redundant directions are not determined by rigid-body
-mechanics; the others are).
+mechanics; the others are). So does a model with a rolling contact on a body that has a joint: a
+cone held at its apex by a ball joint and rolling on its base rim has its apex and rim both at
+rest, and the velocities of two points of a rigid body along the line joining them are equal, so
+one of the rim's no-slip rows (along the contact generator) repeats the joint's; the split of the
+force along that line between apex and rim is not determined, the normal force is.
 """
 
 from __future__ import annotations
@@ -228,7 +232,7 @@ class NEModel:
     contacts: tuple[RollingRows, ...] = ()  # rolling contacts: 3 rows each, after the slide rows (``rolling``)
     torques: tuple[TorqueElement, ...] = ()
     point_springs: tuple[PointSpringElement, ...] = ()
-    redundant: bool = False  # the model has loop joints: its rows may be dependent (``constraints.solve_rows``)
+    redundant: bool = False  # loop joints, or a rolling contact on a jointed body: rows may be dependent (``constraints.solve_rows``)
 
     @property
     def nc_fast(self) -> int:
@@ -363,9 +367,13 @@ def build(model: Multibody) -> NEModel:
                     for sp in JOINT_SPRINGS.elements(model))
 
     contacts = build_contacts(model, index)
-    torques = tuple(TorqueElement(index[tq.body], nb if model.body(tq.body).parent is None else index[model.body(tq.body).parent],
-                                  np.asarray(model.body(tq.body).axis_B, float) / np.linalg.norm(model.body(tq.body).axis_B),
-                                  float(tq.torque)) for tq in JOINT_TORQUES.elements(model))
+    def torque(tq):
+        body = model.body(tq.body)
+        axis = np.asarray(body.axis_B, dtype=float)
+        return TorqueElement(index[body.name], nb if body.parent is None else index[body.parent],
+                             axis / np.linalg.norm(axis), float(tq.torque))
+
+    torques = tuple(torque(tq) for tq in JOINT_TORQUES.elements(model))
 
     def spring_end(body, p):
         if body is None:
@@ -403,7 +411,7 @@ def build(model: Multibody) -> NEModel:
         contacts=contacts,
         torques=torques,
         point_springs=point_springs,
-        redundant=bool(loops),
+        redundant=bool(loops) or any(JOINTS[model.body(c.body).joint].constrained for c in model.contacts),
     )
 
 

@@ -27,7 +27,13 @@ from harness.model.rolling_contact import contact_offset
 
 
 def apply_contacts(spec: mujoco.MjSpec, model, source: Path) -> None:
-    """Write each rolling contact's radius and half-thickness into its cylinder geom's size."""
+    """Write each rolling contact's radius and half-thickness into its cylinder geom's size and,
+    for a contact on one circle (``circle_z``), place the geom on the body's axis: centred on the
+    circle when it is the mid circle (``circle_z = 0``: a cylinder on its side), otherwise just
+    beyond it, away from the centre of mass (centre at ``circle_z + h sgn(circle_z)`` from it
+    along body z, m), so that the circle is the geom's inner edge (a cone's base rim: the inner
+    edge touches the plane, the outer one stays 2 h sin(tilt) above it)."""
+    bodies = {b.name: b for b in model.bodies}
     for contact in getattr(model, "contacts", ()):
         geom = spec.geom(contact.geom)
         if geom is None:
@@ -35,6 +41,10 @@ def apply_contacts(spec: mujoco.MjSpec, model, source: Path) -> None:
         if geom.type != mujoco.mjtGeom.mjGEOM_CYLINDER:
             raise InputError(f"{source}: geom {contact.geom!r} must be a cylinder (the rolling rim)")
         geom.size = [contact.radius, contact.half_thickness, 0.0]
+        if contact.circle_z is not None:
+            c = float(contact.circle_z)
+            geom.pos = np.asarray(bodies[contact.body].p_BCm_B, float) + \
+                np.array([0.0, 0.0, c + contact.half_thickness * np.sign(c)])
 
 
 def apply_options(spec: mujoco.MjSpec, options: dict) -> None:

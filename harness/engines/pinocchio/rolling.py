@@ -1,5 +1,6 @@
-"""Pinocchio with rolling contacts: the body as a free-flyer, rolling without slip imposed through
-Pinocchio's constrained forward dynamics with our own constraint Jacobian and drift.
+"""Pinocchio with rolling contacts: rolling without slip imposed through Pinocchio's constrained
+forward dynamics with our own constraint Jacobian and drift, on a free-flyer (the rolling disk)
+or on a body jointed to the world (the rolling cone's spherical apex).
 
 ``pin.forwardDynamics(model, data, q, v, tau, J, gamma, damping)`` (still in Pinocchio 4.1, no
 deprecation warning; it calls ``computeAllTerms`` and solves the KKT system
@@ -7,19 +8,31 @@ deprecation warning; it calls ``computeAllTerms`` and solves the KKT system
 ``J a + gamma = 0`` and leaves the multipliers in ``data.lambda_c``: ``J^T lambda`` is the
 constraint's generalised force.
 
-Rows. Pinocchio's free-flyer velocity is local: v = [v_O (linear velocity of the joint origin O,
-body frame), w (angular velocity, body frame)] and the acceleration a = dv/dt (component
-derivatives in the body frame). With p the contact point C in the body frame (from O: the
-centre of mass lever plus R^T r_AC, ``harness.model.rolling_contact``; p moves around the rim at the
-body-frame rate p') the world velocity of the material point at C and its derivative are::
+Rows. The rolling body's joint frame moves with the spatial velocity [v_O (linear velocity of
+the joint origin O), w (angular velocity)], both in the local frame, ``J_j v`` with J_j the
+joint's LOCAL Jacobian (``getJointJacobian``; for a free-flyer root the identity on its own
+columns), and the spatial acceleration ``J_j a + a_b`` (a_b: ``data.a`` at zero joint
+acceleration, zero for a free-flyer or spherical root). With p the contact point C in the body
+frame (from O: the centre of mass lever plus R^T r_AC, ``harness.model.rolling_contact``; p moves
+around the rim at the body-frame rate p') the world velocity of the material point at C and its
+derivative are::
 
-    v_C = R (v_O + w x p) = R [I3, -[p]x] v = J v                                 (3 rows)
-    d v_C/dt = J a + gamma,  gamma = R (w x (v_O + w x p) + w x p')
+    v_C = R (v_O + w x p) = R (J_lin - [p]x J_ang) v = J v                          (3 rows)
+    d v_C/dt = J a + gamma,  gamma = R (a_b,lin + a_b,ang x p + w x (v_O + w x p) + w x p')
     p' = R^T (r_AC' - w_W x r_AC)          (r_AC' = ``contact_offset_rate``, world)
 
-(d R/dt = R [w]x gives the first term of gamma; the second is d(w x p)/dt at fixed w.) Rows x,
-y: no slip (nonholonomic); row z: the height of C (holonomic, z_C = 0). So ``J^T lambda`` is
-the force lambda (N, world) at C: it is reported as the contact force.
+(the classical acceleration of a body point from the spatial one gives the w x (v_O + w x p)
+term; the last is d(w x p)/dt at fixed w.) Rows x, y: no slip (nonholonomic); row z: the height
+of C (holonomic, z_C = 0). So ``J^T lambda`` is the force lambda (N, world) at C: it is
+reported as the contact force.
+
+Dependent rows. On a body jointed to the world, a rim row can repeat the joint: a cone held at
+its apex has apex and contact point at rest, and two points of a rigid body have equal
+velocities along the line joining them, so the no-slip row along the contact generator is
+implied. ``RollingRows.independent`` then reduces the rows to an independent set (SVD of J,
+``RANK_RTOL``) before ``forwardDynamics`` (whose KKT solve needs independent rows) and the
+velocity projection; the contact force is the minimum-norm one (its component along the
+repeated row is left to the joint: statically indeterminate, ``models/rolling_cone/README.md``).
 
 Drift control: after every step (``rkmk4`` or ``euler`` on the configuration Lie group,
 ``lie_group_integrators``) the state is projected: the height row by Gauss-Newton in the tangent
@@ -47,12 +60,13 @@ import pinocchio as pin
 from harness.engines.base import RunSettings
 from harness.engines.pinocchio.lie_group_integrators import STEPPERS
 from harness.engines.pinocchio.model import blowup_reason, initial_configuration, load_urdf, read_maximal
-from harness.model.joints import FREE, JOINTS
+from harness.model.joints import JOINTS
 from harness.model.rolling_contact import FLAT, cross, offset_and_rate
 from harness.measure.trajectory import SampleBuffer, Trajectory
 
 PROJECTION_TOL = 1e-13  # m, height error left by the position projection
 MAX_PROJECTION_ITER = 8
+RANK_RTOL = 1e-10  # singular values of the rolling rows below this fraction of the largest: dependent rows
 
 
 class FlatDiskError(ArithmeticError):
@@ -67,11 +81,13 @@ class RollingRows:
         index = {b.name: i for i, b in enumerate(model.bodies)}
         self.items = []
         for c in model.contacts:
-            if JOINTS[model.body(c.body).joint] is not FREE:  # the columns below are the free flyer's
-                raise NotImplementedError(f"rolling contact {c.name!r}: the rolling body must have a free joint")
             jid = ids[index[c.body]]
             self.items.append((c, jid, np.array(pmodel.inertias[jid].lever)))
         self.nc = 3 * len(self.items)
+        #: A rolling body on a joint: its rows may repeat the joint's (module docstring), so the
+        #: rows are reduced to an independent set (``independent``).
+        self.redundant = any(JOINTS[model.body(c.body).joint].constrained for c in model.contacts)
+        self._a0 = np.zeros(pmodel.nv)
 
     def rows(self, q: np.ndarray, v: np.ndarray | None):
         """Height errors C (nc,) m (0 on the no-slip rows), Jacobian J (nc, nv) and the bias
@@ -80,11 +96,14 @@ class RollingRows:
         C = np.zeros(self.nc)
         J = np.zeros((self.nc, pmodel.nv))
         gamma = None if v is None else np.zeros(self.nc)
+        if v is not None:  # the joints' bias accelerations (data.a at zero joint acceleration)
+            pin.forwardKinematics(pmodel, data, q, v, self._a0)
+        pin.computeJointJacobians(pmodel, data, q)
         for k, (c, jid, lever) in enumerate(self.items):
             oMi = data.oMi[jid]
             R = oMi.rotation
             if v is not None:
-                vel = data.v[jid]
+                vel, acc = data.v[jid], data.a[jid]
                 w, v_O = np.array(vel.angular), np.array(vel.linear)
                 w_W = R @ w
             r_W, r_dot, s = offset_and_rate(R, None if v is None else w_W, c.radius, c.half_thickness, c.circle_z)
@@ -93,13 +112,25 @@ class RollingRows:
             p = lever + R.T @ r_W
             rows = slice(3 * k, 3 * k + 3)
             C[3 * k + 2] = oMi.translation[2] + R[2] @ p
-            iv = pmodel.joints[jid].idx_v
-            J[rows, iv : iv + 3] = R
-            J[rows, iv + 3 : iv + 6] = -R @ pin.skew(p)
+            J_local = pin.getJointJacobian(pmodel, data, jid, pin.LOCAL)  # [v_O; w] of the joint frame, local
+            J[rows] = R @ (J_local[:3] - pin.skew(p) @ J_local[3:])
             if v is not None:
                 p_dot = R.T @ (r_dot - cross(w_W, r_W))
-                gamma[rows] = R @ (cross(w, v_O + cross(w, p)) + cross(w, p_dot))
+                bias = np.array(acc.linear) + cross(np.array(acc.angular), p)
+                gamma[rows] = R @ (bias + cross(w, v_O + cross(w, p)) + cross(w, p_dot))
         return C, J, gamma
+
+    def independent(self, J: np.ndarray, gamma: np.ndarray | None):
+        """``(J', gamma', U)``: the rows reduced to an independent set when the model is
+        ``redundant`` (``J' = U^T J``, U (nc, r) an orthonormal basis of J's column space from its
+        SVD, singular values below ``RANK_RTOL`` of the largest dropped), so that the contact force
+        is ``U lambda'`` (the minimum-norm force; its component along a repeated row is left to
+        the joint); ``(J, gamma, None)`` otherwise."""
+        if not self.redundant:
+            return J, gamma, None
+        U, sv, _ = np.linalg.svd(J, full_matrices=False)
+        U = U[:, sv > RANK_RTOL * sv[0]]
+        return U.T @ J, None if gamma is None else U.T @ gamma, U
 
     def external_forces(self, lam: np.ndarray) -> list:
         """``fext`` per joint for ``rnea``: contact k's force lambda_k (N, world) at its contact
@@ -117,15 +148,15 @@ class RollingRows:
 
 def joint_reactions(pmodel: pin.Model, data: pin.Data, rolling: RollingRows, jointed, q, v, a, lam):
     """Per ``(name, joint id)`` of ``jointed``: the force (N) and moment about the joint origin
-    (N m), world, that the parent exerts on the joint's child (module docstring)."""
+    (N m), world, that the parent exerts on the joint's child (module docstring): the engine's
+    ``joint_reactions`` at the constrained acceleration ``a`` with the contact forces as
+    ``fext`` (no joint is actuated: ``tau`` zero)."""
+    from harness.engines.pinocchio.engine import joint_reactions as rnea_reactions
+
     pin.forwardKinematics(pmodel, data, q, v)
-    pin.rnea(pmodel, data, q, v, a, rolling.external_forces(lam))
-    out = {}
-    for name, jid in jointed:
-        f = data.f[jid]
-        R = data.oMi[jid].rotation
-        out[name] = (R @ np.array(f.linear), R @ np.array(f.angular))
-    return out
+    fext = rolling.external_forces(lam)
+    tau = np.zeros(pmodel.nv)
+    return rnea_reactions(pmodel, data, jointed, lambda *_: (tau, fext), lambda *_: a, 0.0, q, v)
 
 
 def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
@@ -142,9 +173,10 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
 
     def solve(q, v):
         pin.forwardKinematics(pmodel, data, q, v)
-        _, J, gamma = rolling.rows(q, v)
+        J, gamma, U = rolling.independent(*rolling.rows(q, v)[1:])
         a = pin.forwardDynamics(pmodel, data, q, v, tau, J, gamma, 0.0)
-        return a.copy(), np.array(data.lambda_c)
+        lam = np.array(data.lambda_c)
+        return a.copy(), lam if U is None else U @ lam
 
     def accel(t, q, v):
         return solve(q, v)[0]
@@ -164,6 +196,9 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
             q = pin.integrate(pmodel, q, dq)
         else:
             raise FlatDiskError(f"position projection did not converge (height error {err:.3e} m)")
+        J, _, U = rolling.independent(J, None)
+        if U is not None:
+            Minv_JT = Minv_JT @ U
         v = v - Minv_JT @ np.linalg.solve(J @ Minv_JT, J @ v)
         return q, v
 
