@@ -94,9 +94,14 @@ def needs_runs(scene: "Scene | str") -> bool:
 def _function(scene: "Scene | str", what: str) -> Callable:
     name = _name(scene)
     module = reference_module(name)
-    if module is None:
-        raise ValueError(f"no exact check for scene {name!r}: there is no module {REFERENCES_PACKAGE}.{name} "
-                         f"(references/{name}.py)")
+    if module is None:  # bad input: the scene asks for closed forms nobody wrote (e.g. a scene without code)
+        from harness.model.errors import InputError
+        from harness.model.scene import CHECKS_WITHOUT_CODE
+
+        where = "" if isinstance(scene, str) else f"{scene.directory / 'scene.toml'}: [checks.exact]: "
+        raise InputError(f"{where}no exact check for scene {name!r}: there is no module {REFERENCES_PACKAGE}.{name} "
+                         f"(references/{name}.py) with its closed forms; without one a scene can ask for "
+                         f"{', '.join(CHECKS_WITHOUT_CODE)}")
     fn = getattr(module, what, None)
     if not callable(fn):
         raise ValueError(f"no exact check for scene {name!r}: references/{name}.py defines no {what}")
@@ -110,7 +115,9 @@ def exact_error(scene: "Scene", traj: "Trajectory", settings: "RunSettings",
     ``needs_runs(scene)``.
 
     Raises:
-        ValueError: the scene has no exact check, or it needs runs and ``run`` is None.
+        InputError: the scene has no reference module (bad input: a ``[checks.exact]`` that
+            nothing can judge).
+        ValueError: its module has no ``exact_error``, or it needs runs and ``run`` is None.
     """
     fn = _function(scene, "exact_error")
     if run is None and needs_runs(scene):

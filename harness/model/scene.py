@@ -3,7 +3,10 @@
 A scene's TOML file is the single source of its parameters, initial state, run settings,
 textbook provenance and checks. ``load_scene(name, overrides)`` returns a frozen ``Scene`` with
 validated parameter values; ``scene.multibody()`` builds the physics (``harness.model.multibody``) that
-every engine runs.
+every engine runs: from the scene's builder module (``harness.model.builders.<scene>``, or the
+one its ``builder`` key names), or, for a scene without code (no builder module and no
+``builder`` key), from its model file, with each parameter put where its ``sets`` key says
+(``harness.model.from_model_file``: ``TARGETS``, ``scene_multibody``).
 """
 
 from __future__ import annotations
@@ -11,6 +14,7 @@ from __future__ import annotations
 import difflib
 import importlib
 import importlib.resources
+import importlib.util
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -24,6 +28,7 @@ except ModuleNotFoundError:  # pragma: no cover
 import numpy as np
 
 from harness.model.errors import InputError
+from harness.model.from_model_file import parse_target
 from harness.model.multibody import Multibody
 from harness.model.sanity import check_multibody
 
@@ -67,6 +72,10 @@ CHECKS: dict[str, tuple[str, ...]] = {
 
 OPTIONAL_CHECK_KEYS = ("regression_only",)
 
+#: The checks a scene without code may declare besides ``exact`` (which needs its closed forms,
+#: ``references/<scene>.py``): those that need no builder (no loop, no rolling contact).
+CHECKS_WITHOUT_CODE = ("energy_drift", "momentum_drift", "trajectory", "constraint", "reaction")
+
 #: Parameter kinds (``kind = ...`` of a ``[parameters]`` entry) and the values each takes.
 KINDS = {"positive": "a number > 0", "nonnegative": "a number >= 0", "real": "any finite number",
          "vector3": "three finite numbers"}
@@ -83,24 +92,28 @@ MAX_SAMPLES = 10_000_000
 _TOP_KEYS = {
     "name": ("string", True), "title": ("string", False), "textbook": ("list of strings", False),
     "mjcf": ("string", True), "urdf": ("string", True), "urdf_root_joint": ("string", False),
-    "builder": ("string", False), "needs": ("table", True), "parameters": ("table", True),
+    "builder": ("string", False), "initial_state": ("string", False), "needs": ("table", True),
+    "parameters": ("table", True),
     "simulation": ("table", True), "integrators": ("table", True), "checks": ("table", False),
     "not_run": ("table", False),
 }
 _NEEDS = ("gravity", "contact", "forcing")
 _SIMULATION = {"t_end": "the horizon in s", "dt": "the step in s", "save_every": "the save interval in s"}
-_PARAMETER_KEYS = {"value": True, "kind": True, "unit": False, "doc": False}
+_PARAMETER_KEYS = {"value": True, "kind": True, "unit": False, "doc": False, "sets": False}
 
 
 @dataclass(frozen=True)
 class Parameter:
-    """One physical parameter: its value, unit, kind (validation rule) and meaning."""
+    """One physical parameter: its value, unit, kind (validation rule) and meaning; ``sets``:
+    where a scene without code puts it in the multibody (``harness.model.from_model_file.TARGETS``,
+    "" in a scene with a builder)."""
 
     name: str
     value: ParamValue
     unit: str
     kind: str
     doc: str
+    sets: str = ""
 
 
 @dataclass(frozen=True)
@@ -123,6 +136,10 @@ class Scene:
             default integrator or tolerances, and ``validate`` reports it as not run.
         builder: the module of ``harness.model.builders`` that builds the multibody (the
             scene's name unless its ``scene.toml`` names another, e.g. a copied scene).
+        from_model_file: True for a scene without code: no builder module and no ``builder``
+            key; its multibody is read from its model file (``harness.model.from_model_file``).
+        initial_state: for a scene without code, ``zero`` (the default), ``qpos0`` or the name of
+            a keyframe of its MJCF (``harness.model.from_model_file``); "" otherwise.
 
     The multibody is built once per ``Scene`` (on first use of ``multibody()``) and shared by
     every engine, check and tool that runs this scene; a copy with other parameters
@@ -145,6 +162,8 @@ class Scene:
     checks: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     not_run: Mapping[str, str] = field(default_factory=dict)
     builder: str = ""
+    from_model_file: bool = False
+    initial_state: str = ""
     _built: Multibody | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getstate__(self) -> dict:
@@ -164,13 +183,18 @@ class Scene:
         """The scene's mechanical system, built from the parameter values and checked (once:
         later calls return the same object, which nobody may modify)."""
         if self._built is None:
-            name = self.builder or self.name
-            try:
-                module = importlib.import_module(f"harness.model.builders.{name}")
-            except ModuleNotFoundError:
-                raise InputError(f"{self.directory / 'scene.toml'}: no builder harness.model.builders.{name} for scene "
-                                 f"{self.name!r} (a copied scene names its system with builder = \"<original scene>\")") from None
-            model = module.build(self.params)
+            if self.from_model_file:
+                from harness.model.from_model_file import scene_multibody
+
+                model = scene_multibody(self)
+            else:
+                name = self.builder or self.name
+                try:
+                    module = importlib.import_module(f"harness.model.builders.{name}")
+                except ModuleNotFoundError:
+                    raise InputError(f"{self.directory / 'scene.toml'}: no builder harness.model.builders.{name} for scene "
+                                     f"{self.name!r} (a copied scene names its system with builder = \"<original scene>\")") from None
+                model = module.build(self.params)
             check_multibody(model, source=str(self.directory / "scene.toml"))
             object.__setattr__(self, "_built", model)
         return self._built
@@ -178,6 +202,13 @@ class Scene:
     def with_params(self, **overrides: Any) -> "Scene":
         """A copy with parameters overridden (values as numbers, sequences or strings)."""
         return apply_overrides(self, overrides)
+
+
+def has_builder(name: str) -> bool:
+    """Whether a module ``harness.model.builders.<name>`` exists."""
+    if not name.isidentifier():
+        return False
+    return importlib.util.find_spec(f"harness.model.builders.{name}") is not None
 
 
 def available_scenes(models_dir: Path | None = None) -> list[str]:
@@ -264,7 +295,7 @@ def check_description(data: dict, path: Path) -> None:
         for key, required in _PARAMETER_KEYS.items():
             if required and key not in spec:
                 raise InputError(f"{path}: {where} lacks {key}")
-            if key in ("kind", "unit", "doc") and key in spec and not isinstance(spec[key], str):
+            if key in ("kind", "unit", "doc", "sets") and key in spec and not isinstance(spec[key], str):
                 raise InputError(f"{path}: {where} {key} must be a string, got {_show(spec[key])}")
         if spec["kind"] not in KINDS:
             raise InputError(f"{path}: {where} kind = {spec['kind']!r} is not one of {', '.join(KINDS)}")
@@ -332,6 +363,46 @@ def check_description(data: dict, path: Path) -> None:
                     if engine not in value:
                         raise InputError(f"{path}: {where} {key} lacks a tolerance for {engine}")
                     _positive(value[engine], path, f"{where} {key}.{engine}", "a tolerance")
+    _check_code_or_data(data, path)
+
+
+def without_code(data: dict) -> bool:
+    """Whether a parsed ``scene.toml`` describes a scene without code: it names no ``builder``
+    and no module ``harness.model.builders.<name>`` exists."""
+    return "builder" not in data and not has_builder(str(data["name"]))
+
+
+def _check_code_or_data(data: dict, path: Path) -> None:
+    """A scene with a builder maps no parameter (``sets``, ``initial_state`` are refused); a
+    scene without code maps every parameter onto its model file (``sets`` of
+    ``harness.model.from_model_file.TARGETS``), has no contact and declares only the checks that
+    need no builder (``CHECKS_WITHOUT_CODE``, and ``exact`` where ``references/<scene>.py`` has
+    its closed forms: ``harness.measure.exact`` says when it has not)."""
+    params = data["parameters"]
+    if not without_code(data):
+        system = data.get("builder") or data["name"]
+        mapped = next((p for p, spec in params.items() if "sets" in spec), None)
+        if mapped is not None or "initial_state" in data:
+            what = f"[parameters] {mapped} sets" if mapped is not None else "initial_state"
+            raise InputError(f"{path}: {what} is for a scene without a builder, and harness.model.builders.{system} "
+                             "builds this one (it reads the parameters itself)")
+        return
+    for pname, spec in params.items():
+        if "sets" not in spec:
+            raise InputError(f"{path}: [parameters] {pname} lacks sets: a scene without a builder (no "
+                             f"harness.model.builders.{data['name']}, no builder = \"<scene>\") puts each parameter into "
+                             "its model file's system, e.g. sets = \"body.link1.mass\" (harness.model.from_model_file.TARGETS)")
+        try:
+            parse_target(spec["sets"])
+        except ValueError as err:
+            raise InputError(f"{path}: [parameters] {pname} {err}") from None
+    if data["needs"]["contact"]:
+        raise InputError(f"{path}: [needs] contact = true: a scene without a builder has no contact")
+    for check in data.get("checks", {}):
+        if check not in CHECKS_WITHOUT_CODE + ("exact",):
+            raise InputError(f"{path}: [checks.{check}] needs a builder (a closed loop or a rolling contact): a scene "
+                             f"without one can ask for {', '.join(CHECKS_WITHOUT_CODE)} (and exact with references/"
+                             f"{data['name']}.py)")
 
 
 def _where(key: str) -> str:
@@ -367,7 +438,7 @@ def _scene_from_toml(data: dict, path: Path) -> Scene:
     params = {}
     for pname, spec in data["parameters"].items():
         value = _coerce(pname, spec["value"], spec["kind"], str(path))
-        params[pname] = Parameter(pname, value, spec.get("unit", ""), spec["kind"], spec.get("doc", ""))
+        params[pname] = Parameter(pname, value, spec.get("unit", ""), spec["kind"], spec.get("doc", ""), spec.get("sets", ""))
     sim = data["simulation"]
     scene = Scene(
         name=data["name"],
@@ -386,6 +457,8 @@ def _scene_from_toml(data: dict, path: Path) -> Scene:
         checks=dict(data.get("checks", {})),
         not_run=dict(data.get("not_run", {})),
         builder=str(data.get("builder", "")),
+        from_model_file=without_code(data),
+        initial_state=str(data.get("initial_state", "")),
     )
     return scene
 

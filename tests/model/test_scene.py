@@ -201,3 +201,115 @@ def test_an_engine_the_scene_excludes_needs_no_integrator_or_tolerances(scene_co
     path.write_text(text)  # without [not_run], the same file lacks drake's entries
     with pytest.raises(InputError, match="lacks a default for drake"):
         load_scene("heavy_top", models_dir=models)
+
+
+# ---------------------------------------------------------------- a scene without code
+
+
+@pytest.fixture
+def chain_copy(tmp_path):
+    """models/three_link_chain copied as ``my_chain`` (no builder, no reference module): returns
+    (models dir, its folder)."""
+    models = tmp_path / "models"
+    shutil.copytree(MODELS_DIR / "three_link_chain", models / "my_chain")
+    _edit(models / "my_chain" / "scene.toml", 'name = "three_link_chain"', 'name = "my_chain"')
+    return models, models / "my_chain"
+
+
+def test_a_copied_scene_without_code_reads_its_model_file(chain_copy):
+    models, folder = chain_copy
+    scene = load_scene("my_chain", models_dir=models)
+    original = load_scene("three_link_chain").multibody()
+    model = scene.multibody()
+    assert scene.from_model_file and not scene.builder and scene.parameters["m1"].sets == "body.link1.mass"
+    assert model.body_names == original.body_names == ["link1", "link2", "link3"]
+    assert [b.mass for b in model.bodies] == [1.0, 0.8, 0.5] and model.q0["link3"][0] == -0.4
+    over = scene.with_params(m3=0.7, q2=0.1, g=3.0).multibody()
+    assert over.body("link3").mass == 0.7 and over.q0["link2"][0] == 0.1 and over.gravity_W[2] == -3.0
+    (folder / "three_link_chain.xml").unlink()  # no MJCF: the URDF, through MuJoCo's importer
+    from_urdf = load_scene("my_chain", models_dir=models).multibody()
+    for a, b in zip(from_urdf.bodies, model.bodies):
+        assert a.name == b.name and a.mass == b.mass and np.allclose(a.I_Cm_B, b.I_Cm_B, rtol=0, atol=1e-15)
+
+
+def test_a_keyframe_is_the_initial_state_when_the_scene_names_it(chain_copy):
+    models, folder = chain_copy
+    _edit(folder / "three_link_chain.xml", "  </worldbody>",
+          '  </worldbody>\n  <keyframe><key name="bent" qpos="0.1 0.2 0.3" qvel="1 2 3"/></keyframe>')
+    _edit(folder / "scene.toml", 'urdf_root_joint = "none"', 'urdf_root_joint = "none"\ninitial_state = "bent"')
+    model = load_scene("my_chain", models_dir=models).multibody()
+    # the keyframe first, then the parameters that set a joint (q1, q2, q3 and dq1)
+    assert [model.q0[b][0] for b in ("link1", "link2", "link3")] == [0.5, 0.3, -0.4]
+    assert [model.v0[b][0] for b in ("link1", "link2", "link3")] == [0.0, 2.0, 3.0]
+
+
+# (file, old text, new text, fragment of the one-line error, raised by: "load" or "build")
+CHAIN_MISTAKES = {
+    "a parameter without sets": ("scene.toml", ', sets = "body.link2.mass"', "", "[parameters] m2 lacks sets", "load"),
+    "an unknown target": ("scene.toml", '"body.link2.mass"', '"body.link2.weight"', "[parameters] m2 sets = 'body.link2.weight' "
+                          "is not one of gravity, body.<body>.mass", "load"),
+    "a check that needs a builder": ("scene.toml", "[checks.reaction]", "[checks.closure]\nposition = 1e-9\nvelocity = 1e-9\n\n"
+                                     "[checks.reaction]", "[checks.closure] needs a builder", "load"),
+    "contact": ("scene.toml", "contact = false", "contact = true", "[needs] contact = true", "load"),
+    "an unknown body": ("scene.toml", '"body.link2.mass"', '"body.link7.mass"', "has no body 'link7' (bodies: link1, link2, link3)",
+                        "build"),
+    "an unknown keyframe": ("scene.toml", 'urdf_root_joint = "none"', 'urdf_root_joint = "none"\ninitial_state = "start"',
+                            "no keyframe named 'start'", "build"),
+    "a wrong root joint": ("scene.toml", 'urdf_root_joint = "none"', 'urdf_root_joint = "spherical"',
+                           "root body 'link1' has a hinge joint, so its scene needs urdf_root_joint = 'none'", "build"),
+    "a rotated body frame": ("three_link_chain.xml", '<body name="link2" pos="0 0 -0.5">',
+                             '<body name="link2" pos="0 0 -0.5" euler="0 0 0.3">', "body 'link2': its frame is rotated", "build"),
+    "a joint off its body's origin": ("three_link_chain.xml", 'axis="1 0 0" pos="0 0 0"', 'axis="1 0 0" pos="0 0 0.1"',
+                                      "body 'link2': its joint sits at [0.0, 0.0, 0.1] m from its origin", "build"),
+    "two joints in one body": ("three_link_chain.xml", '<joint name="hinge2"', '<joint name="twist" axis="0 0 1"/><joint name="hinge2"',
+                               "body 'link2' has 2 joints (twist, hinge2)", "build"),
+    "joint damping": ("three_link_chain.xml", 'axis="1 0 0" pos="0 0 0"', 'axis="1 0 0" pos="0 0 0" damping="0.1"',
+                      "joint 'hinge2' has damping", "build"),
+    "a joint range": ("three_link_chain.xml", 'axis="1 0 0" pos="0 0 0"', 'axis="1 0 0" pos="0 0 0" range="-1 1"',
+                      "joint 'hinge2' has a range [-1.0, 1.0]", "build"),
+    "a possible contact": ("three_link_chain.xml", '<flag contact="disable" energy="enable"/>', '<flag energy="enable"/>',
+                           "geoms 'link1_geom' and 'link3_geom' can touch", "build"),
+    "a closed loop": ("three_link_chain.xml", "  </worldbody>",
+                      '  </worldbody>\n  <equality><connect name="cut" body1="link3" body2="world" anchor="0 0 -0.3"/></equality>',
+                      "equality constraint(s) cut (a closed loop or a weld)", "build"),
+}
+
+
+@pytest.mark.parametrize("kind", list(CHAIN_MISTAKES))
+def test_scene_without_code_mistakes_are_one_line(chain_copy, kind):
+    models, folder = chain_copy
+    file, old, new, fragment, when = CHAIN_MISTAKES[kind]
+    _edit(folder / file, old, new)
+    if kind == "a possible contact":  # every geom collides: adjacent links are filtered (MuJoCo's filterparent)
+        path = folder / file
+        path.write_text(path.read_text().replace(' contype="0" conaffinity="0"', ""))
+    with pytest.raises(InputError) as err:
+        scene = load_scene("my_chain", models_dir=models)
+        assert when == "build", f"{kind}: loaded"
+        scene.multibody()
+    message = str(err.value)
+    assert fragment in message and "\n" not in message, message
+    assert message.startswith(f"{folder}/")  # names the scene.toml or the model file
+
+
+def test_no_model_file_is_one_line(chain_copy):
+    models, folder = chain_copy
+    for suffix in ("xml", "urdf"):
+        (folder / f"three_link_chain.{suffix}").unlink()
+    with pytest.raises(InputError, match=r"scene.toml: no model file: neither three_link_chain.xml nor "
+                                         r"three_link_chain.urdf is in .*my_chain \(a scene without a builder"):
+        load_scene("my_chain", models_dir=models).multibody()
+
+
+def test_a_scene_with_a_builder_maps_no_parameter(scene_copy, tmp_path):
+    models, path = scene_copy
+    _edit(path, 'doc = "mass of the top"', 'doc = "mass of the top", sets = "body.top.mass"')
+    with pytest.raises(InputError, match=r"\[parameters\] mass sets is for a scene without a builder, and "
+                                         r"harness.model.builders.heavy_top builds this one"):
+        load_scene("heavy_top", models_dir=models)
+    # a copy of a coded scene under a new name, without builder = "...": told what it lacks
+    shutil.copytree(MODELS_DIR / "heavy_top", models / "top2")
+    _edit(models / "top2" / "scene.toml", 'name = "heavy_top"', 'name = "top2"')
+    with pytest.raises(InputError, match=r'\[parameters\] mass lacks sets: a scene without a builder \(no '
+                                         r'harness.model.builders.top2, no builder = "<scene>"\)'):
+        load_scene("top2", models_dir=models)
