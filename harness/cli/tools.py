@@ -78,9 +78,16 @@ def add_parsers(sub) -> None:
     c.add_argument("--floating-base", action="store_true",
                    help="add a free root joint named root_joint in every loader (default: fixed base)")
     c.add_argument("--strip-geometry", action="store_true",
-                   help="delete geoms and meshes from MuJoCo's copy (meshes need not be found; dynamics unchanged)")
+                   help="every loader reads a copy without geoms, meshes, height fields, textures and materials (mesh "
+                        "files need not be found); the masses MuJoCo derives from geoms are kept as explicit inertials "
+                        "where MuJoCo can compile the geometry (the report says which)")
     c.add_argument("--keep-static-links", action="store_true",
                    help="turn MuJoCo's fusestatic off (links on fixed joints stay separate bodies)")
+    c.add_argument("--joint-map", type=Path, metavar="FILE",
+                   help="when the MJCF's and the URDF's joints are named differently: a file of 'mjcf_name = urdf_name' "
+                        "lines (TOML, or two columns; # comments); the URDF's joints are compared under the MJCF's names")
+    c.add_argument("--map", action="append", metavar="MJCF_NAME=URDF_NAME",
+                   help="one joint of the map (repeatable; added to --joint-map's)")
     c.add_argument("--quiet", action="store_true",
                    help="print only the summary and errors: not what the engines printed on stderr during the "
                         "comparison (numpy's and the importers' warnings)")
@@ -145,11 +152,14 @@ def cmd_debug(args) -> int:
 def cmd_check(args) -> int:
     import numpy as np
 
-    from harness.tools.check import captured_native_stderr, run_check, summary_lines, write_report
+    from harness.tools.check import (captured_native_stderr, parse_map_options, read_joint_map, run_check, summary_lines,
+                                     write_report)
 
     for option, path in (("--mjcf", args.mjcf), ("--urdf", args.urdf)):
         if path is not None:
             require_utf8(path, option.removeprefix("--").upper())
+    joint_map = read_joint_map(args.joint_map) if args.joint_map is not None else {}
+    joint_map.update(parse_map_options(args.map))
     # what a diverging run prints (numpy's warnings, the importers' output on file descriptor 2) is
     # held back: on divergence the one error line says it all; after a run that ends it is shown as
     # before. MuJoCo's warnings are not among it: run_check captures them into the result (report).
@@ -159,7 +169,7 @@ def cmd_check(args) -> int:
         try:
             result = run_check(args.mjcf, args.urdf, seed=args.seed, n_states=args.states, n_free=args.free_runs,
                                t_end=args.t_end, dt=args.dt, floating_base=args.floating_base,
-                               strip=args.strip_geometry, keep_static=args.keep_static_links)
+                               strip=args.strip_geometry, keep_static=args.keep_static_links, joint_map=joint_map or None)
         except (np.linalg.LinAlgError, OverflowError, FloatingPointError) as err:
             failure = err
     if failure is not None:
@@ -186,6 +196,10 @@ def _command_line(args) -> str:
               "--t-end", f"{args.t_end:g}", "--dt", f"{args.dt:g}"]
     parts += [flag for flag, on in (("--floating-base", args.floating_base), ("--strip-geometry", args.strip_geometry),
                                     ("--keep-static-links", args.keep_static_links)) if on]
+    if args.joint_map is not None:
+        parts += ["--joint-map", str(args.joint_map)]
+    for item in args.map or []:
+        parts += ["--map", item]
     return shlex.join(parts)
 
 

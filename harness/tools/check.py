@@ -15,11 +15,32 @@ other loaders still compare; when only MuJoCo loads there is nothing to compare 
 
 The robot is fixed-base (a URDF's root link is welded to the world in all three) unless
 ``floating_base`` adds a free joint named ``root_joint`` to the root body in all three. Joints are
-matched by name (MuJoCo's URDF import keeps the URDF joint names); a free joint Drake names after
-its body is matched to MuJoCo's free joint of that body; Pinocchio's composite joint (its MJCF
-parser's one joint for a body with several) is split back into the file's joints, in order.
-``strip`` deletes geoms and meshes from MuJoCo's copy (mass properties come from the inertials;
-meshes need not be found); ``keep_static`` turns off MuJoCo's ``fusestatic``, on by default for URDF.
+matched by name (MuJoCo's URDF import keeps the URDF joint names), or through a joint map
+(``joint_map``, ``--joint-map FILE`` / ``--map mjcf=urdf``: the URDF's joints compared under the
+MJCF's names, ``apply_joint_map``; a name neither file has is bad input); a free joint Drake names
+after its body is matched to MuJoCo's free joint of that body. A body with several joints: MuJoCo
+moves it by its joints in order; Pinocchio's composite joint (its MJCF parser's one joint for such
+a body) is split back into the file's joints, in order; Drake's chain of massless bodies (one
+joint each) is read as the one body. ``keep_static`` turns off MuJoCo's ``fusestatic``, on by
+default for URDF.
+
+Each loader reads the file as written unless the comparison needs a copy (section "the copies
+the loaders read"; the report lists each change under "What the loaders read differs"):
+``strip`` (``--strip-geometry``) removes geoms, meshes, height fields, textures, materials and
+skins, and what refers to them, from every loader's copy (an MJCF's copy read by all its loaders,
+a URDF's without ``<visual>``/``<collision>`` for Pinocchio and Drake, MuJoCo's reading of a URDF
+stripped in its spec); mass properties then come from the ``<inertial>`` elements, and a body
+whose mass MuJoCo derives from its geoms keeps it: MuJoCo compiles the file with its geometry
+first and MuJoCo's reading (and an MJCF's copy for Pinocchio and Drake) carries those values as
+explicit ``<inertial>`` elements, so that stripping does not change MuJoCo's dynamics (an MJCF's
+loaders then all read MuJoCo's geom-derived masses; a URDF's Pinocchio and Drake read its
+``<inertial>`` elements, as without stripping); where the geometry does not compile (a missing
+mesh file) those masses are lost and the note names the bodies. An MJCF read by every loader
+gets names for its unnamed bodies and joints (MuJoCo's ``body<k>``/``joint<j>``) and, in a copy,
+a model name (Drake's parser needs one); keyframes that no longer fit (a root joint added, or
+Pinocchio's reading of another size) are dropped; the check does not use keyframes. Equality
+constraints, tendons and actuators are listed as "not compared" (``not_compared``: counts and
+names).
 
 Then, in order:
 
@@ -37,7 +58,8 @@ Then, in order:
   much)" or "only <loader> reads it", and lists each actuator's gear (MuJoCo's ``gear``, Drake's
   gear ratio from a URDF transmission) as not compared. Importer differences that are not
   compared (fused links, masses MuJoCo derives from geoms where the file gives no
-  ``<inertial>``, actuators, mimic joints, what Drake's parser ignores) are notes;
+  ``<inertial>``, mimic joints, what Drake's parser ignores, Pinocchio's MJCF parser reading only
+  the first body under ``<worldbody>``) are notes;
 * what the differences come from (``diagnose``, ``Finding``), each named only when putting it
   back reconciles the two readings within the tolerance: a URDF ``<inertial><origin rpy>`` that
   one reading applies and the other does not (mujoco #3559: the difference of the inertias is
@@ -47,14 +69,18 @@ Then, in order:
   e.g. MuJoCo's ``fusestatic`` dropping a massless link's inertia, an MJCF body without
   ``<inertial>``); an armature only some loaders read, with what it adds to M's diagonal entry
   at zero joint coordinates, and M differing by exactly that diagonal at every state
-  (``diagnose_dynamics``);
+  (``diagnose_dynamics``); the first of a body's several joints that one reading puts at the
+  parent body's origin (Drake's MJCF parser);
 * the dynamics terms at random states (``harness.tools.dynamics_terms``) of every loader whose
-  joints are MuJoCo's (same names and types; Drake's roll-pitch-yaw ball joints excluded),
-  pair by pair, with the odd one out per term where one pair agrees and two differ;
+  joints are MuJoCo's (same names and types; Drake's roll-pitch-yaw ball joints excluded; a
+  loader that lacks whole kinematic trees of MuJoCo's is compared on the others, and so is every
+  loader then: ``Reading.partial``), pair by pair, with the odd one out per term where one pair
+  agrees and two differ;
 * free motion under gravity from random states, MuJoCo against Pinocchio (MuJoCo RK4 with
-  contacts, constraints and passive forces off; Pinocchio ``aba`` with
-  ``lie_group_integrators.rkmk4_step``), comparing joint trajectories and every moving body's
-  world pose; not run when Pinocchio does not load the file or its joints are not MuJoCo's.
+  contacts, constraints, passive forces (gravity compensation and fluid forces included) and
+  actuators off; Pinocchio ``aba`` with ``lie_group_integrators.rkmk4_step``), comparing joint
+  trajectories and the world pose of every moving body both hold (matched through their joints);
+  not run when Pinocchio does not load the file or its joints are not MuJoCo's.
 
 The report ``check_<model>.md`` is written atomically after everything has loaded. Its verdict
 fails on any disagreement between the loaders that read the file (a refusal is reported, not
@@ -68,7 +94,8 @@ the notes.
 
 Bad input (missing or malformed file, missing mesh, a file MuJoCo cannot load, non-positive
 mass, an inertia that is not positive definite or violates the triangle inequality, a model that
-only MuJoCo loads) raises ``InputError`` naming the file, before anything is written.
+only MuJoCo loads, a joint map naming joints the files do not have) raises ``InputError`` naming
+the file or the option, before anything is written.
 """
 
 from __future__ import annotations
@@ -77,6 +104,8 @@ import copy
 import os
 import re
 import tempfile
+import tomllib
+import xml.etree.ElementTree as ET
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -202,31 +231,23 @@ def add_root_joint(spec: mujoco.MjSpec, kind: str, source: Path) -> None:
     jt = JOINTS.get(kind)
     if jt is None or jt.pinocchio_root is None:
         raise InputError(f"{source}: a {kind} joint cannot be a root joint Pinocchio adds")
-    roots = [b for b in spec.bodies if b.name != "world" and b.parent is not None and b.parent.name == "world"]
+    roots = [(k, b) for k, b in enumerate(spec.bodies)
+             if k > 0 and b.name != "world" and b.parent is not None and b.parent.name == "world"]
     if not roots:
         raise InputError(f"{source}: no root body to attach a {kind} joint to")
-    root = roots[0]
+    k, root = roots[0]
     joint = root.first_joint()
     if joint is not None:
         wanted = getattr(mujoco.mjtJoint, jt.mujoco)
         if joint.type == wanted and root.next_joint(joint) is None:
             joint.name = "root_joint"  # an MJCF that has the root joint already: match Pinocchio's name
             return
-        raise InputError(f"{source}: root body {root.name!r} already has a joint that is not a single {kind} joint")
+        raise InputError(f"{source}: root body {root.name or f'body{k}'!r} already has a joint that is not a single "
+                         f"{kind} joint")
     if jt is FREE:
         root.add_freejoint(name="root_joint")
     else:
         root.add_joint(name="root_joint", type=getattr(mujoco.mjtJoint, jt.mujoco))
-
-
-def strip_geometry(spec: mujoco.MjSpec) -> tuple[int, int]:
-    """Delete every geom and mesh (dynamics do not need them); returns (geoms, meshes) removed."""
-    geoms, meshes = list(spec.geoms), list(spec.meshes)
-    for g in geoms:
-        spec.delete(g)
-    for mesh in meshes:
-        spec.delete(mesh)
-    return len(geoms), len(meshes)
 
 
 def compile_spec(spec: mujoco.MjSpec, source: Path) -> mujoco.MjModel:
@@ -244,23 +265,100 @@ def compile_spec(spec: mujoco.MjSpec, source: Path) -> mujoco.MjModel:
         raise InputError(f"{source}: MuJoCo cannot compile the {file_format(source)}: {text}") from None
 
 
-def load_mujoco(path: Path, *, root_joint: str = "none", strip: bool = False,
-                keep_static: bool = False) -> tuple[mujoco.MjModel, list[str]]:
-    """MuJoCo model of an MJCF or URDF file as written (plus an optional root joint), and notes
-    on what loading did (stripped geometry; ``keep_static`` turns MuJoCo's ``fusestatic`` off,
-    which is on by default for URDF)."""
-    spec = read_mujoco_spec(path)
-    add_root_joint(spec, root_joint, path)
-    check_spec_inertials(spec, path)
+@dataclass
+class MujocoLoad:
+    """MuJoCo's reading of a model file (``mujoco_load``).
+
+    Attributes:
+        model: the compiled ``MjModel``.
+        notes: what loading did (fusestatic off).
+        copies: how MuJoCo's reading differs from the file (geometry stripped, keyframes dropped).
+        dropped_keys: (index in the file, why) of the keyframes dropped because they no longer fit.
+        frozen: the geom-derived mass properties kept when the geometry was stripped from the
+            spec (a URDF), None otherwise.
+    """
+
+    model: mujoco.MjModel
+    notes: list[str]
+    copies: list[str] = field(default_factory=list)
+    dropped_keys: list[tuple[int, str]] = field(default_factory=list)
+    frozen: GeomInertials | None = None
+
+
+def _read_as(read: Path, source: Path) -> mujoco.MjSpec:
+    """``read_mujoco_spec(read)`` with errors naming ``source`` (``read`` is its copy)."""
+    try:
+        return read_mujoco_spec(read)
+    except InputError as err:
+        raise InputError(str(err).replace(str(read), str(source))) from None
+
+
+def mujoco_load(read: Path, source: Path | None = None, *, root_joint: str = "none", strip_spec: bool = False,
+                keep_static: bool = False, frozen: GeomInertials | None = None) -> MujocoLoad:
+    """MuJoCo model of ``read`` (``source`` itself or the loaders' copy of it, named ``source``
+    in errors), plus an optional root joint; keyframes that no longer fit are dropped
+    (``drop_unfitting_keys``). ``strip_spec`` strips the geometry in the spec (how a URDF is
+    stripped for MuJoCo), keeping the geom-derived mass properties where MuJoCo can compile the
+    geometry (``geom_inertials``, or ``frozen`` when given); ``keep_static`` turns MuJoCo's
+    ``fusestatic`` off, on by default for URDF."""
+    source = Path(source if source is not None else read)
+    spec = _read_as(read, source)
+    add_root_joint(spec, root_joint, source)
+    check_spec_inertials(spec, source)
     notes = []
     if keep_static:
         spec.compiler.fusestatic = False
         notes.append("MuJoCo's fusestatic turned off: links on fixed joints stay separate bodies")
-    if strip:
-        n_geom, n_mesh = strip_geometry(spec)
-        notes.append(f"geometry stripped for the dynamics comparison: {n_geom} geoms and {n_mesh} meshes removed "
-                     "from MuJoCo's copy (mass properties come from the <inertial> elements)")
-    return compile_spec(spec, path), notes
+    copies = []
+    if strip_spec:
+        frozen = frozen if frozen is not None else geom_inertials(read)
+        freeze_spec_inertials(spec, frozen)
+        counts = strip_geometry(spec)
+        names = [b.name for b in spec.bodies]
+        what = "link" if file_format(source) == "URDF" else "body"
+        copies.append(f"geometry stripped (--strip-geometry) from MuJoCo's reading of the {file_format(source)}: "
+                     f"{_counts_text(counts)} removed; " + _mass_note(frozen, names, what))
+    dropped = drop_unfitting_keys(spec, source)
+    if dropped:
+        copies.append(_keys_note(dropped, "MuJoCo's reading"))
+    return MujocoLoad(compile_spec(spec, source), notes, copies, dropped, frozen if strip_spec else None)
+
+
+def _keys_note(dropped: list[tuple[int, str]], where: str) -> str:
+    return (f"{len(dropped)} keyframe(s) dropped from {where}, no longer fitting the model (the check does not use "
+            "keyframes): " + "; ".join(why for _, why in dropped))
+
+
+def _mass_note(frozen: GeomInertials, names: list[str], what: str = "body") -> str:
+    """What stripping the geometry did to the mass properties (``geom_inertials``)."""
+    def label(k):
+        return names[k] or f"{what}{k}"
+
+    text = "mass properties come from the <inertial> elements"
+    if frozen.failed:
+        lost = [label(k) for k in frozen.lost]
+        if lost:
+            text += (f"; MuJoCo could not compile the geometry ({frozen.failed}), so the {len(lost)} "
+                     f"{what}{'(ies)' if what == 'body' else '(s)'} whose mass "
+                     f"it derives from their geoms have none once it is stripped: {', '.join(lost)}")
+        return text
+    if frozen.values:
+        text += (f"; the {len(frozen.values)} {what}{'(ies)' if what == 'body' else '(s)'} whose mass MuJoCo derives "
+                 "from their geoms keep it, computed by MuJoCo with the geometry before stripping and written as "
+                 "explicit inertials ("
+                 + ", ".join(f"{label(k)} {v[0]:.6g} kg" for k, v in frozen.values.items()) + ")")
+        if frozen.from_geoms:
+            text += ' (the compiler\'s inertiafromgeom="true" ignores the <inertial> elements: every body\'s inertial ' \
+                    "is MuJoCo's, and the copy says inertiafromgeom=\"auto\")"
+    return text
+
+
+def load_mujoco(path: Path, *, root_joint: str = "none", strip: bool = False,
+                keep_static: bool = False) -> tuple[mujoco.MjModel, list[str]]:
+    """MuJoCo model of an MJCF or URDF file as written (plus an optional root joint), and notes
+    on what loading did (``mujoco_load``; ``strip`` strips the geometry in the spec)."""
+    load = mujoco_load(Path(path), root_joint=root_joint, strip_spec=strip, keep_static=keep_static)
+    return load.model, load.notes + load.copies
 
 
 # root joint kind (harness name) -> the joint model Pinocchio adds
@@ -291,13 +389,339 @@ def load_pinocchio(path: Path, *, root_joint: str = "none") -> pin.Model:
     return model
 
 
+def supported_joints() -> str:
+    """The joints ``harness check`` compares, from the joint table (``harness.model.joints``): every
+    kind has MuJoCo's coordinates and Pinocchio's joint model; URDF types where a URDF can state
+    the kind, and the root joint ``--floating-base`` adds."""
+    mjcf = [jt.mujoco.removeprefix("mjJNT_").lower() for jt in JOINTS.values() if jt.mujoco]
+    urdf = [t for jt in JOINTS.values() for t in jt.urdf]
+    return (f"supported: MJCF {', '.join(mjcf[:-1])} and {mjcf[-1]} joints, several on one body too; URDF "
+            f"{', '.join(urdf)} and fixed joints; a {FREE.name} root joint added by --floating-base")
+
+
 def check_mappable_joints(pmodel: pin.Model, source: Path) -> None:
     """InputError for a joint type ``harness check`` cannot put into common coordinates."""
     for jid in range(1, pmodel.njoints):
         if pin_joint_type(pmodel.joints[jid]) is None:
             name = pmodel.joints[jid].shortname().removeprefix("JointModel").lower()
             raise InputError(f"{source}: joint {pmodel.names[jid]!r} of type {name} cannot be compared between engines "
-                             "(supported: revolute, continuous, prismatic, fixed, and a free root)")
+                             f"({supported_joints()})")
+
+
+# --------------------------------------------------------------------------- the copies the loaders read
+#
+# A loader reads the file as written unless something must change for the comparison; then it
+# reads a copy in a temporary folder (same file name), and the report says what changed:
+#
+# * ``--strip-geometry``: an MJCF's copy (read by every loader that reads the MJCF) without geoms,
+#   meshes, height fields, textures, materials and skins, nor what refers to them (tendon wraps
+#   around geoms, sensors on geoms, contact pairs, custom tuple elements); a URDF's copy for
+#   Pinocchio and Drake without ``<visual>``/``<collision>``; MuJoCo's reading of a URDF stripped
+#   in its spec. Mass properties: ``geom_inertials``, written into the copies as explicit
+#   inertials (``MjcfCopy.freeze``, ``freeze_spec_inertials``);
+# * an MJCF read by every loader with unnamed bodies or joints: named ``body<k>``/``joint<k>``
+#   after MuJoCo's numbering (joints are matched by name);
+# * keyframes that no longer fit (a root joint added): dropped (``drop_unfitting_keys``); the
+#   check does not use keyframes;
+# * a copy of an MJCF without ``<mujoco model>`` is named after the file (Drake's parser needs it).
+
+GEOMETRY_ASSETS = ("mesh", "hfield", "texture", "material", "skin")
+_COUNT_WORDS = {"geom": ("geom", "geoms"), "mesh": ("mesh", "meshes"), "hfield": ("height field", "height fields"),
+                "texture": ("texture", "textures"), "material": ("material", "materials"), "skin": ("skin", "skins"),
+                "wrap": ("tendon wrap around a geom", "tendon wraps around geoms"),
+                "sensor": ("sensor on a geom", "sensors on geoms"), "pair": ("contact pair", "contact pairs"),
+                "tuple": ("custom tuple element on a geom", "custom tuple elements on geoms"),
+                "visual": ("<visual> element", "<visual> elements"),
+                "collision": ("<collision> element", "<collision> elements")}
+
+
+def _counts_text(counts: dict[str, int]) -> str:
+    """``{"geom": 3, "mesh": 1}`` as "3 geoms, 1 mesh" (kinds with none left out)."""
+    return ", ".join(f"{n} {_COUNT_WORDS.get(k, (k, k))[n != 1]}" for k, n in counts.items() if n) or "nothing"
+
+
+def strip_geometry(spec: mujoco.MjSpec) -> dict[str, int]:
+    """Delete every geom, mesh, height field, skin, texture and material from a spec (dynamics do
+    not need them); returns what was removed, by kind. Mass properties are not kept: see
+    ``geom_inertials`` and ``freeze_spec_inertials``."""
+    counts = {}
+    for kind, items in (("geom", spec.geoms), ("mesh", spec.meshes), ("hfield", spec.hfields), ("skin", spec.skins),
+                        ("material", spec.materials), ("texture", spec.textures)):
+        items = list(items)
+        for item in items:
+            spec.delete(item)
+        counts[kind] = len(items)
+    for item in list(spec.sites) + list(spec.tendons):   # what else may name a material
+        item.material = ""
+    return counts
+
+
+@dataclass
+class GeomInertials:
+    """The mass properties MuJoCo derives from geoms, per body of a file (``geom_inertials``).
+
+    Attributes:
+        values: spec body index (``spec.bodies`` order, world 0) -> (mass kg, ipos m, iquat wxyz,
+            principal moments kg m^2) of the bodies whose mass MuJoCo derives from their geoms
+            (no ``<inertial>``, or all under ``<compiler inertiafromgeom="true">``) and is positive.
+        geoms: spec body index -> number of geoms, for the same bodies.
+        failed: why MuJoCo could not compile the geometry ("" when it could): the masses are lost.
+        lost: spec body indices whose mass came from geoms and is lost (when ``failed``).
+        from_geoms: whether the compiler derives every body's inertia from its geoms.
+        model: the file compiled so (None when nothing needed it or it did not compile).
+    """
+
+    values: dict = field(default_factory=dict)
+    geoms: dict = field(default_factory=dict)
+    failed: str = ""
+    lost: list = field(default_factory=list)
+    from_geoms: bool = False
+    model: mujoco.MjModel | None = None
+
+
+def geom_inertials(path: Path) -> GeomInertials:
+    """Compile the file as written with MuJoCo (``fusestatic`` off so that every body keeps its
+    own, the compiler's mass adjustments off, keyframes dropped) and read the mass properties of
+    the bodies whose mass comes from their geoms."""
+    spec = read_mujoco_spec(path)
+    out = GeomInertials(from_geoms=spec.compiler.inertiafromgeom == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE)
+    wanted = [k for k, b in enumerate(spec.bodies) if k > 0 and (out.from_geoms or not b.explicitinertial)]
+    if not wanted:
+        return out
+    for key in list(spec.keys):
+        spec.delete(key)
+    spec.compiler.fusestatic = False
+    spec.compiler.settotalmass, spec.compiler.boundmass, spec.compiler.boundinertia = -1.0, 0.0, 0.0
+    spec.compiler.balanceinertia = False
+    try:
+        with captured_native_stderr():
+            m = spec.compile()
+    except Exception as err:
+        out.failed = _one_line(err).removeprefix("Error: ")
+        out.lost = [k for k in wanted if list(spec.bodies[k].geoms)]
+        return out
+    out.model = m
+    for k in wanted:
+        if m.body_mass[k] > 0.0:
+            out.values[k] = (float(m.body_mass[k]), np.array(m.body_ipos[k]), np.array(m.body_iquat[k]),
+                             np.array(m.body_inertia[k]))
+            out.geoms[k] = int(m.body_geomnum[k])
+    return out
+
+
+def freeze_spec_inertials(spec: mujoco.MjSpec, frozen: GeomInertials) -> None:
+    """Write the geom-derived mass properties into a spec as explicit inertials (bodies matched
+    by index: the spec must be the file's, as ``geom_inertials`` read it); nothing when the
+    geometry did not compile."""
+    if frozen.failed:
+        return
+    bodies = list(spec.bodies)
+    for k, (mass, ipos, iquat, inertia) in frozen.values.items():
+        b = bodies[k]
+        b.explicitinertial = True
+        b.mass, b.ipos, b.iquat, b.inertia = mass, ipos, iquat, inertia
+        b.fullinertia = [np.nan] * 6
+    if frozen.from_geoms:
+        spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_AUTO
+        for k, b in enumerate(bodies):
+            if k > 0 and k not in frozen.values:
+                b.explicitinertial = False
+
+
+def _num(x) -> str:
+    return " ".join(repr(float(c)) for c in np.ravel(x))
+
+
+class MjcfCopy:
+    """An MJCF as an element tree (``<include>`` inlined, asset folders made absolute), edited for
+    the loaders and written to a temporary folder under the original file name.
+
+    ``changes`` says, one sentence each, how the copy differs from the file."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        try:
+            self.root = ET.parse(self.path).getroot()
+            self._inline(self.root, 0)
+        except (ET.ParseError, OSError) as err:
+            raise InputError(f"{path}: cannot read the MJCF for the loaders' copy: {_one_line(err)}") from None
+        self._absolute_dirs()
+        self.changes: list[str] = []
+        self.key_elements = [k for kf in self.root.iter("keyframe") for k in kf.findall("key")]
+
+    def _inline(self, element, depth: int) -> None:
+        if depth > 20:
+            raise InputError(f"{self.path}: <include> nested more than 20 deep")
+        children = []
+        for child in list(element):
+            if child.tag == "include":
+                name = child.get("file", "")
+                path = self.path.parent / name   # MuJoCo: relative to the main file's folder
+                included = ET.parse(path).getroot()
+                self._inline(included, depth + 1)
+                children += list(included)
+            else:
+                self._inline(child, depth)
+                children.append(child)
+        element[:] = children
+
+    def _absolute_dirs(self) -> None:
+        """Make the compiler's asset folders absolute (the copy lives elsewhere)."""
+        base = self.path.parent.resolve()
+        compilers = self.root.findall("compiler")
+        given: dict[str, str] = {}
+        for c in compilers:
+            for key in ("assetdir", "meshdir", "texturedir"):
+                if c.get(key) is not None:
+                    given[key] = c.attrib.pop(key)
+        if not any(e.get("file") for e in self.root.iter() if e.tag != "include"):
+            for key, value in given.items():   # nothing to find: put back what the file says
+                (compilers[-1] if compilers else self._compiler()).set(key, value)
+            return
+        last = compilers[-1] if compilers else self._compiler()
+        asset = given.get("assetdir", "")
+        for key in ("meshdir", "texturedir"):
+            value = given.get(key, asset)
+            last.set(key, value if Path(value).is_absolute() else str(base / value))
+        if "assetdir" in given:
+            last.set("assetdir", asset if Path(asset).is_absolute() else str(base / asset))
+
+    def _compiler(self):
+        c = ET.Element("compiler")
+        self.root.insert(0, c)
+        return c
+
+    def bodies(self) -> list:
+        """The ``<body>`` elements in document order (MuJoCo's body order, world excluded)."""
+        return list(self.root.iter("body"))
+
+    def strip(self) -> dict[str, int]:
+        """Remove the geometry (see the section comment); returns what was removed, by kind."""
+        counts = dict.fromkeys(("geom", "mesh", "hfield", "texture", "material", "skin", "wrap", "sensor", "pair",
+                                "tuple"), 0)
+        for parent in list(self.root.iter()):
+            for child in list(parent):
+                tag = child.tag
+                if tag == "geom" and parent.tag == "default":
+                    for attr in ("material", "mesh", "hfield"):
+                        child.attrib.pop(attr, None)
+                    continue
+                if tag == "geom":
+                    kind = "wrap" if parent.tag == "spatial" else "geom"
+                elif parent.tag in ("asset", "deformable") and tag in GEOMETRY_ASSETS:
+                    kind = tag
+                elif parent.tag == "sensor" and (child.get("objtype") == "geom" or child.get("reftype") == "geom"
+                                                 or any(child.get(a) for a in ("geom", "geom1", "geom2"))):
+                    kind = "sensor"
+                elif parent.tag == "contact" and tag == "pair":
+                    kind = "pair"
+                elif parent.tag == "tuple" and child.get("objtype") == "geom":
+                    kind = "tuple"
+                else:
+                    child.attrib.pop("material", None)
+                    continue
+                parent.remove(child)
+                counts[kind] += 1
+        return counts
+
+    def freeze(self, frozen: GeomInertials) -> None:
+        """Write ``<inertial>`` elements with MuJoCo's geom-derived values (``geom_inertials``);
+        nothing when the geometry did not compile."""
+        if frozen.failed:
+            return
+        bodies = self.bodies()
+        for k, (mass, ipos, iquat, inertia) in frozen.values.items():
+            body = bodies[k - 1]
+            for old in body.findall("inertial"):
+                body.remove(old)
+            body.insert(0, ET.Element("inertial", {"pos": _num(ipos), "quat": _num(iquat), "mass": _num(mass),
+                                                   "diaginertia": _num(inertia)}))
+        if frozen.from_geoms:
+            for c in self.root.findall("compiler"):
+                c.attrib.pop("inertiafromgeom", None)
+            for k, body in enumerate(bodies, start=1):
+                if k not in frozen.values:
+                    for old in body.findall("inertial"):
+                        body.remove(old)
+
+    def name_unnamed(self, spec: mujoco.MjSpec) -> tuple[list[str], list[str]]:
+        """Give every unnamed body ``body<k>`` and every unnamed joint ``joint<j>`` (MuJoCo's ids,
+        as the check names them); returns the new names (bodies, joints)."""
+        bodies = self.bodies()
+        joints = [j for b in bodies for j in b if j.tag in ("joint", "freejoint")]
+        taken = {b.name for b in spec.bodies} | {j.name for j in spec.joints}
+        new_bodies, new_joints = [], []
+        for elements, prefix, out in ((bodies, "body", new_bodies), (joints, "joint", new_joints)):
+            for k, e in enumerate(elements, start=1 if prefix == "body" else 0):
+                if e.get("name"):
+                    continue
+                name = f"{prefix}{k}"
+                while name in taken:
+                    name += "_"
+                taken.add(name)
+                e.set("name", name)
+                out.append(name)
+        return new_bodies, new_joints
+
+    def drop_keys(self, indices) -> None:
+        for i in indices:
+            key = self.key_elements[i]
+            for kf in self.root.iter("keyframe"):
+                if key in list(kf):
+                    kf.remove(key)
+
+    def write(self, folder: Path) -> Path:
+        """Write the copy as ``<folder>/<file name>`` (named after the file when ``<mujoco>`` has no
+        model name) and return its path."""
+        folder.mkdir(parents=True, exist_ok=True)
+        if not self.root.get("model"):
+            self.root.set("model", self.path.stem)
+            self.changes.append(f"the copy names the model {self.path.stem!r} (the file's <mujoco> has no model "
+                                "name, which Drake's parser requires)")
+        out = folder / self.path.name
+        ET.ElementTree(self.root).write(out, encoding="utf-8", xml_declaration=True)
+        return out
+
+
+def strip_urdf_copy(path: Path, folder: Path) -> tuple[Path, dict[str, int]]:
+    """A copy of a URDF without ``<visual>`` and ``<collision>`` elements, as ``<folder>/<name>``."""
+    try:
+        tree = ET.parse(path)
+    except (ET.ParseError, OSError) as err:
+        raise InputError(f"{path}: cannot load URDF: {_one_line(err)}") from None
+    counts = {"visual": 0, "collision": 0}
+    for link in tree.getroot().iter("link"):
+        for child in list(link):
+            if child.tag in counts:
+                link.remove(child)
+                counts[child.tag] += 1
+    folder.mkdir(parents=True, exist_ok=True)
+    out = folder / Path(path).name
+    tree.write(out, encoding="utf-8", xml_declaration=True)
+    return out, counts
+
+
+def drop_unfitting_keys(spec: mujoco.MjSpec, source: Path) -> list[tuple[int, str]]:
+    """Delete the keyframes whose sizes (qpos, qvel, act, ctrl, mocap) do not fit the model the
+    spec compiles to (e.g. after a root joint was added); returns (index, why) of each."""
+    keys = list(spec.keys)
+    if not keys:
+        return []
+    probe = spec.copy()
+    for key in list(probe.keys):
+        probe.delete(key)
+    m = compile_spec(probe, source)
+    sizes = {"qpos": m.nq, "qvel": m.nv, "act": m.na, "ctrl": m.nu, "mpos": 3 * m.nmocap, "mquat": 4 * m.nmocap}
+    dims = {"qpos": "nq", "qvel": "nv", "act": "na", "ctrl": "nu", "mpos": "3 nmocap", "mquat": "4 nmocap"}
+    dropped = []
+    for i, key in enumerate(keys):
+        bad = [f"{f} has {len(getattr(key, f))} numbers, the model's {dims[f]} is {n}"
+               for f, n in sizes.items() if len(getattr(key, f)) not in (0, n)]
+        if bad:
+            label = repr(key.name) if key.name else f"#{i}"
+            dropped.append((i, f"{label} ({'; '.join(bad)})"))
+            spec.delete(key)
+    return dropped
 
 
 # --------------------------------------------------------------------------- the check
@@ -337,6 +761,10 @@ class Reading:
         geom_masses: MuJoCo only: body name -> how MuJoCo got the mass of a body whose file gives
             no ``<inertial>`` (from its geoms: geom density or mass), shown where that body's
             joint differs in mass (``_geom_masses``).
+        names: the joints this loader's file names otherwise, compared under the other file's names
+            (``apply_joint_map``): name in its file -> name in the comparison.
+        partial: MuJoCo's joints this loader lacks, whole kinematic trees of their own: its
+            dynamics terms and free motion are compared on the other trees (``_joint_set_problem``).
     """
 
     loader: str
@@ -352,6 +780,8 @@ class Reading:
     dynamics: str = ""
     hints: dict = field(default_factory=dict)
     geom_masses: dict = field(default_factory=dict)
+    names: dict = field(default_factory=dict)
+    partial: list = field(default_factory=list)
 
     @property
     def loaded(self) -> bool:
@@ -430,7 +860,8 @@ class Finding:
             ``fixed child`` (a fixed child's mass properties missing or different in one reading
             of the body they are merged into), ``armature`` (a joint's armature that only some
             loaders read), ``dynamics armature`` (M differing by exactly the armature on its
-            diagonal).
+            diagonal), ``several joints`` (the first of a body's joints at its parent's origin in
+            one reading).
         joint, body: where ("" for the dynamics).
         short: a few words for the verdict; ``text``: the whole finding, with figures and units.
         group: findings with the same group are one item of the verdict when there are several
@@ -479,6 +910,9 @@ class CheckResult:
     settings: dict = field(default_factory=dict)
     warnings: dict = field(default_factory=dict)  # MuJoCo's warnings during the comparison: {"count", "first"}
     findings: list[Finding] = field(default_factory=list)  # what the differences come from (``diagnose``)
+    not_compared: list[str] = field(default_factory=list)  # what MuJoCo holds beyond the tree (``not_compared``)
+    copies: list[str] = field(default_factory=list)  # how what the loaders read differs from the files
+    mapped: int = 0   # joints compared under another name (``apply_joint_map``)
 
     @property
     def model_problems(self) -> list[str]:
@@ -525,8 +959,7 @@ def _pin_unmappable(slots: dict) -> str | None:
     for name, s in slots.items():
         if by_pinocchio(s.shortname) is None:
             kind = s.shortname.removeprefix("JointModel").lower()
-            return (f"joint {name!r} of type {kind} cannot be compared between engines "
-                    "(supported: revolute, continuous, prismatic, fixed, and a free root)")
+            return f"joint {name!r} of type {kind} cannot be compared between engines ({supported_joints()})"
     return None
 
 
@@ -540,17 +973,23 @@ def _body_joints(m: mujoco.MjModel) -> dict[str, list[str]]:
 
 
 def load_models(mjcf: Path | None, urdf: Path | None, *, floating_base: bool = False, strip: bool = False,
-                keep_static: bool = False) -> tuple[dict[str, Reading], str, list[str]]:
+                keep_static: bool = False, joint_map: dict[str, str] | None = None
+                ) -> tuple[dict[str, Reading], str, list[str], list[str]]:
     """Every loader's reading of the file(s) per the module docstring; returns (readings by
-    loader name, mode, notes on loading). Raises InputError for bad input: no file, a missing
-    or malformed file, a file MuJoCo does not load, a non-physical body (non-positive mass,
-    invalid inertia), a model without a moving joint, or a model only MuJoCo loads."""
+    loader name, mode, notes on loading, how what the loaders read differs from the files: the
+    copies and the joint map). ``joint_map``: MJCF joint name -> URDF joint name, for
+    an MJCF and a URDF whose joints are named differently (``apply_joint_map``). Raises
+    InputError for bad input: no file, a missing or malformed file, a file MuJoCo does not load,
+    a non-physical body (non-positive mass, invalid inertia), a model without a moving joint, a
+    model only MuJoCo loads, or a joint map naming joints the files do not have."""
     if mjcf is None and urdf is None:
         raise InputError("check needs --mjcf MODEL.xml, --urdf MODEL.urdf, or both")
     mj_file = Path(mjcf) if mjcf is not None else Path(urdf)
     other_file = Path(urdf) if urdf is not None else Path(mjcf)
     for path in {mj_file, other_file}:
         _require_file(path)
+    if joint_map and (mjcf is None or urdf is None):
+        raise InputError("--joint-map and --map rename the URDF's joints to the MJCF's: they need both --mjcf and --urdf")
     mode = {(True, True): "MJCF -> MuJoCo, URDF -> Pinocchio and Drake",
             (False, True): "URDF -> MuJoCo, Pinocchio and Drake",
             (True, False): "MJCF -> MuJoCo, Pinocchio and Drake"}[(mjcf is not None, urdf is not None)]
@@ -560,36 +999,294 @@ def load_models(mjcf: Path | None, urdf: Path | None, *, floating_base: bool = F
         spec = read_mujoco_spec(path)
         add_root_joint(spec, root, path)
         check_spec_inertials(spec, path)
-    pinr = Reading("Pinocchio", other_file, pin.__version__)
-    pin_bad = None
+    with tempfile.TemporaryDirectory(prefix="harness-check-") as tmp:
+        readings, notes, copies = _load_readings(mj_file, other_file, Path(tmp), root=root, strip=strip,
+                                                 keep_static=keep_static, mjcf_alone=mjcf is not None and urdf is None)
+    if joint_map:
+        copies += apply_joint_map(readings, joint_map)
+    notes += _match_free_joints(readings)
+    return readings, mode, notes, copies
+
+
+# --------------------------------------------------------------------------- joint maps: MJCF and URDF names
+
+
+def read_joint_map(path: Path) -> dict[str, str]:
+    """MJCF joint name -> URDF joint name from a file: TOML (``mjcf_name = "urdf_name"`` pairs at
+    the top level or in one table) or two-column text (``mjcf_name = urdf_name`` or ``mjcf_name
+    urdf_name`` per line; ``#`` starts a comment). InputError (naming the file and line) for
+    anything else."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise InputError(f"{path}: cannot read the joint map: {_one_line(err)}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        data = None
+    if data is not None:
+        if len(data) == 1 and isinstance(next(iter(data.values())), dict):
+            data = next(iter(data.values()))
+        bad = [k for k, v in data.items() if not isinstance(v, str) or not v]
+        if bad:
+            raise InputError(f"{path}: a joint map gives each MJCF joint one URDF joint name (a string); "
+                             f"not so for {', '.join(map(repr, bad))}")
+        return dict(data)
+    out: dict[str, str] = {}
+    for n, line in enumerate(text.splitlines(), start=1):
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        parts = line.split("=", 1) if "=" in line else line.split()
+        parts = [p.strip().strip("\"'") for p in parts]
+        if len(parts) != 2 or not all(parts):
+            raise InputError(f"{path}: line {n}: expected 'mjcf_name = urdf_name', got {line!r}")
+        if parts[0] in out:
+            raise InputError(f"{path}: line {n}: MJCF joint {parts[0]!r} is mapped twice")
+        out[parts[0]] = parts[1]
+    return out
+
+
+def parse_map_options(items: list[str] | None) -> dict[str, str]:
+    """``--map mjcf_name=urdf_name`` options (repeatable) as a dict; InputError for a malformed one."""
+    out: dict[str, str] = {}
+    for item in items or []:
+        a, sep, b = item.partition("=")
+        a, b = a.strip(), b.strip()
+        if not sep or not a or not b:
+            raise InputError(f"--map {item!r}: expected mjcf_name=urdf_name")
+        if a in out and out[a] != b:
+            raise InputError(f"--map: MJCF joint {a!r} is mapped twice ({out[a]!r} and {b!r})")
+        out[a] = b
+    return out
+
+
+def _urdf_joint_names(path: Path) -> list[str]:
+    """The names of a URDF's joints that move (not ``fixed``), in file order."""
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError):
+        return []
+    return [j.get("name") for j in root.findall("joint") if j.get("name") and j.get("type") != "fixed"]
+
+
+def _few(names, n: int = 12) -> str:
+    names = list(names)
+    return ", ".join(names[:n]) + (f", ... ({len(names)} in all)" if len(names) > n else "")
+
+
+def apply_joint_map(readings: dict[str, Reading], joint_map: dict[str, str],
+                    label: str = "joint map (--joint-map, --map)") -> list[str]:
+    """Compare the URDF's joints (Pinocchio's and Drake's readings) under the MJCF's names:
+    ``joint_map`` maps an MJCF joint name (MuJoCo's) to a URDF joint name. InputError, one line,
+    for a name that neither file has (listing the joints it does have), a URDF joint mapped twice,
+    or a URDF joint that keeps a name the map gives to another one. Returns a note."""
+    mjr = readings["MuJoCo"]
+    others = [r for r in readings.values() if r.loader != "MuJoCo"]
+    mj_names = [x.joint for x in mjr.bodies]
+    urdf_file = others[0].source
+    urdf_names = list(dict.fromkeys(_urdf_joint_names(urdf_file) + [x.joint for r in others if r.loaded for x in r.bodies]))
+    bad_mj = [a for a in joint_map if a not in mj_names]
+    bad_urdf = [b for b in joint_map.values() if b not in urdf_names]
+    problems = []
+    if bad_mj:
+        problems.append(f"MJCF {', '.join(map(repr, bad_mj))} (the MJCF's joints: {_few(mj_names)})")
+    if bad_urdf:
+        problems.append(f"URDF {', '.join(map(repr, bad_urdf))} (the URDF's joints: {_few(urdf_names)})")
+    if problems:
+        raise InputError(f"{label}: unknown joint name(s): " + "; ".join(problems))
+    twice = sorted({b for b in joint_map.values() if list(joint_map.values()).count(b) > 1})
+    if twice:
+        raise InputError(f"{label}: URDF joint(s) {', '.join(map(repr, twice))} mapped to several MJCF joints")
+    rename = {b: a for a, b in joint_map.items()}
+    clash = [a for a in rename.values() if a in urdf_names and a not in rename]
+    if clash:
+        raise InputError(f"{label}: URDF joint(s) {', '.join(map(repr, clash))} keep their names, which the map gives "
+                         "to other URDF joints: map them too")
+    from dataclasses import replace
+
+    for r in others:
+        r.names = {b: a for b, a in rename.items()}
+        if not r.loaded:
+            continue
+        r.bodies = [replace(x, joint=rename.get(x.joint, x.joint)) for x in r.bodies]
+        r.details = [replace(x, joint=rename.get(x.joint, x.joint)) for x in r.details]
+        if r.slots:
+            r.slots = {rename.get(k, k): v for k, v in r.slots.items()}
+    changed = [(a, b) for a, b in joint_map.items() if a != b]
+    return [f"{label}: {len(changed)} URDF joint(s) compared under the MJCF's names (MJCF = URDF): "
+            + _few(f"{a} = {b}" for a, b in changed)] if changed else []
+
+
+def _unnamed(spec: mujoco.MjSpec) -> tuple[int, int]:
+    """How many bodies (world excluded) and joints of a spec have no name."""
+    return (sum(1 for b in list(spec.bodies)[1:] if not b.name), sum(1 for j in spec.joints if not j.name))
+
+
+def _probe(read: Path, source: Path) -> mujoco.MjModel:
+    """``read`` compiled as ``geom_inertials`` compiles the file (keyframes dropped, fusestatic and
+    the compiler's mass adjustments off); errors name ``source``."""
+    spec = _read_as(read, source)
+    for key in list(spec.keys):
+        spec.delete(key)
+    spec.compiler.fusestatic = False
+    spec.compiler.settotalmass, spec.compiler.boundmass, spec.compiler.boundinertia = -1.0, 0.0, 0.0
+    spec.compiler.balanceinertia = False
+    return compile_spec(spec, source)
+
+
+def _check_copy(source: Path, read: Path, orig: mujoco.MjModel | None = None) -> None:
+    """InputError unless the loaders' copy of an MJCF has MuJoCo's tree and masses: the same
+    bodies, parents and joints, and each body's mass, centre of mass and principal moments (the
+    geom-derived ones as written into the copy), within 1e-9 relative."""
+    copy_m = _probe(read, source)
+    try:
+        orig = orig if orig is not None else _probe(source, source)
+    except InputError:   # the geometry does not compile (missing mesh): the tree at least
+        spec = read_mujoco_spec(source)
+        if (len(spec.bodies), len(spec.joints)) != (copy_m.nbody, copy_m.njnt):
+            raise InputError(f"{source}: the loaders' copy does not reproduce the file's bodies and joints "
+                             f"({copy_m.nbody - 1} bodies and {copy_m.njnt} joints, the file "
+                             f"{len(spec.bodies) - 1} and {len(spec.joints)})") from None
+        return
+    same = (orig.nbody == copy_m.nbody and orig.njnt == copy_m.njnt
+            and np.array_equal(orig.body_parentid, copy_m.body_parentid)
+            and np.array_equal(orig.jnt_type, copy_m.jnt_type) and np.array_equal(orig.jnt_bodyid, copy_m.jnt_bodyid))
+    if not same:
+        raise InputError(f"{source}: the loaders' copy does not reproduce MuJoCo's tree ({copy_m.nbody - 1} bodies and "
+                         f"{copy_m.njnt} joints, the file {orig.nbody - 1} and {orig.njnt}): <replicate>, <attach> or "
+                         "<composite> may make bodies the file does not write one by one")
+    for b in range(1, orig.nbody):
+        for a, c, floor in ((orig.body_mass[b], copy_m.body_mass[b], 1e-12),
+                            (orig.body_inertia[b], copy_m.body_inertia[b], 1e-12),
+                            (orig.body_ipos[b], copy_m.body_ipos[b], 1e-3)):
+            if np.abs(np.asarray(a) - np.asarray(c)).max() > 1e-9 * max(float(np.abs(a).max()), floor):
+                name = mujoco.mj_id2name(copy_m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"
+                raise InputError(f"{source}: the loaders' copy changes the mass properties of body {name!r} "
+                                 f"({float(np.sum(a)):.9g} -> {float(np.sum(c)):.9g})")
+
+
+def _refusal_in(err: Exception, tmp: Path, source: Path) -> str:
+    """A loader's refusal of ``source`` or of its copy in ``tmp`` (``<tmp>/<loader>/<file name>``), in
+    one line without the file's path."""
+    text = re.sub(re.escape(str(tmp)) + r"/[^/\s]+/", "", str(err))
+    for prefix in (f"{source}: ", f"{source.name}: "):
+        text = text.removeprefix(prefix)
+    return _refusal(InputError(text), Path(os.devnull))
+
+
+def _pinocchio_or(err: InputError, other_file: Path, root: str) -> InputError:
+    """When MuJoCo refuses the file and Pinocchio reads a body of it as non-physical, Pinocchio's
+    message, which names the body and its joint; else MuJoCo's error."""
     try:
         pmodel = load_pinocchio(other_file, root_joint=root)
-    except InputError as err:
-        pinr.refusal = _refusal(err, other_file)
-    else:
-        pinr.model = pmodel
-        try:  # judged again once MuJoCo has loaded: a body Pinocchio alone reads as massless is its misreading
-            check_joint_bodies_physical(pinocchio_joint_bodies(pmodel), str(other_file))
-        except InputError as err:
-            pin_bad = err
+        check_joint_bodies_physical(pinocchio_joint_bodies(pmodel), str(other_file))
+    except InputError as pin_err:
+        if "Pinocchio cannot load" not in str(pin_err):
+            return pin_err
+    return err
+
+
+def _load_readings(mj_file: Path, other_file: Path, tmp: Path, *, root: str, strip: bool, keep_static: bool,
+                   mjcf_alone: bool) -> tuple[dict[str, Reading], list[str], list[str]]:
+    """Load MuJoCo, then Pinocchio and Drake, each from the file or its copy in ``tmp`` (see the
+    section "the copies the loaders read"); returns (readings, notes, what the copies change)."""
+    notes: list[str] = []
+    copies: list[str] = []
+    copy = None
+    frozen = None
+    mj_read = mj_file
+    strip_note = ""
+    if strip:
+        frozen = geom_inertials(mj_file)
+    if file_format(mj_file) == "MJCF":
+        spec0 = read_mujoco_spec(mj_file)
+        bodies_unnamed, joints_unnamed = _unnamed(spec0) if mjcf_alone else (0, 0)
+        if strip or bodies_unnamed or joints_unnamed:
+            copy = MjcfCopy(mj_file)
+            readers = "every loader" if mjcf_alone else "MuJoCo"
+            if strip:
+                counts = copy.strip()
+                copy.freeze(frozen)
+                names = [b.name for b in spec0.bodies]
+                strip_note = (f"geometry stripped (--strip-geometry) from the copy of {mj_file.name} that {readers} "
+                              f"reads: {_counts_text(counts)} removed; " + _mass_note(frozen, names)
+                              + ("; how each importer derives masses from geoms is therefore not compared"
+                                 if mjcf_alone and frozen.values else ""))
+            if bodies_unnamed or joints_unnamed:
+                new_bodies, new_joints = copy.name_unnamed(spec0)
+                copy.changes.append(f"the MJCF has {len(new_bodies)} unnamed body(ies) and {len(new_joints)} unnamed "
+                                    "joint(s): named in every loader's copy after MuJoCo's numbering, as the check names "
+                                    "them, so that the loaders' joints can be matched by name ("
+                                    + ", ".join((new_bodies + new_joints)[:12])
+                                    + (", ..." if len(new_bodies) + len(new_joints) > 12 else "") + ")")
+            mj_read = copy.write(tmp / "mujoco")
+            try:
+                _check_copy(mj_file, mj_read, frozen.model if frozen is not None else None)
+            except InputError as err:
+                raise _with_lost(err, frozen, copy=True) from None
     try:
-        m, notes = load_mujoco(mj_file, root_joint=root, strip=strip, keep_static=keep_static)
-    except InputError:
-        if pin_bad is not None:
-            raise pin_bad from None
-        raise
+        mjl = mujoco_load(mj_read, mj_file, root_joint=root, strip_spec=strip and file_format(mj_file) == "URDF",
+                          keep_static=keep_static, frozen=frozen)
+    except InputError as err:
+        raise _with_lost(_pinocchio_or(err, other_file, root), frozen, copy=mj_read != mj_file) from None
+    m = mjl.model
+    copies += ([strip_note] if strip_note else []) + mjl.copies
+    notes += mjl.notes
     bodies = mujoco_joint_bodies(m, _zero_qpos(m))  # masses and inertias do not depend on the configuration
     last = {}  # a MuJoCo body with several joints carries its mass at the last one
     for x in bodies:
         last[x.body] = x
-    check_joint_bodies_physical(list(last.values()), str(mj_file))
+    try:
+        check_joint_bodies_physical(list(last.values()), str(mj_file))
+    except InputError as err:
+        raise _with_lost(err, frozen) from None
     if m.nv == 0:
         raise InputError(f"{mj_file}: the model has no moving joint, nothing to compare "
                          f"(a URDF's root link is fixed unless --floating-base)")
     mjr = Reading("MuJoCo", mj_file, mujoco.__version__, bodies=bodies,
                   details=mujoco_joint_details(m), gravity=mujoco_gravity(m), model=m, hints=_mujoco_hints(m, mj_file),
-                  geom_masses=_geom_masses(m, mj_file))
-    if pin_bad is not None:  # MuJoCo reads the bodies as physical: Pinocchio's reading is what differs
+                  geom_masses=_geom_masses(m, mj_file, frozen))
+    # what Pinocchio and Drake read
+    other_read = other_file
+    if file_format(other_file) == "MJCF":   # the MJCF alone: the loaders read the same copy, if any
+        if copy is None and mjl.dropped_keys:
+            copy = MjcfCopy(other_file)
+        if copy is not None:
+            if mjl.dropped_keys:
+                copy.drop_keys([i for i, _ in mjl.dropped_keys])
+                copy.changes.append(_keys_note(mjl.dropped_keys, "Pinocchio's and Drake's copy"))
+            other_read = copy.write(tmp / "others")
+    elif strip:
+        other_read, counts = strip_urdf_copy(other_file, tmp / "others")
+        copies.append(f"geometry stripped (--strip-geometry) from the copy of {other_file.name} that Pinocchio and Drake "
+                     f"read: {_counts_text(counts)} removed (they read masses from the <inertial> elements only)")
+    pinr = Reading("Pinocchio", other_file, pin.__version__)
+    pin_bad = None
+    try:
+        try:
+            pmodel = load_pinocchio(other_read, root_joint=root)
+        except InputError as err:
+            if "Keyframe size does not match" not in str(err) or file_format(other_file) != "MJCF":
+                raise
+            keys_copy = copy if copy is not None else MjcfCopy(other_file)
+            keys_copy.drop_keys(range(len(keys_copy.key_elements)))
+            pmodel = load_pinocchio(keys_copy.write(tmp / "pinocchio"), root_joint=root)
+            copies.append(f"Pinocchio refuses the file's keyframes (they do not fit its reading: nq {pmodel.nq}, MuJoCo's "
+                         f"{m.nq}): it reads a copy without them (the check does not use keyframes)")
+            copy = keys_copy if copy is None else copy
+    except InputError as err:
+        pinr.refusal = _refusal_in(err, tmp, other_file)
+        if not strip and re.search(r"hfield|height ?field|mesh", pinr.refusal, re.IGNORECASE):
+            pinr.refusal += " (--strip-geometry removes the geometry)"
+    else:
+        pinr.model = pmodel
+        try:  # a body Pinocchio alone reads as massless is its misreading (MuJoCo reads it as physical)
+            check_joint_bodies_physical(pinocchio_joint_bodies(pmodel), str(other_file))
+        except InputError as err:
+            pin_bad = err
+    if pin_bad is not None:
         pinr.dynamics = f"its reading of a body is not physical ({_refusal(pin_bad, other_file)})"
     if pinr.loaded:
         pinr.slots = pinocchio_joint_slots(pinr.model, _body_joints(m))
@@ -603,19 +1300,31 @@ def load_models(mjcf: Path | None, urdf: Path | None, *, floating_base: bool = F
     drr = Reading("Drake", other_file, drake_version())
     try:
         with captured_native_stderr():
-            load = load_drake(other_file, root_joint=root)
+            load = load_drake(other_read, root_joint=root)
     except DrakeRefusal as err:
-        drr.refusal = str(err)
+        drr.refusal = str(err).replace(str(tmp), "")
     else:
         drr.model, drr.parser = load, load.warnings
         drr.bodies, drr.details, drr.gravity = drake_joint_bodies(load), drake_joint_details(load), drake_gravity(load)
         notes += [f"Drake: {n}" for n in load.notes]
+    if copy is not None:
+        copies += copy.changes
     readings = {r.loader: r for r in (mjr, pinr, drr)}
     if not pinr.loaded and not drr.loaded:
         raise InputError(f"{other_file}: only MuJoCo loads the model, nothing to compare it with: "
                          + "; ".join(f"{r.loader}: {r.refusal}" for r in (pinr, drr)))
-    notes += _match_free_joints(readings)
-    return readings, mode, notes
+    return readings, notes, copies
+
+
+def _with_lost(err: InputError, frozen: GeomInertials | None, copy: bool = False) -> InputError:
+    """``err`` with, where stripping the geometry lost geom-derived masses, which and why; the
+    copy's line numbers (``copy``) left out (they are not the file's)."""
+    if copy:
+        err = InputError(re.sub(r",? line \d+", "", str(err)))
+    if frozen is None or not frozen.lost:
+        return err
+    return InputError(f"{err} (--strip-geometry: MuJoCo could not compile the geometry ({frozen.failed}), so the "
+                      f"{len(frozen.lost)} body(ies) whose mass it derives from their geoms have none once it is stripped)")
 
 
 def mujoco_gravity(m: mujoco.MjModel) -> np.ndarray:
@@ -953,24 +1662,36 @@ def dynamics_odd(diffs: list[dc.TermDiff]) -> dict[str, str]:
 _MASS_QUANTITIES = ("mass", "centre of mass", "inertia about the centre of mass")
 
 
-def _geom_masses(m: mujoco.MjModel, path: Path) -> dict[str, str]:
+def _geom_masses(m: mujoco.MjModel, path: Path, frozen: GeomInertials | None = None) -> dict[str, str]:
     """MuJoCo body name -> how MuJoCo got its mass, for the bodies whose file gives no
     ``<inertial>`` (MJCF body, URDF link; all of them under ``<compiler inertiafromgeom="true">``):
     MuJoCo derives their mass and inertia from their geoms (each geom's ``mass``, else its
     ``density`` times its volume) where another loader may read none (a URDF link without
-    ``<inertial>``: mass 0). Bodies ``fusestatic`` fused away are left out."""
+    ``<inertial>``: mass 0). Bodies ``fusestatic`` fused away are left out. ``frozen``: the
+    geometry was stripped (``geom_inertials``: the masses kept, or lost when the geometry did not
+    compile). An unnamed body is named ``body<k>`` as the loaders' copy names it."""
     spec = read_mujoco_spec(path)
     from_geoms = spec.compiler.inertiafromgeom == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
     out = {}
-    for body in spec.bodies:
-        bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body.name) if body.name else -1
-        if body.name == "world" or bid < 0 or (body.explicitinertial and not from_geoms):
+    for k, body in enumerate(spec.bodies):
+        name = body.name or f"body{k}"
+        bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+        if k == 0 or bid < 0 or (body.explicitinertial and not from_geoms):
             continue
-        n = int(m.body_geomnum[bid])
         why = 'the compiler\'s inertiafromgeom="true" ignores its <inertial>' if from_geoms and body.explicitinertial \
             else f"the {file_format(path)} gives it no <inertial>"
-        out[body.name] = (f"MuJoCo derives the mass of body {body.name!r} from its geoms since {why}: "
-                          + (f"{float(m.body_mass[bid]):.6g} kg from {n} geom(s)" if n else "no geoms, 0 kg"))
+        mass = float(m.body_mass[bid])
+        if frozen is None:
+            n = int(m.body_geomnum[bid])
+            got = f"{mass:.6g} kg from {n} geom(s)" if n else "no geoms, 0 kg"
+        elif frozen.failed:
+            got = ("0 kg: --strip-geometry removed its geoms, which MuJoCo could not compile" if k in frozen.lost
+                   else "no geoms, 0 kg")
+        else:
+            n = frozen.geoms.get(k, 0)
+            got = (f"{mass:.6g} kg from {n} geom(s), kept as an explicit inertial when the geometry was stripped" if n
+                   else "no geoms, 0 kg")
+        out[name] = f"MuJoCo derives the mass of body {name!r} from its geoms since {why}: {got}"
     return out
 
 
@@ -1205,9 +1926,55 @@ def _armature_finding(readings: dict[str, Reading], v: Vote, details) -> Finding
                    text, f"armature only in {_who(nonzero)}")
 
 
+def _first_joint_at_parent(readings: dict[str, Reading], v: Vote, details, rtol: float) -> Finding | None:
+    """The odd one out's joint point of the first joint of a MuJoCo body with several joints
+    lying at the origin of the body's parent (across the axis, within ``rtol`` of the body's
+    size): the importer puts that joint at the parent's origin instead of the body's (Drake's
+    MJCF parser, which gives such a body a chain of massless bodies, one joint each)."""
+    mjr = readings["MuJoCo"]
+    m = mjr.model
+    j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, v.joint)
+    if j < 0 and v.joint.startswith("joint") and v.joint[5:].isdigit():
+        j = int(v.joint[5:])
+    if j < 0 or j >= m.njnt:
+        return None
+    b = int(m.jnt_bodyid[j])
+    if m.body_jntnum[b] < 2 or m.body_jntadr[b] != j:
+        return None
+    d = mujoco.MjData(m)
+    d.qpos[:] = _zero_qpos(m)
+    mujoco.mj_kinematics(m, d)
+    parent = int(m.body_parentid[b])
+    R_WB = d.xmat[b].reshape(3, 3)
+    origin = R_WB.T @ (d.xpos[parent] - d.xpos[b])   # the parent's origin in B
+    x = next(y for y in mjr.bodies if y.joint == v.joint)
+    odd = details[v.odd][v.joint]
+    gap = odd.point_B - origin
+    if JOINTS[x.kind].axis is not None:
+        gap = gap - (gap @ x.axis_B) * x.axis_B
+    size = max(float(np.linalg.norm(origin)), 1e-3)
+    if float(np.linalg.norm(gap)) > rtol * size:
+        return None
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, k) or f"joint{k}"
+             for k in range(int(m.body_jntadr[b]), int(m.body_jntadr[b] + m.body_jntnum[b]))]
+    parent_name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, parent) or ("world" if parent == 0 else f"body{parent}")
+    others = [k for k in v.values if k != v.odd]
+    far = float(np.linalg.norm(details[others[0]][v.joint].point_B - odd.point_B))
+    text = (f"joint {v.joint!r} (body {v.body!r}): joint point: {v.odd} puts the first of the body's {len(names)} joints "
+            f"({', '.join(names)}) at the origin of the parent body {parent_name!r}, {far:.3g} m from where "
+            f"{_who(others)} put it (at the body, as the file places its joints); the body turns about an axis through "
+            "the parent's origin there, so its M, bias and gravity differ too"
+            + (" (Drake's MJCF parser gives a body with several joints a chain of massless bodies, one joint each)"
+               if v.odd == "Drake" else ""))
+    return Finding("several joints", v.joint, v.body,
+                   f"{v.odd} puts the first joint of body {v.body!r} ({v.joint}) at its parent's origin", text,
+                   f"{v.odd} puts a body's first joint at its parent's origin")
+
+
 def diagnose(readings: dict[str, Reading], votes: list[Vote], rtol: float) -> list[Finding]:
     """What the model disagreements come from, per joint: a fixed child's mass properties, a
-    rotated URDF inertial frame, an armature only some loaders read (see ``Finding``). Each
+    rotated URDF inertial frame, an armature only some loaders read, the first of a body's several
+    joints placed at the parent's origin (see ``Finding``). Each
     group of agreeing loaders of a disagreeing vote is compared with each earlier group, the
     majority first; a cause is named only when it reconciles the two readings within ``rtol``,
     and a pair of readings of a joint is explained once."""
@@ -1221,6 +1988,11 @@ def diagnose(readings: dict[str, Reading], votes: list[Vote], rtol: float) -> li
             continue
         if v.quantity == "armature":
             f = _armature_finding(readings, v, details)
+            if f is not None:
+                out.append(f)
+            continue
+        if v.quantity == "joint point" and v.odd is not None:
+            f = _first_joint_at_parent(readings, v, details, rtol)
             if f is not None:
                 out.append(f)
             continue
@@ -1288,7 +2060,7 @@ def _pinocchio_table(mjr: Reading, r: Reading) -> dict | None:
     ``r.dynamics`` saying why) when Pinocchio's joints are not MuJoCo's or its bodies are not
     physical."""
     kinds = {x.joint: x.kind for x in r.bodies}
-    why = r.dynamics or _joint_set_problem(mjr, kinds)
+    why = r.dynamics or _joint_set_problem(mjr, kinds, r)
     if why:
         r.dynamics = why
         return None
@@ -1300,7 +2072,7 @@ def _drake_table(mjr: Reading, r: Reading) -> dict | None:
     ``r.dynamics`` saying why) when Drake's moving joints are not MuJoCo's, or are of a kind
     whose Drake coordinates are not mapped (Drake's ball joint has roll-pitch-yaw angles)."""
     kinds = {x.joint: x.kind for x in r.bodies}
-    why = _joint_set_problem(mjr, kinds)
+    why = _joint_set_problem(mjr, kinds, r)
     balls = [n for n, k in kinds.items() if JOINTS.get(k) is not None and JOINTS[k].quat_at is not None
              and not JOINTS[k].world_linear_velocity]
     if not why and balls:
@@ -1315,30 +2087,51 @@ def _drake_table(mjr: Reading, r: Reading) -> dict | None:
             for x, j in zip(r.bodies, moving)}
 
 
-def _joint_set_problem(mjr: Reading, kinds: dict[str, str]) -> str:
-    """Why a loader's joints (name -> kind) cannot be put into MuJoCo's coordinates ("" when they can)."""
+def _whole_trees(mjr: Reading, missing: list[str]) -> list[str]:
+    """The root bodies of MuJoCo's kinematic trees (bodies on the world) that hold ``missing``
+    joints, when every joint of those trees is missing (whole trees); else []."""
+    m = mjr.model
+    tree = {x.joint: int(m.body_rootid[m.jnt_bodyid[j]]) for j, x in enumerate(mjr.bodies)}
+    roots = {tree[n] for n in missing}
+    if any(t in roots and n not in missing for n, t in tree.items()):
+        return []
+    return [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}" for b in sorted(roots)]
+
+
+def _joint_set_problem(mjr: Reading, kinds: dict[str, str], r: Reading | None = None) -> str:
+    """Why a loader's joints (name -> kind) cannot be put into MuJoCo's coordinates ("" when they
+    can). A loader that lacks whole kinematic trees of MuJoCo's (every joint of a tree, and has
+    some joints) is compared on the trees it has: ``r.partial`` lists the joints it lacks."""
     mj = {x.joint: x.kind for x in mjr.bodies}
     missing, extra = [n for n in mj if n not in kinds], [n for n in kinds if n not in mj]
+    if missing and not extra and len(missing) < len(mj) and _whole_trees(mjr, missing) and r is not None:
+        r.partial, missing = missing, []
     if missing or extra:
         return "its joints are not MuJoCo's (" + "; ".join(
             ([f"no {', '.join(missing)}"] if missing else []) + ([f"{', '.join(extra)} not in MuJoCo"] if extra else [])) + ")"
-    other = [f"{n} is {kinds[n]}, MuJoCo's {k}" for n, k in mj.items() if kinds[n] != k]
+    other = [f"{n} is {kinds[n]}, MuJoCo's {k}" for n, k in mj.items() if n in kinds and kinds[n] != k]
     return f"its joint types differ from MuJoCo's ({'; '.join(other)})" if other else ""
 
 
 def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: int = dc.DEFAULT_STATES,
               n_free: int = 3, t_end: float = 0.5, dt: float = 1e-3, save_every: float = 0.01,
-              floating_base: bool = False, strip: bool = False, keep_static: bool = False) -> CheckResult:
-    """Load, compare models, dynamics terms and free motion (see module docstring)."""
+              floating_base: bool = False, strip: bool = False, keep_static: bool = False,
+              joint_map: dict[str, str] | None = None) -> CheckResult:
+    """Load, compare models, dynamics terms and free motion (see module docstring); ``joint_map``:
+    MJCF joint name -> URDF joint name (``apply_joint_map``)."""
     for label, value in (("--t-end", t_end), ("--dt", dt)):
         if not (np.isfinite(value) and value > 0):
             raise InputError(f"{label} must be positive and finite, got {value!r}")
     if n_states < 1 or n_free < 0:
         raise InputError("--states must be >= 1 and --free-runs >= 0")
-    readings, mode, notes = load_models(mjcf, urdf, floating_base=floating_base, strip=strip, keep_static=keep_static)
+    readings, mode, notes, copies = load_models(mjcf, urdf, floating_base=floating_base, strip=strip,
+                                                keep_static=keep_static, joint_map=joint_map)
     name = Path(urdf if urdf is not None else mjcf).stem
     res = CheckResult(name, mode, "floating (free root joint 'root_joint')" if floating_base else "fixed", readings)
     res.notes += notes
+    res.copies = copies
+    res.not_compared = not_compared(readings["MuJoCo"].model)
+    res.mapped = sum(1 for k, v in readings["Pinocchio"].names.items() if k != v)
     mjr, pinr, drr = (readings[k] for k in LOADERS)
     m = mjr.model
     rtol = SAME_FILE_RTOL if len({r.source for r in readings.values() if r.loaded}) == 1 else TWO_FILES_RTOL
@@ -1347,7 +2140,9 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
     res.notes += importer_notes(readings)
     pin_table = _pinocchio_table(mjr, pinr) if pinr.loaded else None
     drake_table = _drake_table(mjr, drr) if drr.loaded else None
-    jmap = dc.joint_map(m, pin_table, drake_table)
+    res.notes += _first_tree_note(readings)
+    lacking = {n for r, t in ((pinr, pin_table), (drr, drake_table)) if t is not None for n in r.partial}
+    jmap = dc.joint_map(m, pin_table, drake_table, only=[x.joint for x in mjr.bodies if x.joint not in lacking])
     states = dc.random_states(jmap, n_states, seed)
     res.settings = {"seed": seed, "states": n_states, "free_runs": n_free, "t_end": t_end, "dt": dt,
                     "save_every": save_every, "rtol_model": rtol, "rtol_dynamics": max(dc.DEFAULT_RTOL, rtol)}
@@ -1371,11 +2166,31 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
                                     else f"Pinocchio's dynamics are not compared ({pinr.dynamics})")
                 res.free_skipped += "; the free motion compares MuJoCo with Pinocchio only"
             else:
+                frames = _pinocchio_frames(mjr, pinr)
                 for k, (q, v) in enumerate(dc.random_states(jmap, n_free, seed + 1)):
-                    res.free.append(free_motion(m, pinr.model, jmap, q, v, k, t_end=t_end, dt=dt, save_every=save_every))
+                    res.free.append(free_motion(m, pinr.model, jmap, q, v, k, t_end=t_end, dt=dt, save_every=save_every,
+                                                frames=frames))
         finally:
             res.warnings = caught.stats()
     return res
+
+
+def _first_tree_note(readings: dict[str, Reading]) -> list[str]:
+    """A note when Pinocchio's reading of an MJCF is exactly the first body under ``<worldbody>``
+    and its subtree (its MJCF parser stops there), the other trees missing (``Reading.partial``)."""
+    mjr, pinr = readings["MuJoCo"], readings["Pinocchio"]
+    if not pinr.loaded or not pinr.partial or file_format(pinr.source) != "MJCF":
+        return []
+    m = mjr.model
+    first = next((b for b in range(1, m.nbody) if m.body_parentid[b] == 0), None)
+    trees = {int(m.body_rootid[m.jnt_bodyid[j]]) for j in range(m.njnt)}
+    has = {int(m.body_rootid[m.jnt_bodyid[j]]) for j, x in enumerate(mjr.bodies) if x.joint not in pinr.partial}
+    if first is None or has != {first}:
+        return []
+    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, first) or f"body{first}"
+    return [f"Pinocchio's MJCF parser reads only the first body under <worldbody> ({name!r}) and its subtree: the "
+            f"{len(trees) - 1} other kinematic tree(s) of the file, with the joints {_few(pinr.partial, 8)}, are not in "
+            "its reading"]
 
 
 def importer_notes(readings: dict[str, Reading]) -> list[str]:
@@ -1399,7 +2214,7 @@ def importer_notes(readings: dict[str, Reading]) -> list[str]:
                 notes.append(f"link(s) with mass 0 but a non-zero rotational inertia: {', '.join(massless)}. MuJoCo's "
                              "fusestatic drops that inertia when it merges the link into its parent; Pinocchio adds it "
                              "to the parent joint's inertia (with --keep-static-links MuJoCo keeps it)")
-        composites = sorted({pmodel.names[s.jid] for s in pinr.slots.values() if s.sub >= 0})
+        composites = [pmodel.names[jid] for jid in sorted({s.jid for s in pinr.slots.values() if s.sub >= 0})]
         if composites:
             notes.append(f"Pinocchio's MJCF parser made the joints of {len(composites)} body(ies) with several joints one "
                          f"composite joint each ({', '.join(composites)}); compared here split back into the file's "
@@ -1436,15 +2251,15 @@ def importer_notes(readings: dict[str, Reading]) -> list[str]:
                      "their geoms (a geom's mass, else its density times its volume); every other body's mass is given by "
                      "its <inertial>" + (" (Pinocchio and Drake read the URDF's <inertial> elements)" if two else "") + ": "
                      + "; ".join(text.removeprefix("MuJoCo derives the mass of ") for text in mjr.geom_masses.values()))
-    if m.nu:
-        acts = [f"{mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or f'actuator{a}'} gear "
-                f"{float(m.actuator_gear[a, 0]):g}" for a in range(m.nu)]
-        notes.append(f"MuJoCo has {m.nu} actuator(s), not compared (listed per joint under Joint settings): {', '.join(acts)}")
-    if m.neq:
-        eqs = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, i) or mujoco.mjtEq(m.eq_type[i]).name[5:].lower()
-               for i in range(m.neq)]
-        notes.append(f"MuJoCo has {m.neq} equality constraint(s) ({', '.join(eqs)}; a URDF <mimic> becomes one); "
-                     "Pinocchio's default URDF import treats a mimic joint as an independent joint")
+    several = {b: js for b, js in _body_joints(m).items() if len(js) > 1}
+    if several and drr.loaded and file_format(drr.source) == "MJCF":
+        notes.append(f"{len(several)} body(ies) with several joints (" + _few(f"{b}: {', '.join(js)}" for b, js in
+                                                                             several.items()) + "): Drake's MJCF parser "
+                     "gives each a chain of massless bodies, one joint each (<body>0, <body>1, ...), compared here as "
+                     "the one body MuJoCo moves by its joints in order")
+    if m.neq and file_format(mj_file) == "URDF":
+        notes.append("MuJoCo turns a URDF <mimic> into an equality constraint (listed under Not compared); Pinocchio's "
+                     "default URDF import treats a mimic joint as an independent joint")
     if drr.loaded and drr.parser:
         counts: dict[str, list[str]] = {}
         for line in drr.parser:
@@ -1460,23 +2275,84 @@ def importer_notes(readings: dict[str, Reading]) -> list[str]:
     return notes
 
 
+_EQ_OBJECTS = {"connect": mujoco.mjtObj.mjOBJ_BODY, "weld": mujoco.mjtObj.mjOBJ_BODY, "joint": mujoco.mjtObj.mjOBJ_JOINT,
+               "tendon": mujoco.mjtObj.mjOBJ_TENDON, "flex": mujoco.mjtObj.mjOBJ_FLEX}
+_TRANSMISSIONS = {mujoco.mjtTrn.mjTRN_JOINT: ("joint", mujoco.mjtObj.mjOBJ_JOINT),
+                  mujoco.mjtTrn.mjTRN_JOINTINPARENT: ("joint", mujoco.mjtObj.mjOBJ_JOINT),
+                  mujoco.mjtTrn.mjTRN_TENDON: ("tendon", mujoco.mjtObj.mjOBJ_TENDON),
+                  mujoco.mjtTrn.mjTRN_SITE: ("site", mujoco.mjtObj.mjOBJ_SITE),
+                  mujoco.mjtTrn.mjTRN_BODY: ("body", mujoco.mjtObj.mjOBJ_BODY),
+                  mujoco.mjtTrn.mjTRN_SLIDERCRANK: ("slider-crank at site", mujoco.mjtObj.mjOBJ_SITE)}
+
+
+def not_compared(m: mujoco.MjModel) -> list[str]:
+    """What MuJoCo's model holds beyond the tree of joints and bodies, which the check does not
+    compare: its equality constraints, tendons and actuators, one line per kind with the count and
+    each element's name (or kind and index), e.g. ``1 equality constraint: weld world-cylinder``.
+    The dynamics terms leave them out (M, bias and gravity of the tree alone) and so does MuJoCo's
+    rigid free motion (constraints and actuators off)."""
+    def name(obj, i: int, fallback: str) -> str:
+        return (mujoco.mj_id2name(m, obj, int(i)) or fallback) if i >= 0 else "world"
+
+    out = []
+    if m.neq:
+        items = []
+        objtypes = getattr(m, "eq_objtype", None)
+        for i in range(m.neq):
+            kind = mujoco.mjtEq(m.eq_type[i]).name[5:].lower()
+            obj = _EQ_OBJECTS.get(kind, mujoco.mjtObj.mjOBJ_BODY)
+            if objtypes is not None and kind in ("connect", "weld") and int(objtypes[i]) == int(mujoco.mjtObj.mjOBJ_SITE):
+                obj = mujoco.mjtObj.mjOBJ_SITE
+            what = obj.name[6:].lower()
+            ends = [name(obj, int(o), f"{what}{int(o)}") for o in (m.eq_obj1id[i], m.eq_obj2id[i])
+                    if not (kind in ("joint", "tendon") and int(o) < 0)]
+            own = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, i)
+            items.append(f"{own + ': ' if own else ''}{kind} {'-'.join(ends)}")
+        out.append(f"{m.neq} equality constraint{'s' if m.neq != 1 else ''}: {_few(items)}")
+    if m.ntendon:
+        items = []
+        for t in range(m.ntendon):
+            first = int(m.wrap_type[m.tendon_adr[t]]) if m.tendon_num[t] else -1
+            kind = "fixed" if first == int(mujoco.mjtWrap.mjWRAP_JOINT) else "spatial"
+            items.append(f"{name(mujoco.mjtObj.mjOBJ_TENDON, t, f'tendon{t}')} ({kind})")
+        out.append(f"{m.ntendon} tendon{'s' if m.ntendon != 1 else ''}: {_few(items)}")
+    if m.nu:
+        items = []
+        for a in range(m.nu):
+            what, obj = _TRANSMISSIONS.get(mujoco.mjtTrn(m.actuator_trntype[a]), ("target", None))
+            target = name(obj, int(m.actuator_trnid[a, 0]), f"{what}{int(m.actuator_trnid[a, 0])}") if obj else "?"
+            gear = np.asarray(m.actuator_gear[a], dtype=float)
+            gear_text = f"{gear[0]:g}" if not np.any(gear[1:]) else "[" + " ".join(f"{g:g}" for g in gear) + "]"
+            items.append(f"{name(mujoco.mjtObj.mjOBJ_ACTUATOR, a, f'actuator{a}')} ({what} {target}, gear {gear_text})")
+        out.append(f"{m.nu} actuator{'s' if m.nu != 1 else ''}: {_few(items)}")
+    return out
+
+
 def free_motion(m: mujoco.MjModel, pmodel: pin.Model, jmap: dc.JointMap, q0: np.ndarray, v0: np.ndarray, k: int, *,
-                t_end: float, dt: float, save_every: float) -> FreeMotion:
+                t_end: float, dt: float, save_every: float, frames: dict[int, int] | None = None) -> FreeMotion:
     """Unforced motion under gravity from (q0, v0) (common coordinates) in both engines.
 
-    MuJoCo: RK4 at ``dt``, contacts, constraints (limits, equalities, friction loss) and passive
-    forces (damping, springs) disabled, so that both integrate M a + C v + g = 0. Pinocchio:
-    ``aba`` with zero torque and ``rkmk4_step`` at ``dt``. A second MuJoCo run with only contacts
-    off measures how far limits, equality constraints and damping move the joints
-    (``constrained_joint``; informational).
+    MuJoCo: RK4 at ``dt``, contacts, constraints (limits, equalities, friction loss), passive
+    forces (damping, springs, gravity compensation, fluid forces) and actuators disabled, so that
+    both integrate M a + C v + g = 0. Pinocchio: ``aba`` with zero torque and ``rkmk4_step`` at
+    ``dt``. A second MuJoCo run with only contacts off measures how far limits, equality
+    constraints, damping and actuators move the joints (``constrained_joint``; informational).
+    ``frames``: MuJoCo body id -> Pinocchio frame id of each moving body (``_pinocchio_frames``;
+    default: Pinocchio's BODY frame of the MuJoCo body's name).
     """
     steps_per_save = max(1, int(round(save_every / dt)))
     n_saves = max(1, int(round(t_end / (steps_per_save * dt))))
     rigid = _mujoco_copy(m, dt, mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
-                         | mujoco.mjtDisableBit.mjDSBL_DAMPER | mujoco.mjtDisableBit.mjDSBL_SPRING)
+                         | mujoco.mjtDisableBit.mjDSBL_DAMPER | mujoco.mjtDisableBit.mjDSBL_SPRING
+                         | mujoco.mjtDisableBit.mjDSBL_ACTUATION)
+    rigid.body_gravcomp[:] = 0.0            # MuJoCo's own passive forces, not in M a + C v + g = 0
+    rigid.opt.density, rigid.opt.viscosity = 0.0, 0.0
     as_file = _mujoco_copy(m, dt, mujoco.mjtDisableBit.mjDSBL_CONTACT)
-    bodies = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in _moving_bodies(m)]
-    frames = [pmodel.getFrameId(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b), pin.FrameType.BODY) for b in bodies]
+    if frames is None:
+        bodies = [b for b in range(1, m.nbody) if m.body_jntnum[b] > 0]
+        frames = {b: pmodel.getFrameId(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b), pin.FrameType.BODY)
+                  for b in bodies}
+    bodies, frames = list(frames), list(frames.values())
     d_rigid, d_file = mujoco.MjData(rigid), mujoco.MjData(as_file)
     for dd in (d_rigid, d_file):
         dd.qpos[:], dd.qvel[:] = dc.mujoco_state(m, jmap, q0, v0)
@@ -1510,7 +2386,7 @@ def free_motion(m: mujoco.MjModel, pmodel: pin.Model, jmap: dc.JointMap, q0: np.
             dq = float(rotations.geodesic_angle(d_rigid.xquat[b], rotations.from_matrix(oMf.rotation))) if finite else float("nan")
             if (dp > worst["position"] or dq > worst["orientation"]
                     or (not np.isfinite(dp + dq) and np.isfinite(worst["position"] + worst["orientation"]))):
-                worst_body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b)
+                worst_body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"
             worst["position"], worst["orientation"] = _worse(worst["position"], dp), _worse(worst["orientation"], dq)
     return FreeMotion(k, worst["joint"], worst["velocity"], worst["position"], worst["orientation"], worst_body,
                       worst["constrained"])
@@ -1527,6 +2403,23 @@ def _mujoco_copy(m: mujoco.MjModel, dt: float, disable: int) -> mujoco.MjModel:
     out.opt.timestep = dt
     out.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
     out.opt.disableflags = int(out.opt.disableflags) | int(disable)
+    return out
+
+
+def _pinocchio_frames(mjr: Reading, pinr: Reading) -> dict[int, int]:
+    """MuJoCo body id -> the Pinocchio frame of the same body, for every body a joint moves: the
+    body of Pinocchio's joint of the same name (joints are matched by name, through the joint map
+    if any), its BODY frame (a URDF link's, an MJCF body's)."""
+    m, pmodel = mjr.model, pinr.model
+    pin_body = {x.joint: x.body for x in pinr.bodies}
+    out = {}
+    for j, x in enumerate(mjr.bodies):   # MuJoCo's joint order
+        b = int(m.jnt_bodyid[j])
+        name = pin_body.get(x.joint)
+        if name is None:
+            continue
+        out[b] = (pmodel.getFrameId(name, pin.FrameType.BODY) if pmodel.existFrame(name, pin.FrameType.BODY)
+                  else pmodel.getFrameId(name))
     return out
 
 
@@ -1632,9 +2525,15 @@ def render_report(res: CheckResult, command: str) -> str:
     L = [f"# harness check: {res.name}", "", f"Verdict: **{'PASS' if res.passed else 'FAIL'}**: {verdict(res)}", "",
          f"Command: `{command}`", "",
          f"- Loads: {res.mode}; " + "; ".join(loads),
-         f"- Base: {res.base}; joints matched by name; common coordinates of `harness.tools.dynamics_terms` "
-         "(MuJoCo's: free joint linear velocity in world, angular in the body frame)",
-         f"- Settings: {', '.join(f'{k} {v}' for k, v in res.settings.items())}", ""]
+         f"- Base: {res.base}; joints matched by name"
+         + (f" ({res.mapped} URDF joint(s) through the joint map)" if res.mapped else "")
+         + "; common coordinates of `harness.tools.dynamics_terms` (MuJoCo's: free joint linear velocity in world, "
+         "angular in the body frame)",
+         f"- Settings: {', '.join(f'{k} {v}' for k, v in res.settings.items())}"]
+    if res.copies:
+        L += ["- What the loaders read differs from the file(s) (each loader reads the file as written otherwise):"]
+        L += [f"  - {c}" for c in res.copies]
+    L += [""]
     L += ["## Models", "", "MuJoCo's reading, per joint: the rigid body it moves (fixed children merged), in the frame "
           "of its child body/link, at zero joint coordinates (every hinge and slide at 0, whatever its `ref`; free and "
           "ball joints as the file places them; Pinocchio at `neutral`). Units: kg, m, kg m^2. A body with several "
@@ -1678,6 +2577,12 @@ def render_report(res: CheckResult, command: str) -> str:
               "reconciles them within the tolerance, or, for an armature, the loaders' values show it):", ""]
         L += [f"- {f.text}" for f in res.findings]
     L += settings_table(res, by_joint)
+    if res.not_compared:
+        L += ["", "### Not compared", "",
+              "MuJoCo's model holds these beyond the tree of joints and bodies; the check does not compare them between "
+              "the loaders, and the dynamics terms and the free motion below leave them out (M, bias and gravity of the "
+              "tree; MuJoCo's rigid run has constraints and actuators off):", ""]
+        L += [f"- {line}" for line in res.not_compared]
     L += ["", "Importer differences (informational, not counted):", ""]
     L += [f"- {n}" for n in res.notes] or ["- none"]
     L += ["", "## Engine warnings", ""]
@@ -1690,8 +2595,9 @@ def render_report(res: CheckResult, command: str) -> str:
           f"common coordinates; sources compared: {', '.join(sources) or 'none'}. Relative = max abs difference / "
           "largest entry.", ""]
     L += [f"- {r.loader} not compared: {r.dynamics}" for r in res.readings.values() if r.loaded and r.dynamics]
+    L += [f"- {partial_line(res, r)}" for r in res.readings.values() if r.loaded and not r.dynamics and r.partial]
     L += [f"- {r.loader} not compared: it does not load the file" for r in res.readings.values() if not r.loaded]
-    if any(not r.loaded or r.dynamics for r in res.readings.values()):
+    if any(not r.loaded or r.dynamics or r.partial for r in res.readings.values()):
         L.append("")
     L += ["| sources | term | max abs | max rel | tolerance | verdict |", "|---|---|---|---|---|---|"]
     for d in res.dynamics:
@@ -1707,12 +2613,13 @@ def render_report(res: CheckResult, command: str) -> str:
         L += [f"Not run: {res.free_skipped}."]
         return "\n".join(L) + "\n"
     L += [f"{len(res.free)} random initial states, {res.settings.get('t_end')} s at dt {res.settings.get('dt')} s; MuJoCo RK4 with "
-          "contacts, constraints (limits, equalities, friction loss) and passive forces (damping, springs) disabled; "
+          "contacts, constraints (limits, equalities, friction loss), passive forces (damping, springs, gravity "
+          "compensation, fluid forces) and actuators disabled; "
           "Pinocchio `aba` + `rkmk4_step` (Drake is compared by its dynamics terms above, not in free motion). Max over "
           f"saved samples (every {res.settings.get('save_every')} s) of the joint-coordinate difference, joint-velocity "
           "difference and every moving body's world position and orientation (geodesic) difference. Last column: how far "
-          "MuJoCo's joints move when limits, equalities and damping are left on (contacts off), against the run without "
-          "them.", "",
+          "MuJoCo's joints move when limits, equalities, damping and actuators are left on (contacts off), against the run "
+          "without them.", "",
           f"| state | joints (tol {tol['joint']:.0e}) | joint velocities (tol {tol['velocity']:.0e}) | body position m (tol {tol['position']:.0e}) "
           f"| body orientation rad (tol {tol['orientation']:.0e}) | worst body | MuJoCo as the file says vs rigid |",
           "|---|---|---|---|---|---|---|"]
@@ -1774,7 +2681,7 @@ def _gear_cell(res: CheckResult, joint: str) -> str:
         plant = drr.model.plant
         for a in plant.GetJointActuatorIndices():
             act = plant.get_joint_actuator(a)
-            if act.joint().name() == joint:
+            if drr.names.get(act.joint().name(), act.joint().name()) == joint:   # through the joint map, if any
                 items.append(f"Drake {act.default_gear_ratio():g} ({act.name()})")
     return ", ".join(items) + ": not compared" if items else ""
 
@@ -1798,6 +2705,14 @@ def settings_table(res: CheckResult, by_joint: dict[str, dict[str, Vote]]) -> li
             "| joint | damping | friction loss | range | armature | actuator gear |", "|---|---|---|---|---|---|"] + rows
 
 
+def partial_line(res: CheckResult, r: Reading) -> str:
+    """How a loader that lacks whole kinematic trees is compared (``Reading.partial``)."""
+    roots = _whole_trees(res.readings["MuJoCo"], r.partial)
+    return (f"{r.loader} compared on the kinematic trees it reads: it lacks {len(roots)} whole tree(s) of MuJoCo's "
+            f"(rooted at {_few(roots, 6)}; joints {_few(r.partial, 6)}), which the dynamics terms and the free motion "
+            "leave out for every loader")
+
+
 def warning_lines(res: CheckResult) -> list[str]:
     """MuJoCo's captured warnings as report lines (none when it gave none)."""
     count = int(res.warnings.get("count", 0) or 0)
@@ -1811,6 +2726,8 @@ def summary_lines(res: CheckResult) -> list[str]:
     """What ``harness check`` prints."""
     lines = [f"{res.name}: {'PASS' if res.passed else 'FAIL'} ({res.mode}, {res.base} base)",
              f"  verdict: {verdict(res)}"]
+    lines += [f"  copy: {c}" for c in res.copies]
+    lines += [f"  not compared: {line}" for line in res.not_compared]
     lines += [f"  MODEL {p}" for p in res.model_problems]
     lines += [f"  setting (not counted) {p}" for p in res.setting_differences]
     lines += [f"  CAUSE {f.text}" for f in res.findings]
@@ -1819,6 +2736,7 @@ def summary_lines(res: CheckResult) -> list[str]:
         lines.append(f"  dynamics {d.term:<8} {d.a} vs {d.b}: max abs {d.max_abs:.3e}, max rel {d.max_rel:.3e}"
                      + ("" if d.passed else f"  DIFFERS (> {d.rtol:.0e})"))
     lines += [f"  dynamics {r.loader} not compared: {r.dynamics}" for r in res.readings.values() if r.loaded and r.dynamics]
+    lines += [f"  dynamics {partial_line(res, r)}" for r in res.readings.values() if r.loaded and not r.dynamics and r.partial]
     for r in res.free:
         lines.append(f"  free motion {r.state}: joints {r.joint:.3e}, velocities {r.velocity:.3e}, "
                      f"body position {r.position:.3e} m, orientation {r.orientation:.3e} rad")

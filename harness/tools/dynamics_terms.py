@@ -215,23 +215,29 @@ def named_joint_map(m: mujoco.MjModel, pmodel: pin.Model) -> JointMap:
 
 
 def joint_map(m: mujoco.MjModel, pinocchio: Mapping[str, Mapping[str, int]] | None = None,
-              drake: Mapping[str, Mapping[str, int]] | None = None) -> JointMap:
+              drake: Mapping[str, Mapping[str, int]] | None = None, only: Sequence[str] | None = None) -> JointMap:
     """Common coordinates of any model file: MuJoCo's joints in MuJoCo's order, each with its
     place in the other loaders that are given, by joint name: ``pinocchio`` maps a joint name to
     ``pin_q``, ``pin_v``, ``pin_joint``, ``pin_nq`` (a composite joint's sub-joint: its own
-    ``idx_q``/``idx_v`` and the composite's id), ``drake`` to ``drake_q``, ``drake_v``. Raises
-    MappingError when a given loader lacks one of MuJoCo's joints or has joints MuJoCo has not."""
-    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}" for j in range(m.njnt)]
+    ``idx_q``/``idx_v`` and the composite's id), ``drake`` to ``drake_q``, ``drake_v``. ``only``:
+    the joints to map (default all of MuJoCo's; the others stay at ``qpos0``, at rest: right
+    when they are whole kinematic trees of their own, which do not enter the mapped joints' M,
+    bias and gravity). Raises MappingError when a given loader lacks one of the mapped joints or
+    has joints MuJoCo has not."""
+    every = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}" for j in range(m.njnt)]
+    names = every if only is None else [n for n in every if n in set(only)]
     for label, table in (("Pinocchio", pinocchio), ("Drake", drake)):
         if table is None:
             continue
-        missing, extra = [n for n in names if n not in table], [n for n in table if n not in names]
+        missing, extra = [n for n in names if n not in table], [n for n in table if n not in every]
         if missing or extra:
             parts = ([f"MuJoCo joints {missing} are not in {label}"] if missing else []) + (
                 [f"{label} joints {extra} are not in MuJoCo"] if extra else [])
             raise MappingError("; ".join(parts))
     entries = []
-    for j, name in enumerate(names):
+    for j, name in enumerate(every):
+        if name not in names:
+            continue
         kind = mujoco_joint_kind(m, j, "?")
         limits = None
         if JOINTS[kind].axis is not None and m.jnt_limited[j]:

@@ -976,21 +976,27 @@ class PinocchioSlot:
 def pinocchio_joint_slots(pmodel: pin.Model, body_joints: dict[str, list[str]] | None = None) -> dict[str, PinocchioSlot]:
     """Joint name -> ``PinocchioSlot``. A composite joint is split into its sub-joints, named by
     ``body_joints`` (the file's joint names per body, e.g. MuJoCo's) when the body it moves has
-    as many joints there, else ``<composite name>[k]``."""
+    as many joints there, else ``<composite name>[k]``. A name Pinocchio gives twice (its MJCF
+    parser names composites after their first joint) is made unique with ``#<joint id>``."""
     body_joints = body_joints or {}
     out = {}
+
+    def unique(name: str, jid: int) -> str:
+        return name if name not in out else f"{name}#{jid}"
+
     for jid in range(1, pmodel.njoints):
         jm = pmodel.joints[jid]
         if jm.shortname() != "JointModelComposite":
-            out[pmodel.names[jid]] = PinocchioSlot(jid, -1, int(jm.idx_q), int(jm.idx_v), int(jm.nq), int(jm.nv), jm.shortname())
+            out[unique(pmodel.names[jid], jid)] = PinocchioSlot(jid, -1, int(jm.idx_q), int(jm.idx_v), int(jm.nq),
+                                                                int(jm.nv), jm.shortname())
             continue
         subs = list(jm.extract().joints)
         body = pmodel.frames[_pin_body_frame(pmodel, jid)].name
         names = body_joints.get(body, [])
-        if len(names) != len(subs):
+        if len(names) != len(subs) or any(n in out for n in names):
             names = [f"{pmodel.names[jid]}[{k}]" for k in range(len(subs))]
         for k, (name, s) in enumerate(zip(names, subs)):
-            out[name] = PinocchioSlot(jid, k, int(s.idx_q), int(s.idx_v), int(s.nq), int(s.nv), s.shortname())
+            out[unique(name, jid)] = PinocchioSlot(jid, k, int(s.idx_q), int(s.idx_v), int(s.nq), int(s.nv), s.shortname())
     return out
 
 
@@ -1011,14 +1017,14 @@ def pinocchio_split_joint_bodies(pmodel: pin.Model, slots: dict[str, PinocchioSl
     as ``mujoco_joint_bodies`` reports a body with several joints), each its own axis in B."""
     from dataclasses import replace
 
-    whole = {x.joint: x for x in pinocchio_joint_bodies(pmodel)}
+    whole = dict(enumerate(pinocchio_joint_bodies(pmodel), start=1))   # by joint id: names may repeat
     data = pmodel.createData()
     pin.forwardKinematics(pmodel, data, pin.neutral(pmodel))
     out = []
     for name, s in slots.items():
-        x = whole[pmodel.names[s.jid]]
+        x = whole[s.jid]
         if s.sub < 0:
-            out.append(x)
+            out.append(replace(x, joint=name))
             continue
         jt = pin_joint_type_by_name(s.shortname)
         jMb = pmodel.frames[_pin_body_frame(pmodel, s.jid)].placement
