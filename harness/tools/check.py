@@ -393,7 +393,7 @@ def supported_joints() -> str:
     """The joints ``harness check`` compares, from the joint table (``harness.model.joints``): every
     kind has MuJoCo's coordinates and Pinocchio's joint model; URDF types where a URDF can state
     the kind, and the root joint ``--floating-base`` adds."""
-    mjcf = [jt.mujoco.removeprefix("mjJNT_").lower() for jt in JOINTS.values() if jt.mujoco]
+    mjcf = [jt.mujoco.split("_", 1)[1].lower() for jt in JOINTS.values() if jt.mujoco]
     urdf = [t for jt in JOINTS.values() for t in jt.urdf]
     return (f"supported: MJCF {', '.join(mjcf[:-1])} and {mjcf[-1]} joints, several on one body too; URDF "
             f"{', '.join(urdf)} and fixed joints; a {FREE.name} root joint added by --floating-base")
