@@ -100,6 +100,36 @@ def add_engines(parser) -> None:
                         help=f"comma-separated engines among {ENGINES_HELP} (default: all)")
 
 
+def dask_address(text: str) -> str:
+    """A Dask scheduler address: ``tcp://host:port`` (``host:port`` means tcp; tls://, ws://...
+    as Dask spells them). Whether a scheduler answers there is ``connect_dask``'s to say."""
+    address = text.strip()
+    rest = address.split("://", 1)[-1]
+    host, sep, port = rest.rpartition(":")
+    if not (sep and host and port.isdigit()):
+        raise argparse.ArgumentTypeError(f"not a scheduler address tcp://HOST:PORT: {text!r}")
+    return address if "://" in address else "tcp://" + address
+
+
+def add_dask(parser) -> None:
+    """The ``--dask ADDRESS`` option of the sweeps (validate, stress, workprecision, zoo): run their
+    cases on the workers of a ``dask.distributed`` scheduler instead of the local pool."""
+    parser.add_argument("--dask", type=dask_address, metavar="ADDRESS",
+                        help="run the cases on the workers of the Dask scheduler at ADDRESS (tcp://host:port; "
+                             "`dask scheduler`, then `dask worker ADDRESS` in this environment on each machine), "
+                             "each in its own process there, with the same results as a local run (as many at "
+                             "once as the workers have threads, at most --jobs where the command has it)")
+
+
+def connect_dask(args) -> None:
+    """With ``--dask``: reach its scheduler now, before anything is written (InputError, one line,
+    when none answers or it has no worker; ``harness.validate.dask_workers.connect``)."""
+    if getattr(args, "dask", None):
+        from harness.validate.dask_workers import connect
+
+        connect(args.dask)
+
+
 def add_out_dir(parser, command: str, what: str, subset: tuple[str, ...]) -> None:
     """Add ``--out-dir`` to a report-writing command: ``what`` its files, ``subset`` the
     options (attribute names, e.g. ``("scenes", "quick")``) that make a run partial."""

@@ -22,7 +22,8 @@ from harness.cli import workprecision as cli_workprecision
 from harness.io.progress import set_quiet
 from harness.io.provenance import set_argv
 from harness.model.errors import InputError
-from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_engines, add_out_dir, check_samples, check_selection, csv_list as _csv_list,
+from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_dask, add_engines, add_out_dir, check_samples, check_selection,
+                                   connect_dask, csv_list as _csv_list,
                                    float_arg as _float, int_arg as _int, models_dir_arg as _models_dir,
                                    out_dir, require_scene_files_utf8)
 
@@ -95,6 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
     v.add_argument("--timeout", type=_float, default=300.0, metavar="S",
                    help="seconds allowed per scene x engine case (> 0, default 300)")
+    add_dask(v)
     v.add_argument("--quiet", action="store_true",
                    help="no progress bar and no compile notice on stderr (the results and errors still print); "
                         "the bar is drawn only when stderr is a terminal")
@@ -227,6 +229,7 @@ def cmd_validate(args) -> int:
         check_scenes_known(table, available_scenes(args.models_dir), args.tolerances)
         for i, scene in enumerate(scenes):
             scenes[i], changes[scene.name] = apply_tolerances(scene, table, args.tolerances)
+    connect_dask(args)  # an unreachable scheduler: one line, exit 2, nothing written
     folder = out_dir(args, "validate", VALIDATE_SUBSET)
     for scene in scenes:
         preflight(scene)
@@ -236,7 +239,7 @@ def cmd_validate(args) -> int:
         announce_compilation((s.integrators.get("inhouse", ""), s.multibody()) for s in scenes)
     with make_bar(len(scenes) * (1 + len(engines)), desc="validate", unit="case", quiet=args.quiet) as bar:
         results = validate(scenes, engines, jobs=args.jobs or None, timeout=args.timeout, tolerance_changes=changes,
-                           progress=bar)
+                           progress=bar, dask=args.dask)
     # the model-file checks run before any engine: a scene whose runs gave no check judged nothing
     empty = [r.scene for r in results if not any(not c.check.startswith("model.") for c in r.checks)]
     if not results or empty:

@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from harness.cli.arg_types import (MODELS_DIR_HELP, add_engines, add_out_dir, check_selection, csv_list as _csv_list, float_arg as _float,
-                                   int_arg as _int, models_dir_arg as _models_dir, out_dir)
+from harness.cli.arg_types import (MODELS_DIR_HELP, add_dask, add_engines, add_out_dir, check_selection, connect_dask,
+                                   csv_list as _csv_list, float_arg as _float, int_arg as _int,
+                                   models_dir_arg as _models_dir, out_dir)
 
 EXIT_OK = 0
 SUBSET = ("quick", "variants", "engines", "catalogue", "models_dir")  # options that make a run partial
@@ -32,6 +33,7 @@ def add_parser(sub) -> None:
     s.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
     s.add_argument("--timeout", type=_float, default=120.0, metavar="S",
                    help="seconds allowed per run (> 0, default 120; references 4x)")
+    add_dask(s)
     add_out_dir(s, "stress", "stress.md, stress.csv, stress/", SUBSET)
     s.add_argument("--catalogue", type=Path, metavar="FILE.toml",
                    help="stress catalogue TOML (default: harness/studies/stress/catalogue.toml)")
@@ -57,12 +59,13 @@ def run(args) -> int:
             check_selection(option, chosen, [])
     catalogue = load_catalogue(args.catalogue, quick=args.quick)
     variants, engines = select(catalogue, args.variants, args.engines)
+    connect_dask(args)  # an unreachable scheduler: one line, exit 2, nothing written
     folder = out_dir(args, "stress", SUBSET)
     # a bar on a terminal; the per-variant lines only in a log (stderr not a terminal); neither with --quiet
     lines = not (args.quiet or bar_enabled())
     with make_bar(None, desc="stress", unit="cell", quiet=args.quiet) as bar:
         result = run_stress(catalogue, variants, engines, quick=args.quick, jobs=args.jobs or None,
-                            timeout=args.timeout, models_dir=args.models_dir, progress=bar,
+                            timeout=args.timeout, models_dir=args.models_dir, progress=bar, dask=args.dask,
                             log=(lambda line: print(line, file=sys.stderr, flush=True)) if lines else (lambda line: None))
     paths = write_stress_reports(result, provenance(), folder)
     stable = sum(1 for m in result.rows if m.stable_dt is not None or (m.nominal is not None and m.nominal.stable))

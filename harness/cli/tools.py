@@ -13,7 +13,7 @@ import shlex
 import sys
 import warnings
 from pathlib import Path
-from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, check_samples, csv_list as _csv_list, float_arg as _float,
+from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_dask, check_samples, connect_dask, csv_list as _csv_list, float_arg as _float,
                                    int_arg as _int, models_dir_arg as _models_dir, require_scene_files_utf8,
                                    require_utf8)
 from harness.model.errors import InputError
@@ -116,6 +116,7 @@ def add_parsers(sub) -> None:
     z.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
     z.add_argument("--timeout", type=_float, default=300.0, metavar="S",
                    help="seconds allowed per model (> 0, default 300); a model over it is recorded as crashed (timeout)")
+    add_dask(z)
 
 
 def cmd_inspect(args) -> int:
@@ -213,6 +214,7 @@ def cmd_zoo(args) -> int:
     if not (args.timeout > 0):
         raise InputError(f"--timeout must be positive, got {args.timeout!r}")
     coll = select(collection(args.collection, strip=args.strip_geometry), args.only)
+    connect_dask(args)  # an unreachable scheduler: one line, exit 2, nothing written
     out = args.out_dir or (default_out_dir("zoo", full_run=False) if args.only else REPORTS_DIR / "zoo")
     check_writable(out)
 
@@ -220,7 +222,8 @@ def cmd_zoo(args) -> int:
         print(f"  {row.verdict:<8} {row.name} ({row.wall_s:.1f} s)", flush=True)
 
     print(f"zoo {coll.name}: {len(coll.models)} model(s)", flush=True)
-    zoo = run_zoo(coll, base=args.base, jobs=args.jobs or None, timeout=args.timeout, on_done=done)
+    zoo = run_zoo(coll, base=args.base, jobs=args.jobs or None, timeout=args.timeout, on_done=done,
+                  dask=args.dask)
     paths = write_zoo(zoo, out, made_line(provenance()), command_line())
     print(f"zoo {coll.name}: {headline(zoo)}")
     print(f"wrote {paths[0]}, {paths[1]} and {len(paths) - 2} per-model report(s) in {out / coll.name}")

@@ -11,8 +11,9 @@ import os
 from dataclasses import replace
 
 from harness.model.errors import InputError
-from harness.cli.arg_types import (MODELS_DIR_HELP, add_engines, add_out_dir, check_selection, csv_list as _csv_list, float_arg as _float,
-                                   int_arg as _int, models_dir_arg as _models_dir, out_dir)
+from harness.cli.arg_types import (MODELS_DIR_HELP, add_dask, add_engines, add_out_dir, check_selection, connect_dask,
+                                   csv_list as _csv_list, float_arg as _float, int_arg as _int,
+                                   models_dir_arg as _models_dir, out_dir)
 
 SUBSET = ("quick", "scenes", "engines", "models_dir")  # options that make a run partial
 
@@ -42,6 +43,7 @@ def add_parser(sub) -> None:
                         "--no-progress is the same); the bar is drawn only when stderr is a terminal")
     add_out_dir(w, "workprecision", "workprecision.md, workprecision.csv, workprecision/", SUBSET)
     w.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
+    add_dask(w)  # one case per scene on the workers; locally the scenes run one after the other
 
 
 def options_from_args(args):
@@ -83,9 +85,10 @@ def run(args) -> int:
     names = check_selection("--scenes", args.scenes, available_scenes(args.models_dir),
                             f"under {args.models_dir or MODELS_DIR} (a scene is a folder with a scene.toml)")
     scenes = [load_scene(n, models_dir=args.models_dir) for n in names]
+    connect_dask(args)  # an unreachable scheduler: one line, exit 2, nothing written
     folder = out_dir(args, "workprecision", SUBSET)
     load_before = os.getloadavg()[0]
-    results = run_sweep(scenes, engines, options)
+    results = run_sweep(scenes, engines, options, dask=args.dask)
     paths = write_reports(results, provenance(), options, folder, (load_before, os.getloadavg()[0]))
     for sweep in results:
         rows = time_table(sweep)

@@ -34,6 +34,9 @@ segfault), a hang or a timeout of one model is that model's row and reaches no o
 are killed when the parent gets SIGTERM, returns or raises, and die with it when it is killed
 outright (Linux ``PR_SET_PDEATHSIG``). A worker's stdout and stderr (importers' chatter) go to a
 file the parent reads only when the worker dies, for the last Python frame ``faulthandler`` wrote.
+With ``--dask ADDRESS`` the models are checked the same way on the workers of that Dask scheduler
+(``harness.validate.dask_workers``); a worker on another machine, which cannot reach that file,
+leaves the chatter in its own log.
 
 One row per model (``ModelRow``):
 
@@ -600,7 +603,7 @@ def _file_bodies(model: ZooModel, m: mujoco.MjModel | None) -> tuple[list[BodyPl
 def check_model(model: ZooModel, base: str, strip: bool, log_path: str | None = None) -> ModelRow:
     """Run ``harness check`` on one model and make its row (runs in a worker process; stdout and
     stderr go to ``log_path`` when given, and ``faulthandler`` writes a crash's frames there)."""
-    if log_path is not None:
+    if log_path is not None and os.path.isdir(os.path.dirname(log_path) or "."):  # not on another machine's worker
         log = open(log_path, "w")  # left open: faulthandler writes a crash's frames to it until the worker exits
         os.dup2(log.fileno(), 1)
         os.dup2(log.fileno(), 2)
@@ -689,9 +692,10 @@ def _crashed_row(model: ZooModel, base: str, outcome: Outcome, log_path: Path) -
 
 
 def run_zoo(coll: Collection, *, base: str = "auto", jobs: int | None = None, timeout: float = DEFAULT_TIMEOUT,
-            on_done=None) -> Zoo:
+            on_done=None, dask: str | None = None) -> Zoo:
     """Check every model of ``coll``, each in its own worker (see module docstring); ``on_done(row)``
-    is called in this process as each model ends."""
+    is called in this process as each model ends. ``dask``: the address of a ``dask.distributed``
+    scheduler whose workers check the models (same rows), else the local pool."""
     if base not in BASES:
         raise InputError(f"--base must be one of {', '.join(BASES)}, got {base!r}")
     if not (timeout > 0):
@@ -713,8 +717,14 @@ def run_zoo(coll: Collection, *, base: str = "auto", jobs: int | None = None, ti
                 on_done(row)
 
         cases = [(m.name, check_model, (m, base, coll.strip, str(log[m.name]))) for m in coll.models]
-        run_cases(cases, jobs, timeout, on_done=done)
-    return Zoo(coll, [rows[m.name] for m in coll.models], base, time.perf_counter() - start, effective_jobs(jobs))
+        run_cases(cases, jobs, timeout, on_done=done, dask=dask)
+    if dask:
+        from harness.validate.dask_workers import slots
+
+        jobs = slots(dask, jobs)
+    else:
+        jobs = effective_jobs(jobs)
+    return Zoo(coll, [rows[m.name] for m in coll.models], base, time.perf_counter() - start, jobs)
 
 
 # --------------------------------------------------------------------------- tables

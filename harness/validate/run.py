@@ -168,10 +168,11 @@ def engine_case(scene: Scene, engine: str, ref: Trajectory | None) -> tuple[Traj
 
 def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None,
              timeout: float = DEFAULT_TIMEOUT, tolerance_changes: dict[str, list[str]] | None = None,
-             progress=None) -> list[SceneValidation]:
+             progress=None, dask: str | None = None) -> list[SceneValidation]:
     """Validate ``scenes`` on ``engines``, each run isolated in a worker process.
     ``progress``: a bar (``harness.io.progress.make_bar``) ticked once per finished case (each
-    scene's reference run, then each scene x engine run), or None.
+    scene's reference run, then each scene x engine run), or None. ``dask``: the address of a
+    ``dask.distributed`` scheduler whose workers run the cases (same results), else the local pool.
 
     Raises InputError if any case reports bad input (e.g. a model that does not load).
     """
@@ -179,14 +180,14 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
     defaults = {s.name: _defaults(s) for s in scenes}
     models = {s.name: model_checks(s, engines, defaults[s.name]) for s in scenes}
     tick = None if progress is None else (lambda key, outcome: progress.update(1))
-    refs = run_cases([(s.name, reference_case, (s,)) for s in scenes], jobs, timeout, on_done=tick)
+    refs = run_cases([(s.name, reference_case, (s,)) for s in scenes], jobs, timeout, on_done=tick, dask=dask)
     _raise_input_errors(refs)
     cases = []
     for s in scenes:
         ref_outcome = refs[s.name]
         ref = ref_outcome.value[0] if ref_outcome.status == "ok" else None
         cases += [((s.name, e), engine_case, (s, e, ref)) for e in engines if e not in s.not_run]
-    outcomes = run_cases(cases, jobs, timeout, on_done=tick)
+    outcomes = run_cases(cases, jobs, timeout, on_done=tick, dask=dask)
     _raise_input_errors(outcomes)
 
     results = []

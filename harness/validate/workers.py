@@ -2,8 +2,11 @@
 a hang or a blow-up in one engine is recorded as that case's failure and nothing else is lost.
 
 ``run_cases(cases, jobs, timeout)`` runs ``(key, fn, args)`` cases at most ``jobs`` at a time
-and returns ``{key: Outcome}``. ``Workers`` is the same machinery for a caller that decides
-what to start next as cases end (the stress study). Workers are forked (POSIX) so they start in
+and returns ``{key: Outcome}`` in the cases' order. ``Workers`` is the same machinery for a
+caller that decides what to start next as cases end (the stress study); ``open_workers(jobs,
+dask)`` gives it, or with ``dask="tcp://host:port"`` its Dask twin
+(``harness.validate.dask_workers.DaskWorkers``: each case in its own process on a Dask worker,
+the same outcomes), which is how every sweep's ``--dask`` reaches this module. Workers are forked (POSIX) so they start in
 milliseconds; where fork is unavailable, spawned. Each case gets a fresh process: nothing one
 case does (a segfault, a leaked global, an exhausted heap) reaches another.
 
@@ -336,17 +339,34 @@ class Workers:
         return []
 
 
+def open_workers(jobs: int | None = None, dask: str | None = None):
+    """The executor of a sweep: the local pool ``Workers(jobs)``, or with ``dask`` (a scheduler
+    address, ``tcp://host:port``) ``harness.validate.dask_workers.DaskWorkers(dask, jobs)``, which
+    has the same interface and isolation. InputError when that scheduler cannot be reached."""
+    if dask:
+        from harness.validate.dask_workers import DaskWorkers
+
+        return DaskWorkers(dask, jobs)
+    return Workers(jobs)
+
+
 def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, timeout: float,
-              on_done: Callable[[Hashable, Outcome], None] | None = None) -> dict[Hashable, Outcome]:
+              on_done: Callable[[Hashable, Outcome], None] | None = None,
+              dask: str | None = None) -> dict[Hashable, Outcome]:
     """Run each ``fn(*args)`` in its own process, at most ``effective_jobs(jobs)`` at a time,
     each limited to ``timeout`` wall-clock seconds from its own start. Returns ``{key: Outcome}``
-    for every case; ``on_done(key, outcome)``, if given, is called in this process as each case
-    ends (e.g. to tick a progress bar). Workers still running when this returns or raises (or
-    when the process gets SIGTERM) are killed; on Linux they also die if this process is killed
-    outright."""
+    for every case, in the order of ``cases``; ``on_done(key, outcome)``, if given, is called in
+    this process as each case ends (e.g. to tick a progress bar). Workers still running when this
+    returns or raises (or when the process gets SIGTERM) are killed; on Linux they also die if
+    this process is killed outright.
+
+    ``dask``: the address of a ``dask.distributed`` scheduler (``tcp://host:port``): the cases run
+    there instead, each in its own process on a Dask worker, at most as many at once as the
+    cluster has worker threads (``jobs`` caps it), with the same outcomes
+    (``harness.validate.dask_workers``)."""
     pending = collections.deque(cases)
     results: dict[Hashable, Outcome] = {}
-    with Workers(jobs) as workers:
+    with open_workers(jobs, dask) as workers:
         while pending or len(workers):
             while pending and workers.free():
                 key, fn, args = pending.popleft()
@@ -355,4 +375,4 @@ def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, t
                 results[key] = outcome
                 if on_done is not None:
                     on_done(key, outcome)
-    return results
+    return {key: results[key] for key, _, _ in cases}

@@ -967,16 +967,17 @@ def _cost(spec: TrialSpec) -> float:
 
 
 def run_dynamic(propose: Callable[[], list[tuple[Any, Callable, tuple, float, float]]],
-                on_done: Callable[[Any, Outcome], None], jobs: int) -> None:
+                on_done: Callable[[Any, Outcome], None], jobs: int, dask: str | None = None) -> None:
     """Run cases in worker processes (``harness.validate.workers.Workers``, as ``run_cases``: the
     same isolation, outcomes and clean-up on SIGTERM), but work-conserving: ``propose()`` returns
     new ``(key, fn, args, cost, timeout)`` cases and is asked again whenever a case ends
     (``on_done(key, outcome)``), so a bisection's next step starts as soon as its last one ends. Waiting cases start highest ``cost`` first;
-    each is limited to its own ``timeout`` (s)."""
-    from harness.validate.workers import Workers
+    each is limited to its own ``timeout`` (s). ``dask``: a scheduler address to run them on instead
+    (``harness.validate.workers.open_workers``)."""
+    from harness.validate.workers import open_workers
 
     pending: list[tuple[Any, Callable, tuple, float, float]] = sorted(propose(), key=lambda c: -c[3])
-    with Workers(jobs) as workers:
+    with open_workers(jobs, dask) as workers:
         while pending or len(workers):
             while pending and workers.free():
                 key, fn, args, _, limit = pending.pop(0)
@@ -990,13 +991,21 @@ def run_dynamic(propose: Callable[[], list[tuple[Any, Callable, tuple, float, fl
 
 def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str], *, quick: bool = False,
                jobs: int | None = None, timeout: float = 60.0, models_dir: Path | None = None,
-               log: Callable[[str], None] = lambda s: None, progress: Any = None) -> StressRun:
+               log: Callable[[str], None] = lambda s: None, progress: Any = None,
+               dask: str | None = None) -> StressRun:
     """Run the variants on the engines (module docstring); every trial in its own worker, each
     limited to ``timeout`` s (a reference run to 4 ``timeout``). ``progress``: a bar
     (``harness.io.progress.make_bar``) whose total is set to the engine/integrator cells and
-    which ticks as each cell's step search ends (its postfix counts the runs), or None."""
+    which ticks as each cell's step search ends (its postfix counts the runs), or None.
+    ``dask``: the address of a ``dask.distributed`` scheduler whose workers run the trials
+    (``harness.validate.dask_workers``; the same map as a local run), else the local pool."""
     start = time.perf_counter()
-    jobs = effective_jobs(jobs)  # clamped to the CPUs this process may use
+    if dask:
+        from harness.validate.dask_workers import slots
+
+        jobs = slots(dask, jobs)  # the cluster's worker threads, at most jobs
+    else:
+        jobs = effective_jobs(jobs)  # clamped to the CPUs this process may use
     bounds = catalogue.bounds
     skipped, scenes, rates = {}, {}, {}
     for v in variants:
@@ -1086,7 +1095,7 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
         in_flight[key[0]] -= 1
         by_id[key[0]].record(outcome.value if outcome.status == "ok" else failed_trial(spec, outcome))
 
-    run_dynamic(propose, on_done, jobs)
+    run_dynamic(propose, on_done, jobs, dask)
     log(f"{counts['trials']} runs in {time.perf_counter() - start:.0f} s")
     rows = [s.summary() for s in searches]
     return StressRun(catalogue, list(variants), skipped, rates, ref_rows, rows, quick, timeout, jobs,

@@ -677,31 +677,70 @@ def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3) -> 
 # Whole sweep
 
 
-def run_sweep(scenes: list[Scene], engines, options: SweepOptions = SweepOptions()) -> list[SceneSweep]:
+SCENE_TIMEOUT = 3600.0  # s allowed to one scene's sweep on a Dask worker (a full scene takes minutes)
+
+
+def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
+                progress: Progress | None = None) -> SceneSweep:
+    """One scene's part of ``run_sweep``: its sweep, the head-to-head timing (with MuJoCo and
+    the in-house engine) and, unless ``options.batch`` is 0, the batched-throughput benchmark."""
+    res = sweep_scene(scene, engines, options, progress)
+    if "mujoco" in engines and "inhouse" in engines:
+        if progress is not None:
+            progress.advance(0, f"{scene.name}: head to head")
+        try:
+            res.head_to_head = head_to_head(scene, res, options)
+        except Exception as err:  # recorded, not raised
+            res.head_to_head = [{"status": f"failed: {type(err).__name__}: {err}"}]
+    if options.batch and "mujoco" in engines and "inhouse" in engines:
+        if progress is not None:
+            progress.advance(0, f"{scene.name}: batch of {options.batch}")
+        try:
+            res.batch = batch_benchmark(scene, options.batch, options.batch_steps, min(3, options.repeats))
+        except Exception as err:  # recorded, not raised
+            res.batch = {"scene": scene.name, "status": f"failed: {type(err).__name__}: {err}"}
+        if progress is not None:
+            progress.advance(1, f"{scene.name}: batch done")
+    return res
+
+
+def run_sweep(scenes: list[Scene], engines, options: SweepOptions = SweepOptions(), *,
+              dask: str | None = None, jobs: int | None = None) -> list[SceneSweep]:
     """Sweep ``scenes`` on ``engines`` (progress bar on stderr) and, unless ``options.batch``
-    is 0, run the batched-throughput benchmark per scene."""
+    is 0, run the batched-throughput benchmark per scene (``scene_study``).
+
+    Locally the scenes run one after the other in this process: a timing benchmark, never two
+    runs side by side. With ``dask`` (the address of a ``dask.distributed`` scheduler) each scene
+    is one isolated case on its workers (``harness.validate.workers.run_cases``; at most ``jobs``
+    at once when given, limited to ``SCENE_TIMEOUT`` s): the same points wherever the timing
+    criteria (``max_run_s``) do not decide, times as quiet as the workers are. A scene whose case
+    fails has no points and says why in its reference line."""
     progress = Progress(planned_runs(len(scenes), engines, options), enabled=options.progress)
     results = []
     try:
+        if not dask:
+            return [scene_study(scene, engines, options, progress) for scene in scenes]
+        from harness.validate.workers import run_cases
+
+        per_scene = planned_runs(1, engines, options)
+        quiet = replace(options, progress=False)
+
+        def done(name, outcome) -> None:
+            progress.advance(per_scene, f"{name}: {outcome.status}")
+
+        outcomes = run_cases([(s.name, scene_study, (s, engines, quiet)) for s in scenes], jobs, SCENE_TIMEOUT,
+                             on_done=done, dask=dask)
         for scene in scenes:
-            res = sweep_scene(scene, engines, options, progress)
-            if "mujoco" in engines and "inhouse" in engines:
-                progress.advance(0, f"{scene.name}: head to head")
-                try:
-                    res.head_to_head = head_to_head(scene, res, options)
-                except Exception as err:  # recorded, not raised
-                    res.head_to_head = [{"status": f"failed: {type(err).__name__}: {err}"}]
-            if options.batch and "mujoco" in engines and "inhouse" in engines:
-                progress.advance(0, f"{scene.name}: batch of {options.batch}")
-                try:
-                    res.batch = batch_benchmark(scene, options.batch, options.batch_steps, min(3, options.repeats))
-                except Exception as err:  # recorded, not raised
-                    res.batch = {"scene": scene.name, "status": f"failed: {type(err).__name__}: {err}"}
-                progress.advance(1, f"{scene.name}: batch done")
-            results.append(res)
+            outcome = outcomes[scene.name]
+            if outcome.status == "ok":
+                results.append(outcome.value)
+            else:
+                t_end, save = horizon(scene, options)
+                results.append(SceneSweep(scene.name, t_end, save,
+                                          f"none, the scene's sweep did not end ({outcome.status}: {outcome.message})"))
+        return results
     finally:
         progress.close()
-    return results
 
 
 def points_table(results: list[SceneSweep]):
