@@ -180,7 +180,29 @@ def _add_root_joint(spec, root_joint: str, path: Path) -> None:
         roots[0].add_joint(name="root_joint", type=getattr(mujoco.mjtJoint, jt.mujoco))
 
 
-def _from_compiled(m, path: Path, fmt: str, initial: str) -> ModelFile:
+def read_compiled(m, path: Path, *, initial: str = ZERO, merge_fixed: bool = False) -> ModelFile:
+    """``read_model_file`` of a model MuJoCo has already compiled (``path``: the file it came from,
+    for messages and the format). ``merge_fixed``: a body without a joint is merged into its
+    nearest ancestor with one (its mass, centre of mass and inertia added to that body's at
+    ``qpos0``; welded to the world when it has none), as MuJoCo's ``fusestatic`` would, instead of
+    refused."""
+    return _from_compiled(m, Path(path), file_format(path), initial, merge_fixed=merge_fixed)
+
+
+def _merged(m, d, b: int, owner) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass, world centre of mass and world inertia about it of body ``b`` with the jointless
+    bodies ``owner`` assigns to it, at the kinematics in ``d``."""
+    parts = [k for k in range(1, m.nbody) if owner[k] == b]
+    mass = float(sum(m.body_mass[k] for k in parts))
+    com = sum(m.body_mass[k] * d.xipos[k] for k in parts) / mass if mass > 0 else d.xipos[b].copy()
+    inertia = np.zeros((3, 3))
+    for k in parts:
+        R, r = d.ximat[k].reshape(3, 3), d.xipos[k] - com
+        inertia += R @ np.diag(m.body_inertia[k]) @ R.T + m.body_mass[k] * (r @ r * np.eye(3) - np.outer(r, r))
+    return mass, com, inertia
+
+
+def _from_compiled(m, path: Path, fmt: str, initial: str, merge_fixed: bool = False) -> ModelFile:
     import mujoco
 
     if m.neq:
@@ -195,9 +217,15 @@ def _from_compiled(m, path: Path, fmt: str, initial: str) -> ModelFile:
     frames = {0: (np.zeros(3), np.eye(3))}  # MuJoCo body id -> the harness frame's origin and rotation in world
     names = {0: None}
     bodies, joints, rots, notes = [], {}, {}, {}
+    owner = np.arange(m.nbody)   # body -> the body with a joint it belongs to (merge_fixed), 0: the world
+    if merge_fixed:
+        for b in range(1, m.nbody):
+            owner[b] = b if m.body_jntnum[b] > 0 else owner[m.body_parentid[b]]
     for b in range(1, m.nbody):
         name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b)
-        parent = int(m.body_parentid[b])
+        parent = int(owner[m.body_parentid[b]])
+        if merge_fixed and m.body_jntnum[b] == 0:
+            continue
         of = f"child of {names[parent]!r}" if names[parent] else "child of the world"
         if not name:
             raise InputError(f"{path}: body #{b} ({of}) has no name: the harness names every body")
@@ -226,10 +254,13 @@ def _from_compiled(m, path: Path, fmt: str, initial: str) -> ModelFile:
         if jt.axis:
             axis = axis / np.linalg.norm(axis)
         R_I = d.ximat[b].reshape(3, 3)
-        inertia = R_B.T @ R_I @ np.diag(m.body_inertia[b]) @ R_I.T @ R_B
+        mass, com_W, I_W = float(m.body_mass[b]), d.xipos[b], R_I @ np.diag(m.body_inertia[b]) @ R_I.T
+        if merge_fixed:
+            mass, com_W, I_W = _merged(m, d, b, owner)
+        inertia = R_B.T @ I_W @ R_B
         C = R_B.T @ R_file
-        bodies.append(Body(name, names[parent], jt.name, p_PB_P, axis, float(m.body_mass[b]),
-                           R_B.T @ (d.xipos[b] - o_B), 0.5 * (inertia + inertia.T)))
+        bodies.append(Body(name, names[parent], jt.name, p_PB_P, axis, mass,
+                           R_B.T @ (com_W - o_B), 0.5 * (inertia + inertia.T)))
         frames[b], names[b], rots[name] = (o_B, R_B), name, C
         if mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j):
             joints[jnames[0]] = name

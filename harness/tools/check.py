@@ -1,5 +1,6 @@
 """``harness check``: read any MJCF/URDF model with three independent importers (MuJoCo,
-Pinocchio and Drake), say which agree on what, then write a report.
+Pinocchio and Drake), say which agree on what, check the dynamics with two more engines built
+from MuJoCo's reading (the in-house engine and Exudyn), then write a report.
 
 Loads (``load_models``):
 
@@ -82,9 +83,27 @@ Then, in order:
   trajectories and the world pose of every moving body both hold (matched through their joints);
   not run when Pinocchio does not load the file or its joints are not MuJoCo's.
 
+* the in-house engine and Exudyn, two *witnesses of dynamics* (``harness.tools.witnesses``),
+  built from MuJoCo's reading (its compiled model read into the harness's ``Multibody`` by
+  ``harness.model.from_model_file.read_compiled``, fixed children merged), not from the file:
+  they test the dynamics, not a parser, and never vote on the model quantities above (a
+  witness would only repeat MuJoCo's reading). What each holds (mass, centre of mass, inertia,
+  axis, position in parent per body) is listed against that description in a separate table;
+  a difference is a build error and fails the check. The in-house M, bias and gravity (from its
+  Newton-Euler accelerations for unit generalized forces) are compared with each loader's at
+  the same random states (``Witnesses.dynamics``, the rows ``<loader> vs in-house`` of the
+  report's dynamics table, kept out of ``CheckResult.dynamics``); it is named the odd one out in a term when it differs from
+  MuJoCo while another loader agrees with MuJoCo (``witness_odd``); the loaders' own odd one out
+  is decided among the loaders alone (``dynamics_odd``). Both run free motion from the same
+  random states as Pinocchio, compared with MuJoCo's rigid run on every moving body's world
+  pose and velocity (in-house at the check's tolerances; Exudyn, order 2, with its own). A
+  model the description cannot hold (a body with several joints, equality constraints) leaves
+  them "not run: <one line>" in the verdict and the report; the loaders still compare.
+
 The report ``check_<model>.md`` is written atomically after everything has loaded. Its verdict
 fails on any disagreement between the loaders that read the file (a refusal is reported, not
-judged), on a dynamics term or a free motion beyond tolerance, and ends with the causes found.
+judged), on a dynamics term or a free motion beyond tolerance (the witnesses' included), on a
+witness holding another model than its description, and ends with the causes found.
 
 MuJoCo's warnings while the dynamics terms and the free motions run (e.g. "Nan, Inf or huge value
 in QACC ... The simulation is unstable.") are captured into the result (``CheckResult.warnings``,
@@ -104,6 +123,7 @@ import copy
 import os
 import re
 import tempfile
+import time
 import tomllib
 import xml.etree.ElementTree as ET
 from contextlib import contextmanager
@@ -117,6 +137,7 @@ import pinocchio as pin
 from harness.io import atomic
 from harness.io.provenance import drake_version
 from harness.tools import dynamics_terms as dc
+from harness.tools import witnesses as wit
 from harness.engines.mujoco.model import joint_kind as mujoco_joint_kind
 from harness.engines.mujoco.warning_capture import captured_warnings
 from harness.engines.pinocchio.lie_group_integrators import rkmk4_step
@@ -913,6 +934,7 @@ class CheckResult:
     not_compared: list[str] = field(default_factory=list)  # what MuJoCo holds beyond the tree (``not_compared``)
     copies: list[str] = field(default_factory=list)  # how what the loaders read differs from the files
     mapped: int = 0   # joints compared under another name (``apply_joint_map``)
+    witnesses: wit.Witnesses | None = None   # the in-house engine and Exudyn (``harness.tools.witnesses``)
 
     @property
     def model_problems(self) -> list[str]:
@@ -945,7 +967,15 @@ class CheckResult:
     def passed(self) -> bool:
         """No disagreement between the loaders that read the file (a refusal is reported, not
         judged), dynamics terms and free motion within tolerance."""
-        return not self.model_problems and all(d.passed for d in self.dynamics) and self.free_passed
+        return (not self.model_problems and all(d.passed for d in self.dynamics) and self.free_passed
+                and self.witnesses_passed)
+
+    @property
+    def witnesses_passed(self) -> bool:
+        """The witnesses hold the description they were built from and move as MuJoCo does (not run: not judged)."""
+        w = self.witnesses
+        return w is None or bool(w.refusal) or (not w.problems and all(f.passed for f in w.free)
+                                                and all(d.passed for d in w.dynamics))
 
 
 def _refusal(err: Exception, path: Path) -> str:
@@ -1641,15 +1671,31 @@ def vote(readings: dict[str, Reading], rtol: float) -> list[Vote]:
 
 
 def dynamics_odd(diffs: list[dc.TermDiff]) -> dict[str, str]:
-    """Term -> the source the two others agree against (three sources: exactly one pair agrees)."""
+    """Term -> the loader the two others agree against (three loaders: exactly one pair agrees).
+    Only the loaders vote here; the witnesses are judged by ``witness_odd``."""
     out = {}
     for term in dc.TERMS:
-        rows = [d for d in diffs if d.term == term]
+        rows = [d for d in diffs if d.term == term and d.a in LOADERS and d.b in LOADERS]
         sources = {s for d in rows for s in (d.a, d.b)}
         ok = [d for d in rows if d.passed]
         if len(sources) == 3 and len(rows) == 3 and len(ok) == 1:
             (odd,) = sources - {ok[0].a, ok[0].b}
             out[term] = odd
+    return out
+
+
+def witness_odd(diffs: list[dc.TermDiff]) -> dict[str, list[str]]:
+    """Witness -> the terms in which it is the odd one out: it differs from MuJoCo (whose reading it
+    was built from) while another loader agrees with MuJoCo in that term. A witness never makes a
+    loader the odd one out (it is a witness of dynamics, built from MuJoCo's reading)."""
+    out: dict[str, list[str]] = {}
+    for term in dc.TERMS:
+        rows = [d for d in diffs if d.term == term]
+        confirmed = any(d.passed and "MuJoCo" in (d.a, d.b) and {d.a, d.b} <= set(LOADERS) for d in rows)
+        for d in rows:
+            other = d.b if d.a == "MuJoCo" else d.a if d.b == "MuJoCo" else None
+            if other in wit.WITNESSES and not d.passed and confirmed:
+                out.setdefault(other, []).append(term)
     return out
 
 
@@ -2116,9 +2162,10 @@ def _joint_set_problem(mjr: Reading, kinds: dict[str, str], r: Reading | None = 
 def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: int = dc.DEFAULT_STATES,
               n_free: int = 3, t_end: float = 0.5, dt: float = 1e-3, save_every: float = 0.01,
               floating_base: bool = False, strip: bool = False, keep_static: bool = False,
-              joint_map: dict[str, str] | None = None) -> CheckResult:
+              joint_map: dict[str, str] | None = None, witnesses: bool = True) -> CheckResult:
     """Load, compare models, dynamics terms and free motion (see module docstring); ``joint_map``:
-    MJCF joint name -> URDF joint name (``apply_joint_map``)."""
+    MJCF joint name -> URDF joint name (``apply_joint_map``); ``witnesses``: also the in-house
+    engine and Exudyn built from MuJoCo's reading (``harness.tools.witnesses``)."""
     for label, value in (("--t-end", t_end), ("--dt", dt)):
         if not (np.isfinite(value) and value > 0):
             raise InputError(f"{label} must be positive and finite, got {value!r}")
@@ -2155,12 +2202,25 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
         plant = drr.model.plant
         context = plant.CreateDefaultContext()
         sources["Drake"] = lambda q, v: dc.drake_terms(plant, jmap, q, v, context)
+    if witnesses:
+        res.witnesses = _witnesses(res, mjr, jmap, sources)
     with captured_warnings() as caught:  # MuJoCo's warnings go into the result, not onto stderr
         try:
             if len(sources) >= 2:
                 terms = dc.evaluate(sources, states)
                 res.dynamics = dc.compare_terms(terms, rtol=max(dc.DEFAULT_RTOL, rtol))
-                res.findings += diagnose_dynamics(readings, jmap, terms, res.dynamics, max(dc.DEFAULT_RTOL, rtol))
+            w = res.witnesses
+            if w is not None and w.source is not None:
+                start = time.perf_counter()
+                wterms = dc.evaluate({"in-house": w.source}, states)
+                loader_terms = terms if len(sources) >= 2 else dc.evaluate(sources, states)
+                w.dynamics = dc.compare_terms(loader_terms | wterms, pairs=[(k, "in-house") for k in loader_terms],
+                                              rtol=max(dc.DEFAULT_RTOL, rtol))
+                w.wall_s += time.perf_counter() - start
+            if len(sources) >= 2:
+                res.findings += diagnose_dynamics(readings, jmap, {k: t for k, t in terms.items() if k in LOADERS},
+                                                  [d for d in res.dynamics if d.a in LOADERS and d.b in LOADERS],
+                                                  max(dc.DEFAULT_RTOL, rtol))
             if pin_table is None:
                 res.free_skipped = ("Pinocchio does not load the file" if not pinr.loaded
                                     else f"Pinocchio's dynamics are not compared ({pinr.dynamics})")
@@ -2170,9 +2230,38 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
                 for k, (q, v) in enumerate(dc.random_states(jmap, n_free, seed + 1)):
                     res.free.append(free_motion(m, pinr.model, jmap, q, v, k, t_end=t_end, dt=dt, save_every=save_every,
                                                 frames=frames))
+            w = res.witnesses
+            if w is not None and not w.refusal:
+                wit.run(w, m, jmap, dc.random_states(jmap, n_free, seed + 1), t_end=t_end, dt=dt, save_every=save_every,
+                        rigid=_rigid_copy(m, dt))
         finally:
             res.warnings = caught.stats()
     return res
+
+
+def _witnesses(res: CheckResult, mjr: Reading, jmap: dc.JointMap, sources: dict) -> wit.Witnesses:
+    """The witnesses' description of MuJoCo's reading, their model rows and the in-house dynamics
+    source (added to ``sources``); refused in one line when the description cannot hold the model."""
+    start = time.perf_counter()
+    w = wit.describe(mjr.model, mjr.source)
+    if not w.refusal:
+        try:
+            w.rows = wit.model_rows(w, mjr.bodies, res.settings["rtol_model"])
+            w.source = wit.inhouse_source(w, jmap)
+        except Exception as err:  # noqa: BLE001 - an engine that does not build this model is reported, not a crash
+            w = wit.Witnesses(refusal=f"{type(err).__name__}: {_one_line(err)}")
+    w.wall_s = time.perf_counter() - start
+    return w
+
+
+def _rigid_copy(m: mujoco.MjModel, dt: float) -> mujoco.MjModel:
+    """MuJoCo's rigid model of the free motion (``free_motion``)."""
+    rigid = _mujoco_copy(m, dt, mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+                         | mujoco.mjtDisableBit.mjDSBL_DAMPER | mujoco.mjtDisableBit.mjDSBL_SPRING
+                         | mujoco.mjtDisableBit.mjDSBL_ACTUATION)
+    rigid.body_gravcomp[:] = 0.0
+    rigid.opt.density, rigid.opt.viscosity = 0.0, 0.0
+    return rigid
 
 
 def _first_tree_note(readings: dict[str, Reading]) -> list[str]:
@@ -2482,20 +2571,41 @@ def verdict(res: CheckResult) -> str:
     split = [v for v in res.votes if not v.agree and v.odd is None and v.counted]
     if split:
         parts.append(f"{len(split)} disagreement(s) without a majority")
-    bad_terms = sorted({d.term for d in res.dynamics if not d.passed and d.term not in dyn_odd})
+    w_dyn = res.witnesses.dynamics if res.witnesses is not None else []
+    w_odd = witness_odd(res.dynamics + w_dyn)
+    for label, terms in w_odd.items():
+        parts.append(f"{label} is the odd one out: " + ", ".join(f"dynamics {t}" for t in terms))
+    explained = {(d.a, d.b, d.term) for d in res.dynamics + w_dyn
+                 if d.term in dyn_odd and dyn_odd[d.term] in (d.a, d.b)
+                 or any(x in w_odd and d.term in w_odd[x] for x in (d.a, d.b))}
+    bad_terms = sorted({d.term for d in res.dynamics + w_dyn if not d.passed and (d.a, d.b, d.term) not in explained})
     if bad_terms:
         parts.append(f"dynamics {', '.join(bad_terms)} differ")
     if not res.free_passed:
         parts.append("free motion differs (MuJoCo vs Pinocchio)")
+    w = res.witnesses
+    if w is not None and not w.refusal:
+        held = sorted({r.witness for r in w.rows if not r.ok})
+        if held:
+            parts.append(f"{' and '.join(held)} hold(s) another model than the description built from MuJoCo's reading")
+        for label in wit.WITNESSES:
+            bad = [f for f in w.free if f.witness == label and not f.passed]
+            if bad:
+                parts.append(f"{label} is the odd one out: free motion differs from MuJoCo's (state {bad[0].state}, "
+                             f"body {bad[0].worst_body or '-'}, {bad[0].position:.2e} m)")
     if not parts and res.passed:
         loaded = [r.loader for r in res.readings.values() if r.loaded]
         parts.append(f"{', '.join(loaded[:-1])} and {loaded[-1]} agree")
+        if w is not None and not w.refusal:
+            parts[-1] += "; the in-house engine and Exudyn (built from MuJoCo's reading) agree with MuJoCo's dynamics"
     if res.setting_differences:
         between = "between the MJCF and the URDF" if res.two_files else "between the loaders"
         parts.append(f"{len(res.setting_differences)} joint setting(s) differ {between} (listed, not counted)")
     if res.findings:
         parts.append("causes: " + causes_line(res.findings))
     parts += res.refusals
+    if w is not None and w.refusal:
+        parts.append(f"in-house and Exudyn: not run: {w.refusal}")
     return "; ".join(parts)
 
 
@@ -2587,7 +2697,8 @@ def render_report(res: CheckResult, command: str) -> str:
     L += [f"- {n}" for n in res.notes] or ["- none"]
     L += ["", "## Engine warnings", ""]
     L += warning_lines(res) or ["- none"]
-    sources = sorted({s for d in res.dynamics for s in (d.a, d.b)}, key=LOADERS.index)
+    sources = sorted({s for d in res.dynamics + (res.witnesses.dynamics if res.witnesses else []) for s in (d.a, d.b)},
+                     key=(LOADERS + wit.WITNESSES).index)
     L += ["", "## Dynamics terms at random states", "",
           f"{res.settings.get('states')} seeded random states (hinge angles within MuJoCo's limits where limited, rates "
           "~N(0, 1)); M(q), C(q,v)v and g(q) from MuJoCo `mj_fullM`/`qfrc_bias`, Pinocchio `crba`/`nonLinearEffects`/"
@@ -2600,13 +2711,18 @@ def render_report(res: CheckResult, command: str) -> str:
     if any(not r.loaded or r.dynamics or r.partial for r in res.readings.values()):
         L.append("")
     L += ["| sources | term | max abs | max rel | tolerance | verdict |", "|---|---|---|---|---|---|"]
-    for d in res.dynamics:
+    w_dyn = res.witnesses.dynamics if res.witnesses is not None else []
+    for d in res.dynamics + w_dyn:
         L.append(f"| {d.a} vs {d.b} | {d.term} | {d.max_abs:.3e} | {d.max_rel:.3e} | {d.rtol:.0e} | {'ok' if d.passed else 'DIFFERS'} |")
     odd_terms = dynamics_odd(res.dynamics)
     for loader in LOADERS:
         terms = [t for t, k in odd_terms.items() if k == loader]
         if terms:
             L += ["", f"{loader} is the odd one out in {', '.join(terms)} (the two others agree)."]
+    for label, terms in witness_odd(res.dynamics + w_dyn).items():
+        L += ["", f"{label} is the odd one out in {', '.join(terms)} (MuJoCo, whose reading it was built from, agrees "
+              "with another loader)."]
+    L += witness_section(res)
     tol = FREE_MOTION_TOL
     L += ["", "## Free motion under gravity", ""]
     if res.free_skipped:
@@ -2627,6 +2743,39 @@ def render_report(res: CheckResult, command: str) -> str:
         L.append(f"| {r.state} | {r.joint:.3e} | {r.velocity:.3e} | {r.position:.3e} | {r.orientation:.3e} | {r.worst_body} "
                  f"| {r.constrained_joint:.3e} |")
     return "\n".join(L) + "\n"
+
+
+def witness_section(res: CheckResult) -> list[str]:
+    """The report's section on the in-house engine and Exudyn (``harness.tools.witnesses``)."""
+    w = res.witnesses
+    if w is None:
+        return []
+    L = ["", "## The in-house engine and Exudyn (witnesses of dynamics)", "",
+         "Built from MuJoCo's reading of the file (its compiled model as the harness's description, fixed children "
+         "merged), not from the file: they test the dynamics, not a parser, and never vote on how the file is read. "
+         "The in-house M, bias and gravity (Newton-Euler in maximal coordinates, accelerations for unit generalized "
+         "forces) are in the table above as `in-house`; Exudyn holds no joint-space terms and is compared in free "
+         "motion."]
+    if w.refusal:
+        return L + ["", f"- in-house: not run: {w.refusal}", f"- Exudyn: not run: {w.refusal}"]
+    bad = [r for r in w.rows if not r.ok]
+    L += ["", f"Model terms as each holds them against the description ({len(w.rows)} values: mass, centre of mass, "
+          "inertia, axis, position in parent per body; mass and principal moments also against MuJoCo's reading): "
+          + ("all agree" if not bad else f"{len(bad)} differ") + f" (relative tolerance {res.settings.get('rtol_model')})."]
+    L += [f"- {p}" for p in w.problems]
+    if w.free:
+        L += ["", "Free motion from the same random states as below, against MuJoCo's rigid run: every moving body's "
+              f"centre of mass and frame (in-house `{wit.INHOUSE_METHOD}` at dt; Exudyn `{wit.EXUDYN_METHOD}` at dt/"
+              f"{wit.EXUDYN_SUBSTEPS}, order 2, with its own tolerance).", "",
+              "| engine | state | body position m | body orientation rad | body velocity m/s, rad/s | tolerance | worst body | verdict |",
+              "|---|---|---|---|---|---|---|---|"]
+        for f in w.free:
+            tol_text = f"{f.tol['position']:.0e} / {f.tol['orientation']:.0e} / {f.tol['velocity']:.0e}"
+            verdict_text = "ok" if f.passed else ("DIFFERS" if f.status == "ok" else f.status)
+            L.append(f"| {f.witness} | {f.state} | {f.position:.3e} | {f.orientation:.3e} | {f.velocity:.3e} | {tol_text} "
+                     f"| {f.worst_body} | {verdict_text} |")
+    L += ["", f"Wall time of the witnesses: {w.wall_s:.2f} s."]
+    return L
 
 
 _TABLE_SETTINGS = ("damping", "friction loss", "range", "armature")
@@ -2742,6 +2891,17 @@ def summary_lines(res: CheckResult) -> list[str]:
                      f"body position {r.position:.3e} m, orientation {r.orientation:.3e} rad")
     if res.free_skipped:
         lines.append(f"  free motion not run: {res.free_skipped}")
+    w = res.witnesses
+    if w is not None and w.refusal:
+        lines.append(f"  in-house and Exudyn: not run: {w.refusal}")
+    elif w is not None:
+        lines += [f"  witness model {p}" for p in w.problems]
+        for d in w.dynamics:
+            lines.append(f"  dynamics {d.term:<8} {d.a} vs {d.b}: max abs {d.max_abs:.3e}, max rel {d.max_rel:.3e}"
+                         + ("" if d.passed else f"  DIFFERS (> {d.rtol:.0e})"))
+        for f in w.free:
+            lines.append(f"  free motion {f.state} {f.witness} vs MuJoCo: body position {f.position:.3e} m, orientation "
+                         f"{f.orientation:.3e} rad, velocity {f.velocity:.3e}" + ("" if f.passed else "  DIFFERS"))
     return lines
 
 
