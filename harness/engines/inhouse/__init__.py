@@ -9,8 +9,8 @@ integrator's name; ``integrators.METHODS`` lists every method):
   quaternion algebra), ``model`` (constant model data, state layout), ``constraints`` (joint
   constraints, projection), ``newton_euler`` (equations of motion, reactions), ``rolling``
   (rolling contacts), ``integrators`` (time stepping); every model the harness has;
-* compiled (``compiled``: the same equations as Numba kernels, ``rk4_compiled`` and
-  ``dop853_compiled``; ``compiled.solver.run_batch`` for many initial states): free, ball, hinge
+* compiled (``compiled``: the same equations as Numba kernels, ``rk4_compiled``, ``rkmk4_compiled``
+  and ``dop853_compiled``; ``compiled.solver.run_batch`` for many initial states): free, ball, hinge
   and slide joints, slide springs and gravity, no prescribed forces or rolling contacts (a run
   of such a scene is an "unsupported" trajectory saying so: not run, not failed). Tested against
   the per-state form (``tests/engines/inhouse/compiled``). Numba is imported only when a
@@ -56,7 +56,7 @@ import numpy as np
 from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.constraints import DynamicsError, project, violation
-from harness.engines.inhouse.integrators import COMPILED, FIXED_STEP, METHODS, Result, integrate
+from harness.engines.inhouse.integrators import COMPILED, FIXED_STEP, LIE_GROUP, METHODS, Result, integrate
 from harness.engines.inhouse.model import NEModel, build, from_trajectory, initial_state, split, to_trajectory
 from harness.engines.inhouse.newton_euler import Baumgarte, contact_force_series, make_rhs, reaction_series, reactions
 from harness.model.multibody import Multibody
@@ -162,6 +162,7 @@ class InhouseEngine:
                 atol=settings.atol,
                 first_step=settings.dt,
                 post_step=post,
+                bodies=nem.nb,
             )
             res = stop_at_blowup(nem, res)
         except NotImplementedError as err:  # a joint or force kind the engine has no equations for
@@ -206,7 +207,8 @@ class InhouseEngine:
                                                 first_step=settings.dt, proj_tol=projection_tolerance(nem))
             else:
                 res = compiled.integrate_fixed(packed, y0, t_save, FIXED_STEP[method],
-                                               steps_per_save=settings.steps_per_save, proj_tol=projection_tolerance(nem))
+                                               steps_per_save=settings.steps_per_save, proj_tol=projection_tolerance(nem),
+                                               lie_group=method in LIE_GROUP)
             res = stop_at_blowup(nem, res)
         except NotImplementedError as err:  # outside the compiled form's scope: not run, not failed
             return unsupported(self.name, method, names, f"{method}: {err} (the per-state methods do)")
@@ -241,7 +243,7 @@ class InhouseEngine:
         return text
 
 
-COMPILED_KERNEL = {"rk4_compiled": "erk", "dop853_compiled": "dop853"}  # the Numba kernel each method runs
+COMPILED_KERNEL = {"rk4_compiled": "erk", "dop853_compiled": "dop853", "rkmk4_compiled": "erk"}  # the Numba kernel each method runs
 
 
 def announce_compilation(runs) -> bool:

@@ -11,10 +11,16 @@ A right-hand side is ``f(t, y) -> dy/dt`` on a flat float array. The methods (``
   spells them), driven step by step with the same loop as ``scipy.integrate.solve_ivp`` and its
   dense output at the save times, so that steps are counted and the samples computed before a
   failure are kept. Their steps are capped at the save interval (see ``integrate_adaptive``);
+  and ``"rkmk4"``, the ``RK4`` table in Runge-Kutta-Munthe-Kaas form (``lie_group``): positions
+  and velocities as vectors, each orientation advanced on SO(3) by ``R exp(hat(Theta))``, so a
+  rotation at a constant body rate is integrated exactly (``LIE_GROUP``: the methods that step
+  this way; same ``post_step``);
 * compiled (``harness.engines.inhouse.compiled``, Numba; ``COMPILED``): ``"rk4_compiled"``, the
   same ``RK4`` table run by the compiled explicit Runge-Kutta stepper (any table in
-  ``FIXED_STEP`` would run there unchanged), and ``"dop853_compiled"``, DOP853 with SciPy's
-  coefficient tables. The engine (``InhouseEngine.simulate``) dispatches between the forms.
+  ``FIXED_STEP`` would run there unchanged), ``"rkmk4_compiled"``, the same table in
+  Runge-Kutta-Munthe-Kaas form (``compiled.lie_group``, tested against ``"rkmk4"``), and
+  ``"dop853_compiled"``, DOP853 with SciPy's coefficient tables. The engine
+  (``InhouseEngine.simulate``) dispatches between the forms.
 
 Results are sampled at given save times ``t_save`` (s, starting at the initial time). A run
 never raises on a numerical failure: the result carries ``status`` "failed" (solver failure,
@@ -32,6 +38,7 @@ import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK45, Radau
 
 from harness.engines.base import Integrator, integrator_table
+from harness.engines.inhouse.lie_group import rkmk_step
 
 RHS = Callable[[float, np.ndarray], np.ndarray]
 
@@ -59,16 +66,23 @@ EULER = ButcherTableau(name="euler", A=((0.0,),), b=(1.0,), c=(0.0,), order=1)
 
 # How each method is computed (its name, kind and order are its ``METHODS`` record):
 # the Butcher table of every fixed-step method, either form ...
-FIXED_STEP: dict[str, ButcherTableau] = {"rk4": RK4, "euler": EULER, "rk4_compiled": RK4}
+FIXED_STEP: dict[str, ButcherTableau] = {"rk4": RK4, "euler": EULER, "rk4_compiled": RK4, "rkmk4": RK4,
+                                         "rkmk4_compiled": RK4}
+# ... the fixed-step methods whose table runs in Runge-Kutta-Munthe-Kaas form on the rotations
+# (``lie_group.rkmk_step``; the others add the table's increments to the quaternions) ...
+LIE_GROUP = frozenset({"rkmk4", "rkmk4_compiled"})
 # ... the SciPy solver of every per-state adaptive method ...
 ADAPTIVE = {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
 # ... and the methods the compiled form runs (``harness.engines.inhouse.compiled``).
-COMPILED = frozenset({"rk4_compiled", "dop853_compiled"})
+COMPILED = frozenset({"rk4_compiled", "dop853_compiled", "rkmk4_compiled"})
 
 METHODS = integrator_table(
     Integrator("rk4", "fixed", RK4.order, len(RK4.b),
                "classic RK4; quaternions renormalised and joint constraints projected after each step"),
     Integrator("euler", "fixed", EULER.order, len(EULER.b), "explicit Euler; projected after each step"),
+    Integrator("rkmk4", "fixed", RK4.order, len(RK4.b),
+               "RK4 in Runge-Kutta-Munthe-Kaas form: orientations on SO(3) (exponential map, dexp^-1 to "
+               "second order), exact for constant-rate rotation; joint constraints projected after each step"),
     Integrator("RK45", "adaptive", 5, 6,
                "SciPy Dormand-Prince 5(4), advancing the fifth-order solution; Baumgarte stabilisation, no projection"),
     Integrator("DOP853", "adaptive", 8, 12, "SciPy DOP853; Baumgarte stabilisation, no projection"),
@@ -77,6 +91,8 @@ METHODS = integrator_table(
     Integrator("LSODA", "adaptive", 1, None, "SciPy LSODA (Adams/BDF switching); Baumgarte stabilisation"),
     Integrator("rk4_compiled", "fixed", RK4.order, len(RK4.b),
                "the RK4 table compiled (Numba); projected after each step; no prescribed forces or rolling contacts"),
+    Integrator("rkmk4_compiled", "fixed", RK4.order, len(RK4.b),
+               "rkmk4 compiled (Numba); projected after each step; no prescribed forces or rolling contacts"),
     Integrator("dop853_compiled", "adaptive", 8, 12,
                "DOP853 compiled (Numba; SciPy's coefficients and step control, 7th-order dense output); projected "
                "after each step, no Baumgarte; no prescribed forces or rolling contacts"),
@@ -141,9 +157,13 @@ def integrate_fixed(
     steps_per_save: int,
     tableau: ButcherTableau,
     post_step: Callable[[np.ndarray], np.ndarray] | None = None,
+    bodies: int | None = None,
 ) -> Result:
     """Fixed-step integration: ``steps_per_save`` equal steps of ``h = (t_save[k+1] -
-    t_save[k]) / steps_per_save`` between consecutive save times, ``post_step`` after each."""
+    t_save[k]) / steps_per_save`` between consecutive save times, ``post_step`` after each.
+    With ``bodies`` (the number of bodies of the engine's state layout, 13 entries each) the
+    table runs in Runge-Kutta-Munthe-Kaas form (``lie_group.rkmk_step``); otherwise as an
+    ordinary Runge-Kutta method on the flat state (``rk_step``)."""
     start = time.perf_counter()
     fc = _Counted(f)
     y = np.array(y0, dtype=float)
@@ -158,7 +178,10 @@ def integrate_fixed(
                 t0 = t_save[k - 1]
                 h = (t_save[k] - t0) / steps_per_save
                 for j in range(steps_per_save):
-                    y = rk_step(fc, t0 + j * h, y, h, tableau)
+                    if bodies is None:
+                        y = rk_step(fc, t0 + j * h, y, h, tableau)
+                    else:
+                        y = rkmk_step(fc, t0 + j * h, y, h, tableau, bodies)
                     if post_step is not None:
                         y = post_step(y)
                     steps += 1
@@ -251,14 +274,24 @@ def integrate(
     atol: float = 1e-12,
     first_step: float | None = None,
     post_step: Callable[[np.ndarray], np.ndarray] | None = None,
+    bodies: int | None = None,
 ) -> Result:
     """Integrate with the per-state ``method`` (one of ``METHODS`` outside ``COMPILED``); see
     ``integrate_fixed`` and ``integrate_adaptive`` for what the keywords mean to each family
     (``post_step`` only applies to fixed-step methods, ``rtol``/``atol``/``first_step`` only to
-    adaptive ones). The compiled methods run on a packed model, not a Python right-hand side:
+    adaptive ones; ``bodies``, the number of bodies, only to the Lie-group methods ``LIE_GROUP``,
+    whose state must be the engine's layout, 13 entries per body: default ``y0.size // 13``).
+    The compiled methods run on a packed model, not a Python right-hand side:
     ``InhouseEngine.simulate`` runs them."""
     if method in COMPILED:
         raise ValueError(f"{method!r} runs in the compiled form (InhouseEngine.simulate), not on a Python right-hand side")
+    if method in LIE_GROUP:
+        size = np.size(y0)
+        nb = size // 13 if bodies is None else int(bodies)
+        if nb < 1 or size != 13 * nb:
+            raise ValueError(f"{method!r} needs the engine's state layout (13 entries per body), got {size} entries"
+                             + ("" if bodies is None else f" for {bodies} bodies"))
+        return integrate_fixed(f, y0, t_save, steps_per_save, FIXED_STEP[method], post_step, bodies=nb)
     if method in FIXED_STEP:
         return integrate_fixed(f, y0, t_save, steps_per_save, FIXED_STEP[method], post_step)
     if method in ADAPTIVE:

@@ -10,7 +10,10 @@ another on each of several threads (``erk_rows``; the kernels release the GIL).
 
 Integrators (drivers): ``erk``, any explicit Runge-Kutta method given as its Butcher table
 (A, b, c) with a fixed step (``solver.integrate_fixed`` passes ``integrators.RK4`` for
-``rk4_compiled``); ``erk_rows``, the same stepper over rows of a batch of initial states;
+``rk4_compiled``), either as is or, given the ``dexp^-1`` coefficients ``series``, in
+Runge-Kutta-Munthe-Kaas form with the orientations on SO(3) (``rkmk4_compiled``: the per-state
+``lie_group.rkmk_step``, whose docstring states the method); ``erk_rows``, the same stepper
+over rows of a batch of initial states;
 ``dop853``, DOP853 with SciPy's coefficient tables, step-size control and dense output.
 
 Why compiled loops and not NumPy: a rigid-body right-hand side is a few hundred flops on
@@ -593,13 +596,58 @@ def _finite(y):
 
 
 @njit(**_JIT)
-def _erk_steps(model, ws, y, t0, h, nsteps, proj_tol, A, b, c, K, tmp):
+def _exp_right(qw, qx, qy, qz, tx, ty, tz, out, o):
+    """out[o:o+4] = q (x) exp_q(Theta) (wxyz) for q = (qw, qx, qy, qz) and Theta = (tx, ty, tz)
+    (rad, body frame): ``lie_group.exp_right``. q's entries come by value: out may hold q."""
+    angle = np.sqrt(tx * tx + ty * ty + tz * tz)
+    c = np.cos(0.5 * angle)
+    s = np.sin(0.5 * angle) / angle if angle > 0.0 else 0.5
+    ex, ey, ez = s * tx, s * ty, s * tz
+    out[o] = qw * c - qx * ex - qy * ey - qz * ez
+    out[o + 1] = qw * ex + c * qx + (qy * ez - qz * ey)
+    out[o + 2] = qw * ey + c * qy + (qz * ex - qx * ez)
+    out[o + 3] = qw * ez + c * qz + (qx * ey - qy * ex)
+
+
+@njit(**_JIT)
+def _lie_stage(y, nb, i, h, A, series, KT, tmp):
+    """The orientations of RKMK stage i (``lie_group.rkmk_step``): per body
+    ``Theta_i = h sum_{m < i} A[i, m] KT[m]``, the stage quaternion ``q0 (x) exp_q(Theta_i)``
+    into tmp (q0 from y) and ``KT[i] = sum_k series[k] ad_Theta_i^k (w_i)`` (the truncated
+    ``dexp^-1``) from the stage's body angular velocity w_i in tmp."""
+    for body in range(nb):
+        tx = ty = tz = 0.0
+        for m in range(i):
+            a = h * A[i, m]
+            tx += a * KT[m, body, 0]
+            ty += a * KT[m, body, 1]
+            tz += a * KT[m, body, 2]
+        q = 3 * nb + 4 * body
+        _exp_right(y[q], y[q + 1], y[q + 2], y[q + 3], tx, ty, tz, tmp, q)
+        w = 10 * nb + 3 * body
+        ux, uy, uz = tmp[w], tmp[w + 1], tmp[w + 2]
+        ox, oy, oz = ux, uy, uz
+        for k in range(1, series.shape[0]):
+            ux, uy, uz = ty * uz - tz * uy, tz * ux - tx * uz, tx * uy - ty * ux  # u <- Theta x u
+            ox += series[k] * ux
+            oy += series[k] * uy
+            oz += series[k] * uz
+        KT[i, body, 0] = ox
+        KT[i, body, 1] = oy
+        KT[i, body, 2] = oz
+
+
+@njit(**_JIT)
+def _erk_steps(model, ws, y, t0, h, nsteps, proj_tol, A, b, c, series, K, KT, tmp):
     """``nsteps`` steps of ``h`` s from time ``t0`` s of the explicit Runge-Kutta method with
     Butcher table ``A`` (s x s, strictly lower triangular), ``b`` (s,), ``c`` (s,), y in place,
-    projection after each step; K (s x ny) and tmp (ny,) are scratch. Returns (status, steps
-    taken, counting a failed one)."""
+    projection after each step; with ``series`` (the ``dexp^-1`` coefficients, non-empty) in
+    Runge-Kutta-Munthe-Kaas form (``_lie_stage``). K (s x ny), KT (s x nb x 3: the algebra
+    rates) and tmp (ny,) are scratch. Returns (status, steps taken, counting a failed one)."""
     n = y.shape[0]
     s = b.shape[0]
+    nb = n // 13
+    lie = series.shape[0] > 0
     for j in range(nsteps):
         t = t0 + j * h
         for i in range(s):  # stage i at y + h sum_{m < i} A[i, m] K[m]
@@ -608,10 +656,24 @@ def _erk_steps(model, ws, y, t0, h, nsteps, proj_tol, A, b, c, K, tmp):
                 for m in range(i):
                     acc += A[i, m] * K[m, k]
                 tmp[k] = y[k] + h * acc
+            if lie:
+                _lie_stage(y, nb, i, h, A, series, KT, tmp)
             st = rhs(t + c[i] * h, tmp, K[i], model, ws)
             if st != OK:
                 return st, j + 1
+        if lie:  # the orientations: q0 (x) exp_q(h sum_i b_i KT[i]), in place
+            for body in range(nb):
+                tx = ty = tz = 0.0
+                for i in range(s):
+                    a = h * b[i]
+                    tx += a * KT[i, body, 0]
+                    ty += a * KT[i, body, 1]
+                    tz += a * KT[i, body, 2]
+                q = 3 * nb + 4 * body
+                _exp_right(y[q], y[q + 1], y[q + 2], y[q + 3], tx, ty, tz, y, q)
         for k in range(n):
+            if lie and 3 * nb <= k < 7 * nb:
+                continue
             acc = 0.0
             for i in range(s):
                 acc += b[i] * K[i, k]
@@ -623,7 +685,7 @@ def _erk_steps(model, ws, y, t0, h, nsteps, proj_tol, A, b, c, K, tmp):
 
 
 @njit(**_JIT)
-def _erk(model, ws, y, K, tmp, t_save, steps_per_save, proj_tol, out, A, b, c):
+def _erk(model, ws, y, K, KT, tmp, t_save, steps_per_save, proj_tol, out, A, b, c, series):
     """``erk`` on its (borrowed) buffers; y holds the initial state."""
     st = project(y, model, ws, proj_tol)
     if st != OK or not _finite(y):
@@ -633,7 +695,7 @@ def _erk(model, ws, y, K, tmp, t_save, steps_per_save, proj_tol, out, A, b, c):
     for s in range(1, t_save.shape[0]):
         t0 = t_save[s - 1]
         h = (t_save[s] - t0) / steps_per_save
-        st, taken = _erk_steps(model, ws, y, t0, h, steps_per_save, proj_tol, A, b, c, K, tmp)
+        st, taken = _erk_steps(model, ws, y, t0, h, steps_per_save, proj_tol, A, b, c, series, K, KT, tmp)
         steps += taken
         if st != OK:
             return st, s, steps
@@ -644,26 +706,28 @@ def _erk(model, ws, y, K, tmp, t_save, steps_per_save, proj_tol, out, A, b, c):
 
 
 @njit(**_JIT)
-def erk(model, y0, t_save, steps_per_save, proj_tol, out, A, b, c):
+def erk(model, y0, t_save, steps_per_save, proj_tol, out, A, b, c, series):
     """The explicit Runge-Kutta method (A, b, c) with ``steps_per_save`` equal steps between
     the save times ``t_save`` (s), projection after each step (and of ``y0``); samples into
-    ``out`` (len(t_save) x ny). Returns (status, samples, steps)."""
+    ``out`` (len(t_save) x ny); in Runge-Kutta-Munthe-Kaas form when the ``dexp^-1``
+    coefficients ``series`` are not empty (``_erk_steps``). Returns (status, samples, steps)."""
     n = y0.shape[0]
     ws, y, K, tmp = workspace(model), y0.copy(), np.empty((b.shape[0], n)), np.empty(n)
-    result = _erk(_borrow(model), _borrow(ws), _borrow(y), _borrow(K), _borrow(tmp), t_save, steps_per_save,
-                  proj_tol, out, A, b, c)
-    _hold((ws, y, K, tmp))
+    KT = np.empty((b.shape[0], n // 13, 3))
+    result = _erk(_borrow(model), _borrow(ws), _borrow(y), _borrow(K), _borrow(KT), _borrow(tmp), t_save,
+                  steps_per_save, proj_tol, out, A, b, c, series)
+    _hold((ws, y, K, KT, tmp))
     return result
 
 
 @njit(**_JIT)
-def _erk_rows(model, ws, y, K, tmp, Y0, nstep, h, proj_tol, A, b, c, Yend, status, first, last):
+def _erk_rows(model, ws, y, K, KT, tmp, Y0, nstep, h, proj_tol, A, b, c, series, Yend, status, first, last):
     """``erk_rows`` on its (borrowed) buffers."""
     for r in range(first, last):
         y[:] = Y0[r]
         st = project(y, model, ws, proj_tol)
         if st == OK:
-            st, _ = _erk_steps(model, ws, y, 0.0, h, nstep, proj_tol, A, b, c, K, tmp)
+            st, _ = _erk_steps(model, ws, y, 0.0, h, nstep, proj_tol, A, b, c, series, K, KT, tmp)
         if st == OK and not _finite(y):
             st = NONFINITE
         status[r] = st
@@ -674,17 +738,18 @@ def _erk_rows(model, ws, y, K, tmp, Y0, nstep, h, proj_tol, A, b, c, Yend, statu
 
 
 @njit(**_JIT)
-def erk_rows(model, Y0, nstep, h, proj_tol, A, b, c, Yend, status, first, last):
+def erk_rows(model, Y0, nstep, h, proj_tol, A, b, c, series, Yend, status, first, last):
     """Rows ``first .. last-1`` of a batch, one trajectory after the other: from each initial
     state ``Y0[r]`` (nbatch x ny; projected first), ``nstep`` steps of ``h`` s of the method
-    (A, b, c) from t = 0 (as ``erk``). The final state goes to ``Yend[r]`` (NaN for a
-    trajectory that did not finish), its status code to ``status[r]``. A failing trajectory
-    stops alone: the others never see it."""
+    (A, b, c; with ``series`` as ``erk``) from t = 0. The final state goes to ``Yend[r]`` (NaN
+    for a trajectory that did not finish), its status code to ``status[r]``. A failing
+    trajectory stops alone: the others never see it."""
     n = Y0.shape[1]
     ws, y, K, tmp = workspace(model), np.empty(n), np.empty((b.shape[0], n)), np.empty(n)
-    _erk_rows(_borrow(model), _borrow(ws), _borrow(y), _borrow(K), _borrow(tmp), Y0, nstep, h, proj_tol, A, b, c,
-              Yend, status, first, last)
-    _hold((ws, y, K, tmp))
+    KT = np.empty((b.shape[0], n // 13, 3))
+    _erk_rows(_borrow(model), _borrow(ws), _borrow(y), _borrow(K), _borrow(KT), _borrow(tmp), Y0, nstep, h, proj_tol,
+              A, b, c, series, Yend, status, first, last)
+    _hold((ws, y, K, KT, tmp))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,12 +1,15 @@
 """The compiled in-house solver: the Numba kernels of ``kernels`` behind plain Python calls.
 
 The methods themselves are named and described once, as ``Integrator`` records of the in-house
-engine (``harness.engines.inhouse.integrators.METHODS``: ``rk4_compiled``, ``dop853_compiled``),
+engine (``harness.engines.inhouse.integrators.METHODS``: ``rk4_compiled``, ``rkmk4_compiled``,
+``dop853_compiled``),
 and run through its ``simulate``; this module only drives the kernels:
 
 * ``integrate_fixed``: any explicit Runge-Kutta method given as a Butcher table
   (``integrators.ButcherTableau``; ``rk4_compiled`` is ``integrators.RK4``), ``steps_per_save``
-  equal steps between save times. A new explicit method is a new table, not new code.
+  equal steps between save times. A new explicit method is a new table, not new code. With
+  ``lie_group`` the table runs in Runge-Kutta-Munthe-Kaas form, orientations on SO(3)
+  (``rkmk4_compiled``: the per-state ``lie_group.rkmk_step``), in the same kernel.
 * ``integrate_dop853``: DOP853 with SciPy's coefficient tables and step-size control, 7th-order
   dense output at the save times, ``rtol``/``atol``.
 * ``run_batch``: many initial states at once (``mujoco.rollout``'s use case): the scalar
@@ -46,6 +49,7 @@ from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from harness.engines.inhouse.compiled import kernels
 from harness.engines.inhouse.integrators import RK4, ButcherTableau, Result
+from harness.engines.inhouse.lie_group import DEXPINV_SERIES
 from harness.engines.inhouse.model import NEModel
 
 __all__ = ["KERNELS", "MAX_ADAPTIVE_STEPS", "STATUS", "announce_cold", "default_threads", "integrate_dop853",
@@ -129,6 +133,18 @@ def tableau_arrays(tableau: ButcherTableau) -> tuple[np.ndarray, np.ndarray, np.
     return A, b, c
 
 
+def dexpinv_series(tableau: ButcherTableau | None) -> np.ndarray:
+    """The ``dexp^-1`` coefficients the kernels take: for the Runge-Kutta-Munthe-Kaas form of
+    ``tableau`` those to ``ad^(order-2)`` (as ``lie_group.dexpinv`` truncates them); empty (the
+    plain Runge-Kutta method) for None."""
+    if tableau is None:
+        return np.zeros(0)
+    n = max(tableau.order - 1, 1)
+    if n > len(DEXPINV_SERIES):
+        raise ValueError(f"{tableau.name}: dexpinv series known to ad^{len(DEXPINV_SERIES) - 1} only")
+    return np.ascontiguousarray(DEXPINV_SERIES[:n], dtype=float)
+
+
 def _state(y0: np.ndarray) -> np.ndarray:
     y0 = np.asarray(y0, dtype=float)
     if y0.ndim == 2 and y0.shape[0] == 1:
@@ -146,18 +162,20 @@ def _result(status: int, t_save: np.ndarray, out: np.ndarray, n: int, steps: int
 
 
 def integrate_fixed(model: tuple, y0: np.ndarray, t_save: np.ndarray, tableau: ButcherTableau = RK4, *,
-                    steps_per_save: int = 1, proj_tol: float = 1e-13) -> Result:
+                    steps_per_save: int = 1, proj_tol: float = 1e-13, lie_group: bool = False) -> Result:
     """Integrate one state ``y0`` (ny,) of the packed ``model`` with the explicit Runge-Kutta
     method ``tableau``: ``steps_per_save`` equal steps between consecutive save times
-    ``t_save`` (s), projection (to ``proj_tol``, m) after each step. ``wall_s`` covers the
-    integration alone; ``rhs_evals`` = stages x steps."""
+    ``t_save`` (s), projection (to ``proj_tol``, m) after each step; with ``lie_group`` in
+    Runge-Kutta-Munthe-Kaas form (orientations on SO(3)). ``wall_s`` covers the integration
+    alone; ``rhs_evals`` = stages x steps."""
     y0 = _state(y0)
     A, b, c = tableau_arrays(tableau)
+    series = dexpinv_series(tableau if lie_group else None)
     t_save = np.ascontiguousarray(t_save, dtype=float)
     out = np.full((len(t_save), len(y0)), np.nan)
     warm_up(model, y0, "erk")
     start = time.perf_counter()
-    status, n, steps = kernels.erk(model, y0, t_save, int(steps_per_save), float(proj_tol), out, A, b, c)
+    status, n, steps = kernels.erk(model, y0, t_save, int(steps_per_save), float(proj_tol), out, A, b, c, series)
     wall = time.perf_counter() - start
     return _result(status, t_save, out, n, steps, len(b) * steps, wall)
 
@@ -188,8 +206,9 @@ def default_threads() -> int:
 
 
 def run_batch(model: tuple, Y0: np.ndarray, nstep: int, dt: float, tableau: ButcherTableau = RK4, *,
-              threads: int | None = None, proj_tol: float = 1e-13) -> tuple[np.ndarray, np.ndarray]:
-    """The explicit Runge-Kutta method ``tableau`` (default RK4) from each initial state of
+              threads: int | None = None, proj_tol: float = 1e-13, lie_group: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The explicit Runge-Kutta method ``tableau`` (default RK4; with ``lie_group`` in
+    Runge-Kutta-Munthe-Kaas form, as ``integrate_fixed``) from each initial state of
     ``Y0`` (nbatch x ny) for ``nstep`` steps of ``dt`` s from t = 0, projection after each step;
     the rows split into ``threads`` (default: the cores) contiguous blocks run side by side.
     Returns the final states (nbatch x ny; NaN rows for trajectories that did not finish) and a
@@ -203,7 +222,8 @@ def run_batch(model: tuple, Y0: np.ndarray, nstep: int, dt: float, tableau: Butc
         warm_up(model, Y0[0], "erk_rows")
     threads = max(1, min(threads or default_threads(), nbatch))
     bounds = np.linspace(0, nbatch, threads + 1).astype(int)
-    args = (model, Y0, int(nstep), float(dt), float(proj_tol), A, b, c, Yend, status)
+    args = (model, Y0, int(nstep), float(dt), float(proj_tol), A, b, c, dexpinv_series(tableau if lie_group else None),
+            Yend, status)
     if threads == 1:
         kernels.erk_rows(*args, 0, nbatch)
     else:
@@ -304,11 +324,12 @@ def warm_up(model: tuple, y0: np.ndarray, kernel: str) -> None:
     out = np.empty((2, len(y0)))
     A, b, c = tableau_arrays(RK4)
     if kernel == "erk":
-        kernels.erk(model, y0, t, 1, 1e-13, out, A, b, c)
+        kernels.erk(model, y0, t, 1, 1e-13, out, A, b, c, dexpinv_series(None))
     elif kernel == "dop853":
         kernels.dop853(model, y0, t, 1e-6, 1e-6, 1e-3, 1e-13, 1, out, _DOP853)
     elif kernel == "erk_rows":
-        kernels.erk_rows(model, y0[None], 1, 1e-3, 1e-13, A, b, c, out[:1], np.zeros(1, dtype=np.int64), 0, 1)
+        kernels.erk_rows(model, y0[None], 1, 1e-3, 1e-13, A, b, c, dexpinv_series(None), out[:1],
+                         np.zeros(1, dtype=np.int64), 0, 1)
     else:
         raise ValueError(f"unknown kernel {kernel!r}")
     if compiling:
