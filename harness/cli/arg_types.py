@@ -89,9 +89,10 @@ def require_utf8(path: Path, what: str) -> None:
 
 
 def require_scene_files_utf8(scene) -> None:
-    """``require_utf8`` for a scene's MJCF and URDF."""
-    require_utf8(scene.mjcf, "MJCF")
-    require_utf8(scene.urdf, "URDF")
+    """``require_utf8`` for the model files a scene names: its MJCF and URDF, or the one it has
+    (``Scene.mjcf`` and ``Scene.urdf`` are then the same file)."""
+    for path in dict.fromkeys((scene.mjcf, scene.urdf)):
+        require_utf8(path, "URDF" if Path(path).suffix.lower() == ".urdf" else "MJCF")
 
 
 def add_engines(parser) -> None:

@@ -183,14 +183,38 @@ def finite_rows(frame):
 
 
 def preflight(scene) -> None:
-    """Reject non-physical parameters and models that do not load, before any run."""
+    """Reject non-physical parameters and models that do not load, before any run.
+
+    A scene that names one model file only (an MJCF or a URDF) is read by every engine from that
+    file. An engine that reads it in the format it does not usually read
+    (``Scene.reads_other_format``: MuJoCo a URDF, Pinocchio or Drake an MJCF) and cannot load it
+    is marked not run with its loader's reason (``Scene.mark_not_run``: validate lists it as
+    "not run"); a file read in the engine's own format must load (InputError otherwise)."""
     from harness.engines.mujoco.model import load_mjcf
     from harness.engines.pinocchio.model import load_urdf
 
     require_scene_files_utf8(scene)
     model = scene.multibody()
-    load_mjcf(scene.mjcf, model)
-    load_urdf(scene.urdf, scene.urdf_root_joint, model)
+
+    def drake():
+        from harness.engines.drake.model import parse
+
+        parse(scene.urdf, scene.urdf_root_joint, model)
+
+    loads = {"mujoco": (scene.mjcf, lambda: load_mjcf(scene.mjcf, model)),
+             "pinocchio": (scene.urdf, lambda: load_urdf(scene.urdf, scene.urdf_root_joint, model)),
+             "drake": (scene.urdf, drake)}
+    for engine, (path, load) in loads.items():
+        if engine in scene.not_run:
+            continue
+        if not scene.reads_other_format(engine):
+            if engine != "drake":  # Drake's own format (a URDF) is loaded by its runs
+                load()
+            continue
+        try:
+            load()
+        except (InputError, NotImplementedError) as err:
+            scene.mark_not_run(engine, f"cannot read the scene's only model file, {path.name}: {_one_line(err)}")
 
 
 def cmd_validate(args) -> int:

@@ -149,7 +149,7 @@ def read_model_file(path: Path, *, root_joint: str = "none", initial: str = ZERO
     except Exception as err:  # MuJoCo raises ValueError with a multi-line message
         raise InputError(f"{path}: MuJoCo cannot read the {fmt}: {_one_line(err)}") from None
     if fmt == URDF:
-        _add_root_joint(spec, root_joint, path)
+        add_urdf_root_joint(spec, root_joint, path)
     if fuse_static is not None:
         spec.compiler.fusestatic = bool(fuse_static)
     try:
@@ -159,25 +159,53 @@ def read_model_file(path: Path, *, root_joint: str = "none", initial: str = ZERO
     return _from_compiled(m, path, fmt, initial)
 
 
-def _add_root_joint(spec, root_joint: str, path: Path) -> None:
-    """Give a URDF's root link (the first body under the world) the joint ``root_joint`` names."""
-    import mujoco
-
+def add_urdf_root_joint(spec, root_joint: str, path: Path) -> None:
+    """Give a URDF's root link (the first body under the world) the joint a scene's
+    ``urdf_root_joint`` names (``none``, ``free``, ``spherical``), as Pinocchio adds it
+    (``add_root_joint``)."""
     if root_joint == "none":
         return
     jt = by_urdf_root(root_joint)
     if jt is None:
         known = ", ".join(["none"] + [k.urdf_root for k in JOINTS.values() if k.urdf_root])
         raise InputError(f"{path}: unknown root joint {root_joint!r} (known: {known})")
-    roots = [b for b in spec.bodies if b.name != "world" and b.parent is not None and b.parent.name == "world"]
+    add_root_joint(spec, jt.name, path)
+
+
+def add_root_joint(spec, kind: str, source: Path) -> None:
+    """Give the root body of a ``mujoco.MjSpec`` (first child of the world) a joint of kind
+    ``kind`` named ``root_joint``: one Pinocchio can add as a root joint
+    (``JointType.pinocchio_root``: free or ball), which a URDF cannot state; ``none`` leaves it
+    welded. A root body that has that joint already keeps it (renamed ``root_joint``, Pinocchio's
+    name); one with another joint is refused (InputError naming ``source``). The one place a
+    root joint is added to a spec: MuJoCo running a URDF (``harness.engines.mujoco.model``),
+    ``read_model_file`` and ``harness check``/``harness zoo``."""
+    import mujoco
+
+    from harness.model.joints import FREE
+
+    if kind == "none":
+        return
+    jt = JOINTS.get(kind)
+    if jt is None or jt.pinocchio_root is None:
+        raise InputError(f"{source}: a {kind} joint cannot be a root joint Pinocchio adds")
+    roots = [(k, b) for k, b in enumerate(spec.bodies)
+             if k > 0 and b.name != "world" and b.parent is not None and b.parent.name == "world"]
     if not roots:
-        raise InputError(f"{path}: no root link to give a {jt.name} root joint")
-    if roots[0].first_joint() is not None:
-        raise InputError(f"{path}: root link {roots[0].name!r} has a joint already: no {jt.name} root joint added")
-    if jt.world_linear_velocity:  # the free joint: MuJoCo's own element for it
-        roots[0].add_freejoint(name="root_joint")
+        raise InputError(f"{source}: no root body to attach a {kind} joint to")
+    k, root = roots[0]
+    joint = root.first_joint()
+    if joint is not None:
+        wanted = getattr(mujoco.mjtJoint, jt.mujoco)
+        if joint.type == wanted and root.next_joint(joint) is None:
+            joint.name = "root_joint"  # an MJCF that has the root joint already: match Pinocchio's name
+            return
+        raise InputError(f"{source}: root body {root.name or f'body{k}'!r} already has a joint that is not a single "
+                         f"{kind} joint")
+    if jt is FREE:
+        root.add_freejoint(name="root_joint")
     else:
-        roots[0].add_joint(name="root_joint", type=getattr(mujoco.mjtJoint, jt.mujoco))
+        root.add_joint(name="root_joint", type=getattr(mujoco.mjtJoint, jt.mujoco))
 
 
 def read_compiled(m, path: Path, *, initial: str = ZERO, merge_fixed: bool = False) -> ModelFile:
@@ -347,10 +375,15 @@ def parse_target(text: str) -> tuple[str, str, str]:
 
 
 def model_file_of(scene: "Scene") -> Path:
-    """The file a scene without code reads its system from: its MJCF, else its URDF."""
-    for path in (scene.mjcf, scene.urdf):
+    """The file a scene without code reads its system from: its MJCF, else its URDF (a scene
+    may name only one: ``Scene.model_files``)."""
+    files = list(dict.fromkeys((scene.mjcf, scene.urdf)))
+    for path in files:
         if path.is_file():
             return path
+    if len(files) == 1:
+        raise InputError(f"{scene.directory / 'scene.toml'}: no model file: {files[0].name} is not in {scene.directory} "
+                         "(a scene without a builder reads its system from its model file)")
     raise InputError(f"{scene.directory / 'scene.toml'}: no model file: neither {scene.mjcf.name} nor {scene.urdf.name} "
                      f"is in {scene.directory} (a scene without a builder reads its system from its MJCF, else its URDF)")
 
@@ -361,14 +394,15 @@ def scene_multibody(scene: "Scene") -> Multibody:
     the scene's parameters applied (``apply_parameters``)."""
     path = model_file_of(scene)
     mf = read_model_file(path, root_joint=scene.urdf_root_joint, initial=scene.initial_state or ZERO)
-    check_runnable(mf, scene.urdf_root_joint)
+    # without a URDF the MJCF states the root joint: no urdf_root_joint to agree with
+    check_runnable(mf, scene.urdf_root_joint if "urdf" in scene.model_files else None)
     return apply_parameters(mf, scene.parameters.values(), scene.directory / "scene.toml")
 
 
-def check_runnable(mf: ModelFile, urdf_root_joint: str) -> None:
+def check_runnable(mf: ModelFile, urdf_root_joint: str | None) -> None:
     """InputError (one line naming the body, joint or element) unless every engine can run
     ``mf`` as a scene: frames as the harness's (``frame_notes``), the URDF's root joint the
-    one the root body has, and (for an MJCF, which MuJoCo runs as written but for what the
+    one the root body has (unless ``urdf_root_joint`` is None: a scene without a URDF), and (for an MJCF, which MuJoCo runs as written but for what the
     description rewrites) no joint damping, stiffness, armature, friction loss or range, no
     tendon, no actuator with a bias, no contact that can occur."""
     import mujoco
@@ -381,7 +415,7 @@ def check_runnable(mf: ModelFile, urdf_root_joint: str) -> None:
                          "from the description, not frames or axes)")
     for body in mf.multibody.bodies:
         jt = JOINTS[body.joint]
-        if body.parent is None and (jt.urdf_root or "none") != urdf_root_joint:
+        if urdf_root_joint is not None and body.parent is None and (jt.urdf_root or "none") != urdf_root_joint:
             raise InputError(f"{path}: root body {body.name!r} has a {jt.name} joint, so its scene needs "
                              f"urdf_root_joint = {jt.urdf_root or 'none'!r} (it says {urdf_root_joint!r})")
     if mf.format != MJCF:

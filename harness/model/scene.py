@@ -91,12 +91,14 @@ MAX_SAMPLES = 10_000_000
 # Top-level keys of scene.toml: key -> (what it must be, required)
 _TOP_KEYS = {
     "name": ("string", True), "title": ("string", False), "textbook": ("list of strings", False),
-    "mjcf": ("string", True), "urdf": ("string", True), "urdf_root_joint": ("string", False),
+    "mjcf": ("string", False), "urdf": ("string", False), "urdf_root_joint": ("string", False),
     "builder": ("string", False), "initial_state": ("string", False), "needs": ("table", True),
     "parameters": ("table", True),
     "simulation": ("table", True), "integrators": ("table", True), "checks": ("table", False),
     "not_run": ("table", False),
 }
+#: The model-file keys of scene.toml: a scene names at least one (``check_description``).
+MODEL_FILE_KEYS = ("mjcf", "urdf")
 _NEEDS = ("gravity", "contact", "forcing")
 _SIMULATION = {"t_end": "the horizon in s", "dt": "the step in s", "save_every": "the save interval in s"}
 _PARAMETER_KEYS = {"value": True, "kind": True, "unit": False, "doc": False, "sets": False}
@@ -123,9 +125,15 @@ class Scene:
     Attributes:
         name, title, textbook: identity and provenance.
         directory: the scene's folder under ``models/``.
-        mjcf, urdf: model files (absolute paths).
+        mjcf: the file MuJoCo reads (absolute path): the scene's MJCF, or its URDF when it names
+            only a URDF (MuJoCo compiles URDF: ``harness.engines.mujoco.model.read_spec``).
+        urdf: the file Pinocchio and Drake read: the scene's URDF, or its MJCF when it names only
+            an MJCF (Pinocchio's ``buildModelFromMJCF``, Drake's parser).
+        model_files: the model-file keys its ``scene.toml`` names: ``("mjcf", "urdf")``,
+            ``("mjcf",)`` or ``("urdf",)`` (``reads_other_format``).
         urdf_root_joint: root joint Pinocchio adds when loading the URDF (``free``,
-            ``spherical`` or ``none``).
+            ``spherical`` or ``none``; ``none`` for a scene without a URDF, whose MJCF states
+            its root joint).
         needs: ``{"gravity": bool, "contact": bool, "forcing": bool}``.
         parameters: name -> Parameter (values validated).
         t_end, dt, save_every: default horizon, step and save interval (s).
@@ -164,6 +172,7 @@ class Scene:
     builder: str = ""
     from_model_file: bool = False
     initial_state: str = ""
+    model_files: tuple[str, ...] = MODEL_FILE_KEYS
     _built: Multibody | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getstate__(self) -> dict:
@@ -173,6 +182,22 @@ class Scene:
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self.__dict__["_built"] = None
+
+    def reads_other_format(self, engine: str) -> bool:
+        """Whether ``engine`` reads the scene's one model file in the format it does not usually
+        read: MuJoCo a URDF (the scene names no MJCF), Pinocchio or Drake an MJCF (no URDF). Such
+        an engine that cannot read the file is not run (``harness.cli.main.preflight``)."""
+        if engine == "mujoco":
+            return "mjcf" not in self.model_files
+        if engine in ("pinocchio", "drake"):
+            return "urdf" not in self.model_files
+        return False
+
+    def mark_not_run(self, engine: str, why: str) -> None:
+        """Record, before any run, that ``engine`` does not run this scene and why (as a
+        ``[not_run]`` entry would): an engine that cannot read the scene's one model file
+        (``reads_other_format``; ``harness.cli.main.preflight``). Changes this ``Scene`` only."""
+        object.__setattr__(self, "not_run", {**self.not_run, engine: why})
 
     @property
     def params(self) -> dict[str, ParamValue]:
@@ -271,6 +296,16 @@ def check_description(data: dict, path: Path) -> None:
                              f"got {_show(value)}")
     if data["name"] != path.parent.name:
         raise InputError(f"{path}: name = {data['name']!r} differs from the scene's folder {path.parent.name!r}")
+    if not any(key in data for key in MODEL_FILE_KEYS):
+        raise InputError(f"{path}: names no model file: give mjcf = \"<file>.xml\", urdf = \"<file>.urdf\" or both "
+                         "(every engine reads the one the scene has)")
+    if "urdf" in data and not data["urdf"].lower().endswith(".urdf"):
+        raise InputError(f"{path}: urdf = {data['urdf']!r} is not a *.urdf file")
+    if "mjcf" in data and data["mjcf"].lower().endswith(".urdf"):
+        raise InputError(f"{path}: mjcf = {data['mjcf']!r} is a URDF: name it urdf = {data['mjcf']!r}")
+    if "urdf_root_joint" in data and "urdf" not in data:
+        raise InputError(f"{path}: urdf_root_joint is for a URDF, which cannot state a free or ball root joint; this "
+                         "scene names no urdf (its MJCF states its root joint): remove urdf_root_joint")
     if "urdf_root_joint" in data:
         from harness.model.joints import JOINTS
 
@@ -440,13 +475,15 @@ def _scene_from_toml(data: dict, path: Path) -> Scene:
         value = _coerce(pname, spec["value"], spec["kind"], str(path))
         params[pname] = Parameter(pname, value, spec.get("unit", ""), spec["kind"], spec.get("doc", ""), spec.get("sets", ""))
     sim = data["simulation"]
+    files = tuple(key for key in MODEL_FILE_KEYS if key in data)
+    mjcf, urdf = (path.parent / data.get(key, data.get(other, "")) for key, other in (("mjcf", "urdf"), ("urdf", "mjcf")))
     scene = Scene(
         name=data["name"],
         title=data.get("title", data["name"]),
         textbook=tuple(data.get("textbook", ())),
         directory=path.parent,
-        mjcf=path.parent / data["mjcf"],
-        urdf=path.parent / data["urdf"],
+        mjcf=mjcf,
+        urdf=urdf,
         urdf_root_joint=data.get("urdf_root_joint", "none"),
         needs=dict(data.get("needs", {})),
         parameters=params,
@@ -459,6 +496,7 @@ def _scene_from_toml(data: dict, path: Path) -> Scene:
         builder=str(data.get("builder", "")),
         from_model_file=without_code(data),
         initial_state=str(data.get("initial_state", "")),
+        model_files=files,
     )
     return scene
 

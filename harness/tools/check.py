@@ -145,6 +145,7 @@ from harness.engines.pinocchio.model import from_pinocchio, root_joint_model
 from harness.engines.pinocchio.model import joint_type as pin_joint_type
 from harness.model import rotations
 from harness.model.errors import InputError
+from harness.model.from_model_file import add_root_joint  # noqa: F401 - also harness zoo's
 from harness.model.joints import FREE, JOINTS, TRANSLATIONAL, by_pinocchio
 from harness.tools.loaded_models import (
     DrakeRefusal,
@@ -241,34 +242,6 @@ def check_spec_inertials(spec: mujoco.MjSpec, source: Path) -> None:
         else:  # principal moments in the frame iquat: validity does not depend on the frame
             inertia = np.diag(np.asarray(body.inertia, dtype=float))
         check_inertia(inertia, what, str(source))
-
-
-def add_root_joint(spec: mujoco.MjSpec, kind: str, source: Path) -> None:
-    """Give the root body (first child of the world) a joint of kind ``kind`` named
-    ``root_joint``: one Pinocchio can add as a root joint (``JointType.pinocchio_root``: free or
-    ball); ``none`` leaves it welded."""
-    if kind == "none":
-        return
-    jt = JOINTS.get(kind)
-    if jt is None or jt.pinocchio_root is None:
-        raise InputError(f"{source}: a {kind} joint cannot be a root joint Pinocchio adds")
-    roots = [(k, b) for k, b in enumerate(spec.bodies)
-             if k > 0 and b.name != "world" and b.parent is not None and b.parent.name == "world"]
-    if not roots:
-        raise InputError(f"{source}: no root body to attach a {kind} joint to")
-    k, root = roots[0]
-    joint = root.first_joint()
-    if joint is not None:
-        wanted = getattr(mujoco.mjtJoint, jt.mujoco)
-        if joint.type == wanted and root.next_joint(joint) is None:
-            joint.name = "root_joint"  # an MJCF that has the root joint already: match Pinocchio's name
-            return
-        raise InputError(f"{source}: root body {root.name or f'body{k}'!r} already has a joint that is not a single "
-                         f"{kind} joint")
-    if jt is FREE:
-        root.add_freejoint(name="root_joint")
-    else:
-        root.add_joint(name="root_joint", type=getattr(mujoco.mjtJoint, jt.mujoco))
 
 
 def compile_spec(spec: mujoco.MjSpec, source: Path) -> mujoco.MjModel:

@@ -242,8 +242,20 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
     ``model.<body>.<quantity>`` (``model.gravity`` for the MJCF's gravity) per quantity of
     ``harness.tools.loaded_models.body_discrepancies``, engine = the loader. A file that does not
     load or holds a non-physical body raises InputError; any other failure to read it back is
-    a failed ``model.load`` check."""
-    from harness.tools.inspection import MODEL_ENGINES, as_written
+    a failed ``model.load`` check. A scene that names one model file only is checked as each
+    engine reads that file: Pinocchio and Drake the MJCF (``as_written`` through their MJCF
+    parsers), MuJoCo the URDF with the scene's root joint added (a URDF cannot state gravity,
+    which is not checked there, as for Pinocchio and Drake)."""
+    from harness.engines.mujoco.model import read_spec
+    from harness.tools.inspection import AS_WRITTEN_RTOL, MODEL_ENGINES, AsWritten, as_written
+    from harness.tools.loaded_models import body_discrepancies, mujoco_bodies
+
+    def load(engine):
+        if engine == "mujoco" and scene.reads_other_format(engine):  # the URDF into MuJoCo, as written
+            m = read_spec(scene.mjcf, root_joint=scene.urdf_root_joint).compile()
+            return AsWritten(engine, scene.mjcf, m, body_discrepancies(mujoco_bodies(m, model0), model0,
+                                                                       rtol=AS_WRITTEN_RTOL))
+        return as_written(scene, engine, model0)
 
     model0 = (defaults if defaults is not None else _defaults(scene)).multibody()
     hint = f"harness inspect {scene.name}"
@@ -256,7 +268,7 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
         if engine not in MODEL_ENGINES:
             continue
         try:
-            loaded = as_written(scene, engine, model0)
+            loaded = load(engine)
         except InputError:
             raise
         except Exception as err:  # noqa: BLE001 - a model that cannot be read back is a failed check

@@ -26,6 +26,20 @@ def copy_example(tmp_path, name="my_chain", t_end="0.5"):
     return models
 
 
+def copy_with_one_file(tmp_path, name, keep, t_end="0.2"):
+    """``copy_example`` with one model file only: ``keep`` (``mjcf`` or ``urdf``) stays, the other
+    file and its keys (``urdf_root_joint`` goes with the URDF) leave the folder and scene.toml."""
+    models = copy_example(tmp_path, name, t_end)
+    folder = models / name
+    drop = {"mjcf": ("urdf", f"{EXAMPLE}.urdf"), "urdf": ("mjcf", f"{EXAMPLE}.xml")}[keep]
+    (folder / drop[1]).unlink()
+    keys = (drop[0],) + (("urdf_root_joint",) if drop[0] == "urdf" else ())
+    path = folder / "scene.toml"
+    lines = path.read_text().splitlines(keepends=True)
+    path.write_text("".join(ln for ln in lines if not ln.startswith(tuple(f"{k} = " for k in keys))))
+    return models
+
+
 def one_line_error(capsys, fragment):
     err = capsys.readouterr().err
     lines = err.strip().splitlines()
@@ -90,6 +104,61 @@ def test_an_exact_check_without_closed_forms_is_one_line_and_exit_2(tmp_path, ca
     assert code == 2
     one_line_error(capsys, "scene.toml: [checks.exact]: no exact check for scene 'my_chain': there is no module "
                            "harness.references.my_chain")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("keep", ["urdf", "mjcf"])
+def test_a_folder_with_one_model_file_validates_on_every_engine(tmp_path, capsys, keep):
+    """Only a URDF: MuJoCo compiles the URDF itself; only an MJCF: Pinocchio and Drake read the
+    MJCF. Every engine runs (or is listed not run with its reason), every engine's loaded model
+    is checked against the description, and the checks hold."""
+    name = f"only_{keep}"
+    models = copy_with_one_file(tmp_path, name, keep)
+    assert sorted(p.suffix for p in (models / name).glob(f"{EXAMPLE}.*")) == [".urdf" if keep == "urdf" else ".xml"]
+    out = tmp_path / "out"
+    code = main(["validate", "--models-dir", str(models), "--scenes", name, "--out-dir", str(out), "--quiet"])
+    printed = capsys.readouterr().out
+    assert code == 0, printed
+    assert f"{name}: PASS" in printed
+    (scene,) = json.loads((out / "validation.json").read_text())["scenes"]
+    ran = {r["engine"] for r in scene["runs"] if r["status"] == "ok"}
+    assert ran | set(scene.get("not_run", {})) == {"reference", *ENGINE_NAMES}, (ran, scene.get("not_run"))
+    assert ran == {"reference", *ENGINE_NAMES}  # today every engine reads the example's one file
+    model_engines = {c["engine"] for c in scene["checks"] if c["check"].startswith("model.")}
+    assert model_engines == {"mujoco", "pinocchio", "drake", "exudyn"}
+    mujoco = {c["check"] for c in scene["checks"] if c["engine"] == "mujoco" and c["check"].startswith("model.")}
+    assert {"model.link3.mass", "model.link3.axis", "model.link3.joint_type"} <= mujoco
+    assert ("model.gravity" in mujoco) == (keep == "mjcf")  # a URDF cannot state gravity
+
+
+def test_an_engine_that_cannot_read_the_one_file_is_listed_not_run(tmp_path, capsys, monkeypatch):
+    from harness.engines.drake import model as drake_model
+    from harness.model.errors import InputError
+
+    def refuse(path, *args, **kwargs):
+        raise InputError(f"{path}: Drake cannot read it: a planted refusal")
+
+    monkeypatch.setattr(drake_model, "parse", refuse)
+    models = copy_with_one_file(tmp_path, "only_mjcf", "mjcf", t_end="0.05")
+    out = tmp_path / "out"
+    code = main(["validate", "--models-dir", str(models), "--scenes", "only_mjcf", "--engines", "mujoco,drake",
+                 "--out-dir", str(out), "--quiet"])
+    assert code == 0, capsys.readouterr()
+    (scene,) = json.loads((out / "validation.json").read_text())["scenes"]
+    why = scene["not_run"]["drake"]
+    assert why.startswith(f"cannot read the scene's only model file, {EXAMPLE}.xml: ") and "a planted refusal" in why
+    assert not any(c["engine"] == "drake" for c in scene["checks"]) and "drake" not in {r["engine"] for r in scene["runs"]}
+    assert "Not run on drake" in (out / "validation.md").read_text()
+
+
+def test_a_scene_naming_no_model_file_is_one_line_and_exit_2(tmp_path, capsys):
+    models = copy_with_one_file(tmp_path, "my_chain", "mjcf")
+    _replace(models / "my_chain" / "scene.toml", f'mjcf = "{EXAMPLE}.xml"\n', "")
+    code = main(["validate", "--models-dir", str(models), "--scenes", "my_chain", "--out-dir", str(tmp_path / "out"),
+                 "--quiet"])
+    assert code == 2
+    one_line_error(capsys, "scene.toml: names no model file: give mjcf =")
+    assert not (tmp_path / "out").exists()
 
 
 def _replace(path, old, new):

@@ -149,6 +149,10 @@ MISTAKES = {
     "missing integrator": ('pinocchio = "rkmk4"\n', "", "[integrators] lacks a default for pinocchio"),
     "name not the folder's": ('name = "heavy_top"', 'name = "heavy_top2"', "differs from the scene's folder 'heavy_top'"),
     "unknown root joint": ('urdf_root_joint = "spherical"', 'urdf_root_joint = "ball"', "urdf_root_joint = 'ball' is not one of"),
+    "no model file": ('mjcf = "heavy_top.xml"\nurdf = "heavy_top.urdf"\nurdf_root_joint = "spherical"', "",
+                      "names no model file: give mjcf ="),
+    "root joint without a URDF": ('urdf = "heavy_top.urdf"\n', "", "urdf_root_joint is for a URDF"),
+    "urdf not a URDF": ('urdf = "heavy_top.urdf"', 'urdf = "heavy_top.xml"', "urdf = 'heavy_top.xml' is not a *.urdf file"),
     "too many samples": ("t_end = 5.0", "t_end = 1e9", f"saves more than {MAX_SAMPLES:.0e} samples"),
     "check not a table": (ENERGY, "[checks]\nenergy_drift = 1e-8\n", "[checks.energy_drift] must be a table"),
 }
@@ -313,3 +317,29 @@ def test_a_scene_with_a_builder_maps_no_parameter(scene_copy, tmp_path):
     with pytest.raises(InputError, match=r'\[parameters\] mass lacks sets: a scene without a builder \(no '
                                          r'harness.model.builders.top2, no builder = "<scene>"\)'):
         load_scene("top2", models_dir=models)
+
+
+@pytest.mark.parametrize("keep", ["mjcf", "urdf"])
+def test_a_scene_may_name_one_model_file(scene_copy, keep):
+    """A scene naming only a URDF (or only an MJCF) gives every engine that file: ``mjcf`` and
+    ``urdf`` are then the same path, and ``reads_other_format`` says who reads the other format."""
+    models, path = scene_copy
+    if keep == "urdf":
+        _edit(path, 'mjcf = "heavy_top.xml"\n', "")
+    else:
+        _edit(path, 'urdf = "heavy_top.urdf"\nurdf_root_joint = "spherical"', "")
+    scene = load_scene("heavy_top", models_dir=models)
+    only = models / "heavy_top" / ("heavy_top.xml" if keep == "mjcf" else "heavy_top.urdf")
+    assert scene.model_files == (keep,) and scene.mjcf == scene.urdf == only
+    assert scene.reads_other_format("mujoco") == (keep == "urdf")
+    assert scene.reads_other_format("pinocchio") == scene.reads_other_format("drake") == (keep == "mjcf")
+    assert not scene.reads_other_format("inhouse") and not scene.reads_other_format("exudyn")
+    assert scene.urdf_root_joint == ("spherical" if keep == "urdf" else "none")
+    scene.mark_not_run("drake", "a test")
+    assert scene.not_run == {"drake": "a test"} and load_scene("heavy_top", models_dir=models).not_run == {}
+
+
+def test_both_model_files_by_default():
+    scene = load_scene("heavy_top")
+    assert scene.model_files == ("mjcf", "urdf") and scene.mjcf.suffix == ".xml" and scene.urdf.suffix == ".urdf"
+    assert not any(scene.reads_other_format(e) for e in ("mujoco", "pinocchio", "drake"))

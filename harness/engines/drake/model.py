@@ -12,6 +12,12 @@ link frame (Drake has no quaternion ball joint: roll-pitch-yaw, singular at pitc
 body without a joint floats (Drake's ``QuaternionFloatingJoint``). A ``JointSpring`` is a
 ``PrismaticSpring``.
 
+A scene that names only an MJCF is parsed from the MJCF (Drake's own MJCF parser, same
+``AddModels``): its bodies are the MJCF's, its hinge, slide and ball joints Drake's revolute,
+prismatic and ``BallRpyJoint``s on a frame fixed to the parent (whose pose the scene sets), a
+``<freejoint>`` body floats. What Drake's MJCF parser leaves out (options, flags) the scene
+states anyway (gravity here, no contact: the plant has no scene graph).
+
 Frames: the URDF link frame is the harness's body frame (the joint point); Drake's body pose
 ``X_WB`` and spatial velocity ``V_WB`` (angular velocity, velocity of the body origin, world) are
 those of that frame. Units SI.
@@ -83,9 +89,9 @@ class captured_drake_log:
 
 
 def parse(path, root_joint: str, model: Multibody, *, springs: bool = True):
-    """``(plant, instance, joints)``: the URDF at ``path`` parsed by Drake into a continuous
-    plant with the scene's gravity, its root joint and its springs, finalised; ``joints`` maps
-    scene body name -> Drake joint (None: floating). InputError if Drake cannot read the file
+    """``(plant, instance, joints)``: the URDF (for a scene without one, the MJCF) at ``path``
+    parsed by Drake into a continuous plant with the scene's gravity, its root joint and its
+    springs, finalised; ``joints`` maps scene body name -> Drake joint (None: floating). InputError if Drake cannot read the file
     or it lacks a scene body."""
     from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import MultibodyPlant

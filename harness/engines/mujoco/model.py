@@ -6,6 +6,14 @@ gravity, the site where a prescribed force acts, joint springs, the sites of a l
 ``<connect>`` equalities: ``harness.engines.mujoco.loops``) and sets timestep and integrator.
 Joint types and axes are not rewritten: they are checked (``harness.tools.loaded_models``).
 
+A scene that names only a URDF is run by MuJoCo from the URDF (MuJoCo compiles URDF; its
+importer fuses fixed links and drops visuals): ``read_spec(path, root_joint=...)`` gives the
+root link the joint a URDF cannot state (``harness.model.from_model_file.add_root_joint``, as
+Pinocchio adds it), and ``load_mjcf`` sets what an MJCF would carry and a URDF cannot: the
+options (timestep and integrator from the run settings, gravity from the scene, contact off as a
+scene without code has none, energy on) and ideal joints (the URDF's limits, damping and friction
+dropped, as Pinocchio's dynamics ignore them).
+
 Joint kinds map to MuJoCo's ``mjtJoint`` through the joint table (``JointType.mujoco``,
 ``MJ_JOINTS``, ``joint_type``); each force type of the force table (``harness.model.forces``)
 that an MJCF can express has its writer in ``MJCF_WRITERS``.
@@ -20,6 +28,7 @@ import numpy as np
 
 from harness.model import rotations
 from harness.model.errors import InputError
+from harness.model.from_model_file import URDF, add_urdf_root_joint, file_format
 from harness.model.forces import (FORCES, JOINT_SPRINGS, JOINT_TORQUES, POINT_FORCES, POINT_SPRINGS, JointSpring,
                                   JointTorque, PointForce, PointSpring)
 from harness.model.joints import JOINTS, JointType
@@ -61,15 +70,41 @@ def joint_kind(m: mujoco.MjModel, jid: int, unknown: str | None = None) -> str:
     return str(m.jnt_type[jid]) if unknown is None else unknown
 
 
-def read_spec(path: Path) -> mujoco.MjSpec:
-    """Parse an MJCF file; raise InputError (one line, naming the file) if it cannot be read."""
+def read_spec(path: Path, *, root_joint: str = "none") -> mujoco.MjSpec:
+    """Parse an MJCF file, or a URDF (``*.urdf``: MuJoCo's URDF importer) with the root joint a
+    scene's ``urdf_root_joint`` names added to its root link; raise InputError (one line, naming
+    the file) if it cannot be read. ``root_joint`` is ignored for an MJCF (it states its own)."""
     path = Path(path)
+    fmt = file_format(path)
     if not path.is_file():
-        raise InputError(f"{path}: MJCF file not found")
+        raise InputError(f"{path}: {fmt} file not found")
     try:
-        return mujoco.MjSpec.from_file(str(path))
+        spec = mujoco.MjSpec.from_file(str(path))
     except Exception as err:  # MuJoCo raises ValueError with a multi-line message
-        raise InputError(f"{path}: cannot load MJCF: {_one_line(err)}") from None
+        raise InputError(f"{path}: cannot load {fmt}: {_one_line(err)}") from None
+    if fmt == URDF:
+        add_urdf_root_joint(spec, root_joint, path)
+    return spec
+
+
+def urdf_root_joint_of(model: Multibody) -> str:
+    """The ``urdf_root_joint`` that gives a URDF the root joint of ``model``'s root body
+    (``none`` when a URDF states it: a hinge, a slide, a weld)."""
+    roots = [b for b in model.bodies if b.parent is None]
+    return (JOINTS[roots[0].joint].urdf_root or "none") if len(roots) == 1 else "none"
+
+
+def ideal_urdf_options(spec: mujoco.MjSpec) -> None:
+    """What an MJCF of a scene carries and a URDF cannot (module docstring): contact off, energy
+    on, and ideal joints (no range, damping, friction loss, armature or stiffness)."""
+    spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_ENERGY)
+    for joint in spec.joints:
+        joint.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+        joint.damping = np.zeros(len(np.atleast_1d(joint.damping))) if np.ndim(joint.damping) else 0.0
+        joint.frictionloss = 0.0
+        joint.armature = 0.0
+        joint.stiffness = np.zeros(len(np.atleast_1d(joint.stiffness))) if np.ndim(joint.stiffness) else 0.0
 
 
 def principal_axes(I: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -171,8 +206,13 @@ MJCF_WRITERS = {JOINT_SPRINGS.name: _write_spring, POINT_FORCES.name: _write_poi
 
 
 def load_mjcf(path: Path, model: Multibody, *, dt: float | None = None, integrator: str | None = None) -> mujoco.MjModel:
-    """Compile the MJCF at ``path`` with the scene's physics applied (and dt/integrator if given)."""
-    spec = read_spec(path)
+    """Compile the MJCF at ``path`` with the scene's physics applied (and dt/integrator if given).
+    A URDF (a scene without an MJCF) gets its root body's joint (``urdf_root_joint_of``) and the
+    options and ideal joints of ``ideal_urdf_options``; the scene's physics as for an MJCF."""
+    urdf = file_format(path) == URDF
+    spec = read_spec(path, root_joint=urdf_root_joint_of(model)) if urdf else read_spec(path)
+    if urdf:
+        ideal_urdf_options(spec)
     apply_multibody(spec, model, path)
     if dt is not None:
         spec.option.timestep = dt
@@ -181,7 +221,7 @@ def load_mjcf(path: Path, model: Multibody, *, dt: float | None = None, integrat
     try:
         return spec.compile()
     except Exception as err:
-        raise InputError(f"{path}: MJCF does not compile: {_one_line(err)}") from None
+        raise InputError(f"{path}: {file_format(path)} does not compile: {_one_line(err)}") from None
 
 
 def set_initial_state(m: mujoco.MjModel, d: mujoco.MjData, model: Multibody, source: Path) -> None:

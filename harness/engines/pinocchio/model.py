@@ -5,6 +5,8 @@ which root joint Pinocchio adds (``free`` -> ``JointModelFreeFlyer``, ``spherica
 ``JointModelSpherical``). ``load_urdf`` then rewrites, from the scene's ``Multibody``, the joint
 placements (body positions), the inertias (mass, centre of mass, inertia about it) and gravity.
 Joint types and axes are not rewritten: they are checked (``harness.tools.loaded_models``).
+A scene that names only an MJCF is read from the MJCF (``buildModelFromMJCF``, Pinocchio's own
+MJCF parser): the MJCF states its root joint, so none is added.
 
 Joint kinds map to Pinocchio's joint models through the joint table (``JointType.pinocchio``,
 ``pinocchio_root``; ``joint_type``, ``ROOT_JOINTS``); the per-joint conversions between common
@@ -103,8 +105,12 @@ def velocity_transform(jt: JointType, q: np.ndarray, v: np.ndarray) -> tuple[np.
 
 
 def read_urdf(path: Path, root_joint: str = "none") -> pin.Model:
-    """Parse a URDF file; raise InputError (one line, naming the file) if it cannot be read."""
+    """Parse a URDF file, or an MJCF (any other suffix: a scene without a URDF, read by
+    ``buildModelFromMJCF``; ``root_joint`` ignored, as the MJCF states its root joint); raise
+    InputError (one line, naming the file) if it cannot be read."""
     path = Path(path)
+    if path.suffix.lower() != ".urdf":
+        return _read_mjcf(path)
     if not path.is_file():
         raise InputError(f"{path}: URDF file not found")
     if root_joint not in ROOT_JOINTS:
@@ -116,12 +122,25 @@ def read_urdf(path: Path, root_joint: str = "none") -> pin.Model:
         raise InputError(f"{path}: cannot load URDF: {' '.join(str(err).split())}") from None
 
 
+def _read_mjcf(path: Path) -> pin.Model:
+    """``buildModelFromMJCF`` of the MJCF at ``path`` (its own root joint), InputError (one line)
+    if Pinocchio cannot read it."""
+    if not path.is_file():
+        raise InputError(f"{path}: MJCF file not found")
+    try:
+        model = pin.buildModelFromMJCF(str(path))
+    except Exception as err:
+        raise InputError(f"{path}: Pinocchio cannot load the MJCF: {' '.join(str(err).split())}") from None
+    return model[0] if isinstance(model, tuple) else model  # some overloads return (model, constraints)
+
+
 def body_joint_ids(pmodel: pin.Model, model: Multibody, source: Path) -> list[int]:
     """Pinocchio joint id that moves each scene body (the link's parent joint)."""
     ids = []
     for body in model.bodies:
         if not pmodel.existFrame(body.name):
-            raise InputError(f"{source}: URDF has no link named {body.name!r}")
+            what = "URDF has no link" if Path(source).suffix.lower() == ".urdf" else "MJCF has no body"
+            raise InputError(f"{source}: {what} named {body.name!r}")
         frame = pmodel.frames[pmodel.getFrameId(body.name)]
         if not np.allclose(frame.placement.homogeneous, np.eye(4)):
             raise InputError(f"{source}: link {body.name!r} is not at its joint frame (fixed joints are not supported)")
