@@ -1,5 +1,5 @@
 """Command-line interface: ``harness scenes | simulate | validate`` (and the commands of
-``harness.cli.tools``, ``workprecision``, ``stress``, ``rolling``, ``loops``).
+``harness.cli.tools``, ``workprecision``, ``stress``, ``rolling``, ``loops``, ``sweep``).
 
 Exit codes: 0 success (for ``validate``: every check holds), 1 a check fails or a run blows up,
 2 bad input or a model that will not load (one line on stderr, no traceback, no report touched).
@@ -17,6 +17,7 @@ from pathlib import Path
 from harness.cli import loops as cli_loops
 from harness.cli import rolling as cli_rolling
 from harness.cli import stress as cli_stress
+from harness.cli import sweep as cli_sweep
 from harness.cli import tools as cli_tools
 from harness.cli import workprecision as cli_workprecision
 from harness.io.progress import set_quiet
@@ -105,6 +106,7 @@ def build_parser() -> argparse.ArgumentParser:
     cli_stress.add_parser(sub)
     cli_rolling.add_parser(sub)
     cli_loops.add_parser(sub)
+    cli_sweep.add_parser(sub)
     return p
 
 
@@ -286,6 +288,7 @@ COMMANDS["workprecision"] = cli_workprecision.run
 COMMANDS["stress"] = cli_stress.run
 COMMANDS["rolling-study"] = cli_rolling.run
 COMMANDS["loop-study"] = cli_loops.run
+COMMANDS["sweep"] = cli_sweep.run
 
 
 def main(argv: list[str] | None = None) -> int:

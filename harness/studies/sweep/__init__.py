@@ -1,0 +1,1 @@
+"""Parameter sweeps: the engines' disagreement and drift over a scene's parameter space."""

@@ -1,0 +1,302 @@
+"""Reports of ``harness sweep``: ``<scene>_sweep.csv`` (one row per point x engine),
+``<scene>_sweep.md`` (how it was made, the worst point per engine, the table) and
+``<scene>_sweep.png``: for a 1-D grid, log10 worst margin against the parameter, a line per
+engine; for a 2-D grid, one heatmap of log10 worst margin per engine; for a random sweep, a
+scatter (against the parameter with one key, else over the first two keys, coloured by it).
+A point whose run did not end ok (or was refused) is drawn as a grey cross / cell with a letter.
+All three files are written as one set (``harness.io.atomic.write_set``)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from harness.io import atomic
+from harness.io.figures import new_figure, png_bytes
+from harness.studies.sweep.run import PointResult, SweepRun
+
+MAX_TABLE_ROWS = 400  # rows of the markdown table; the CSV always has them all
+_LETTER = {"crashed": "X", "timeout": "T", "error": "!", "blowup": "B", "failed": "F", "unsupported": "U",
+           "not run": "-", "refused": "R"}
+
+
+def _fmt(x, digits: int = 2) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "—"
+    if isinstance(x, float) and math.isinf(x):
+        return "∞"
+    return f"{x:.{digits}e}" if (abs(x) < 1e-2 or abs(x) >= 1e4) and x != 0 else f"{x:.{digits + 1}g}"
+
+
+def _letter(r: PointResult) -> str:
+    return _LETTER.get(r.status.split(":")[0], "?")
+
+
+def _log_margin(r: PointResult) -> float:
+    """log10 of the worst margin for a run that ended ok with a finite margin, else NaN (a
+    margin of 0 is drawn at 1e-17, below round-off)."""
+    if r.status != "ok" or not math.isfinite(r.worst_margin):
+        return float("nan")
+    return math.log10(max(r.worst_margin, 1e-17))
+
+
+def frame(run: SweepRun) -> pd.DataFrame:
+    """One row per point x engine: the swept values (one column per key, the parameter's unit),
+    engine, integrator, status, passed, worst_margin, worst_check, failed_checks, checks,
+    trajectory_error, energy_drift, no_value (checks without a value), reference (status of the point's reference run), wall_s, message."""
+    rows = []
+    for r in run.rows:
+        row = {"scene": run.scene, "point": r.point}
+        row.update({a.key: v for a, v in zip(run.axes, r.values)})
+        row.update(engine=r.engine, integrator=r.integrator, status=r.status, passed=r.passed,
+                   worst_margin=r.worst_margin, worst_check=r.worst_check, failed_checks=r.failed_checks,
+                   checks=r.checks, trajectory_error=r.trajectory_error, energy_drift=r.energy_drift,
+                   no_value=";".join(r.no_value), reference=r.reference, wall_s=r.wall_s,
+                   message=" ".join(r.message.split()))
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _where(run: SweepRun, r: PointResult) -> str:
+    return ", ".join(f"{a.key} = {v:.4g}" + (f" {a.unit}" if a.unit else "") for a, v in zip(run.axes, r.values))
+
+
+def headline(run: SweepRun) -> list[str]:
+    """Per engine: the worst point (largest worst margin among the runs that ended ok), how many
+    points fail a check, and how many runs did not end ok or were refused."""
+    out = ["| engine | integrator | worst margin | at | check | points failing a check | runs not ok | refused |",
+           "|---|---|---|---|---|---|---|---|"]
+    for e in run.engines:
+        rows = run.of(e)
+        ran = [r for r in rows if r.status == "ok"]
+        worst = max(ran, key=lambda r: r.worst_margin if not math.isnan(r.worst_margin) else -math.inf, default=None)
+        failing = sum(1 for r in ran if not r.passed)
+        not_ok = sum(1 for r in rows if r.status not in ("ok", "not run") and not r.refused)
+        refused = sum(1 for r in rows if r.refused)
+        unjudged = [r for r in ran if r.no_value]
+        integ = next((r.integrator for r in rows if r.integrator), "")
+        if all(r.status == "not run" for r in rows):
+            out.append(f"| {e} | — | not run: {rows[0].message if rows else ''} | | | | | |")
+            continue
+        out.append(f"| {e} | {integ} | {_fmt(worst.worst_margin) if worst else '—'} | "
+                   f"{_where(run, worst) if worst else '—'} | {worst.worst_check if worst else '—'} | "
+                   f"{failing}/{len(rows)}" + (f" ({len(unjudged)} with a check without a value: "
+                                                f"{', '.join(sorted({c for r in unjudged for c in r.no_value}))})"
+                                                if unjudged else "") + f" | {not_ok} | {refused} |")
+    return out
+
+
+def markdown(run: SweepRun, prov: dict, png: str | None, command: str | None = None) -> str:
+    """The report: how it was made, the headline, the figure, how to read it, every point."""
+    if command is None:
+        from harness.io.provenance import command_line
+
+        command = command_line()
+    axes = ", ".join(f"`{a.spec()}`" + (f" ({a.unit})" if a.unit else "") for a in run.axes)
+    if run.mode == "grid":
+        shape = " x ".join(str(a.n) for a in run.axes)
+        how = f"a {shape}{'-point' if len(run.axes) == 1 else ''} grid over {axes}"
+    else:
+        how = f"{len(run.points)} random points over {axes} (seed {run.seed})"
+    where = f"on the Dask scheduler at {run.dask}" if run.dask else f"{run.jobs} at a time"
+    n_runs = sum(1 for r in run.rows if r.status != "not run" and not r.refused) + \
+        len({r.point for r in run.rows if r.status != "not run" and not r.refused})
+    lines = [f"# Sweep: {run.scene}", "",
+             f"{how}; engines {', '.join(run.engines)}; horizon {run.t_end:g} s. {len(run.points)} points, "
+             f"{n_runs} runs (each point's in-house DOP853 reference and each engine) in isolated worker processes "
+             f"({where}, {run.timeout:g} s timeout each), {run.wall_s:.1f} s wall. Reproduce with `{command}`.", "",
+             "| " + " | ".join(prov) + " |", "|" + "---|" * len(prov),
+             "| " + " | ".join(str(v) for v in prov.values()) + " |", "",
+             "## Worst point per engine", ""]
+    lines += headline(run)
+    lines.append("")
+    if png:
+        lines += [f"![log10 worst margin]({png})", ""]
+    lines += ["## How to read it", "",
+              "Each point is a case of `harness validate` with the swept parameters set: the engine at the scene's "
+              "default integrator and step, judged by the scene's own `[checks.*]` against the point's in-house "
+              "DOP853 reference (rtol 1e-12); definitions in the docstring of `harness/studies/sweep/run.py`.", "",
+              "* **worst margin**: the largest value / tolerance over the engine's checks (> 1: a check fails at that "
+              "point), and the check that sets it;",
+              "* **trajectory error**: the largest `trajectory.*` value against the reference (position and velocity "
+              "relative to the reference's motion scales, orientation in rad);",
+              "* **energy drift**: `energy_drift` (max |E - E0| over the energy scale) or, forced, `energy_balance`;",
+              "* **status**: `ok` (the run ended ok), the run's own (`blowup`, `failed`, `unsupported`), the worker's "
+              "(`crashed`, `timeout`, `error`), `refused: <reason>` (the scene's builder refuses the point), "
+              "`not run` (the scene's `[not_run]`). In the figure a run that is not ok is a grey cross or cell "
+              "with a letter: " + ", ".join(f"{v} {k}" for k, v in _LETTER.items()) + ". A check of a run that "
+              "ended ok but got no value (e.g. a closed form that does not cover the point) fails the point and is "
+              "left out of its margin: `?` in the figure, `no value` in the table (why: the CSV's message).", ""]
+    ref_bad = sorted({r.point for r in run.rows if r.reference not in ("", "ok") and not r.refused})
+    if ref_bad:
+        lines += [f"The reference run did not end ok at {len(ref_bad)} point(s) ({', '.join(str(i) for i in ref_bad[:20])}"
+                  f"{' ...' if len(ref_bad) > 20 else ''}): their `trajectory.*` checks are missing or failed.", ""]
+    lines += ["## Points", ""]
+    keys = [a.key for a in run.axes]
+    lines += ["| # | " + " | ".join(keys) + " | engine | status | worst margin | check | trajectory error | "
+              "energy drift | wall (s) |", "|---" * (len(keys) + 8) + "|"]
+    for r in run.rows[:MAX_TABLE_ROWS]:
+        status = r.status if len(r.status) <= 60 else r.status[:57] + "..."
+        lines.append(f"| {r.point} | " + " | ".join(f"{v:.4g}" for v in r.values)
+                     + f" | {r.engine} | {status} | {_fmt(r.worst_margin)} | {r.worst_check or '—'}"
+                       + (f"; no value: {', '.join(r.no_value)}" if r.no_value else "") + " | "
+                       f"{_fmt(r.trajectory_error)} | {_fmt(r.energy_drift)} | {r.wall_s:.2f} |")
+    if len(run.rows) > MAX_TABLE_ROWS:
+        lines += ["", f"({len(run.rows) - MAX_TABLE_ROWS} more rows in `{run.scene}_sweep.csv`.)"]
+    return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------------------------ figure
+def _axis_label(a) -> str:
+    return f"{a.key} ({a.unit})" if a.unit else a.key
+
+
+def figure_png(run: SweepRun) -> bytes | None:
+    """The figure of the sweep (see the module docstring); None when no engine ran."""
+    engines = [e for e in run.engines if any(r.status != "not run" for r in run.of(e))]
+    if not engines or not run.points:
+        return None
+    if run.mode == "grid" and len(run.axes) == 2:
+        return _heatmaps(run, engines)
+    if len(run.axes) == 1:
+        return _lines(run, engines)
+    return _scatters(run, engines)
+
+
+def _lines(run: SweepRun, engines: list[str]) -> bytes:
+    a = run.axes[0]
+    fig = new_figure(7.0, 4.2)
+    ax = fig.add_subplot(1, 1, 1)
+    for k, e in enumerate(engines):
+        rows = sorted(run.of(e), key=lambda r: r.values[0])
+        x = np.array([r.values[0] for r in rows])
+        y = np.array([_log_margin(r) for r in rows])
+        style = "o-" if run.mode == "grid" else "o"
+        line, = ax.plot(x, y, style, ms=4, lw=1.2, label=e)
+        bad = [r for r in rows if r.status != "ok"]
+        for r in bad:  # at the top of the axes, in the engine's colour
+            ax.plot([r.values[0]], [1.0 - 0.04 * (k + 1)], "x", color=line.get_color(), ms=7,
+                    transform=ax.get_xaxis_transform())
+            ax.annotate(_letter(r), (r.values[0], 1.0 - 0.04 * (k + 1)), xycoords=("data", "axes fraction"),
+                        xytext=(4, -3), textcoords="offset points", fontsize=7, color=line.get_color())
+        for r in rows:
+            if r.status == "ok" and r.no_value and math.isfinite(_log_margin(r)):
+                ax.annotate("?", (r.values[0], _log_margin(r)), xytext=(3, 3), textcoords="offset points",
+                            fontsize=8, color=line.get_color(), weight="bold")
+    ax.axhline(0.0, color="k", lw=0.8, ls="--")
+    ax.text(0.005, 0.0, " tolerance (margin 1)", transform=ax.get_yaxis_transform(), fontsize=7, va="bottom")
+    if a.log:
+        ax.set_xscale("log")
+    ax.set_xlabel(_axis_label(a))
+    ax.set_ylabel("log10 worst margin (value / tolerance)")
+    ax.set_title(f"{run.scene}: worst check margin per engine", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return png_bytes(fig, 110)
+
+
+def _norm(values: np.ndarray):
+    from matplotlib.colors import Normalize, TwoSlopeNorm
+
+    finite = values[np.isfinite(values)]
+    lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (-1.0, 1.0)
+    if lo == hi:
+        lo, hi = lo - 0.5, hi + 0.5
+    if lo < 0.0 < hi:
+        return TwoSlopeNorm(vmin=lo, vcenter=0.0, vmax=hi), "RdYlGn_r"
+    return Normalize(lo, hi), ("Greens_r" if hi <= 0 else "Reds")
+
+
+def _heatmaps(run: SweepRun, engines: list[str]) -> bytes:
+    ax0, ax1 = run.axes
+    g0, g1 = ax0.grid(), ax1.grid()
+    grids = {}
+    for e in engines:
+        z = np.full((len(g0), len(g1)), np.nan)
+        for r in run.of(e):
+            z.flat[r.point] = _log_margin(r)
+        grids[e] = z
+    norm, cmap = _norm(np.concatenate([z.ravel() for z in grids.values()]))
+    cols = min(3, len(engines))
+    nrows = math.ceil(len(engines) / cols)
+    fig = new_figure(4.2 * cols + 0.8, 3.6 * nrows)
+    annotate = len(g0) * len(g1) <= 144
+    image = None
+    for k, e in enumerate(engines):
+        ax = fig.add_subplot(nrows, cols, k + 1)
+        ax.set_facecolor("0.8")
+        image = ax.imshow(grids[e].T, origin="lower", aspect="auto", cmap=cmap, norm=norm)
+        for r in run.of(e):
+            i, j = np.unravel_index(r.point, (len(g0), len(g1)))
+            if r.status != "ok":
+                ax.text(i, j, _letter(r), ha="center", va="center", fontsize=8, color="0.2", weight="bold")
+            elif annotate and math.isfinite(r.worst_margin):
+                ax.text(i, j, f"{r.worst_margin:.1g}" + ("?" if r.no_value else ""), ha="center", va="center",
+                        fontsize=6)
+            elif r.no_value:
+                ax.text(i, j, "?", ha="center", va="center", fontsize=8, weight="bold")
+        step0, step1 = max(1, len(g0) // 8), max(1, len(g1) // 8)
+        ax.set_xticks(range(0, len(g0), step0), [f"{v:.3g}" for v in g0[::step0]], fontsize=7)
+        ax.set_yticks(range(0, len(g1), step1), [f"{v:.3g}" for v in g1[::step1]], fontsize=7)
+        ax.set_xlabel(_axis_label(ax0), fontsize=8)
+        ax.set_ylabel(_axis_label(ax1), fontsize=8)
+        integ = next((r.integrator for r in run.of(e) if r.integrator), "")
+        ax.set_title(f"{e} {integ}", fontsize=9)
+    if image is not None:
+        fig.colorbar(image, ax=fig.axes, label="log10 worst margin", shrink=0.9)
+    fig.suptitle(f"{run.scene}: log10 worst check margin (> 0: a check fails)", fontsize=10)
+    return png_bytes(fig, 110)
+
+
+def _scatters(run: SweepRun, engines: list[str]) -> bytes:
+    ax0, ax1 = run.axes[0], run.axes[1]
+    values = np.array([_log_margin(r) for r in run.rows if r.engine in engines])
+    norm, cmap = _norm(values)
+    cols = min(3, len(engines))
+    nrows = math.ceil(len(engines) / cols)
+    fig = new_figure(4.2 * cols + 0.8, 3.6 * nrows)
+    sc = None
+    for k, e in enumerate(engines):
+        ax = fig.add_subplot(nrows, cols, k + 1)
+        rows = run.of(e)
+        ok = [r for r in rows if math.isfinite(_log_margin(r))]
+        bad = [r for r in rows if r.status != "ok"]
+        sc = ax.scatter([r.values[0] for r in ok], [r.values[1] for r in ok], c=[_log_margin(r) for r in ok],
+                        cmap=cmap, norm=norm, s=22, edgecolors="k", linewidths=0.3)
+        if bad:
+            ax.scatter([r.values[0] for r in bad], [r.values[1] for r in bad], marker="x", color="0.3", s=30)
+        if ax0.log:
+            ax.set_xscale("log")
+        if ax1.log:
+            ax.set_yscale("log")
+        ax.set_xlabel(_axis_label(ax0), fontsize=8)
+        ax.set_ylabel(_axis_label(ax1), fontsize=8)
+        ax.set_title(e, fontsize=9)
+    if sc is not None:
+        fig.colorbar(sc, ax=fig.axes, label="log10 worst margin", shrink=0.9)
+    extra = f" (first two of {len(run.axes)} keys)" if len(run.axes) > 2 else ""
+    fig.suptitle(f"{run.scene}: log10 worst check margin{extra}; x: run not ok", fontsize=10)
+    return png_bytes(fig, 110)
+
+
+# ------------------------------------------------------------------------------------ files
+def file_names(scene: str) -> tuple[str, str, str]:
+    return f"{scene}_sweep.md", f"{scene}_sweep.csv", f"{scene}_sweep.png"
+
+
+def write_sweep_reports(run: SweepRun, prov: dict, out_dir: Path, command: str | None = None) -> list[Path]:
+    """Write ``<scene>_sweep.md``, ``.csv`` and ``.png`` into ``out_dir`` as one set; returns
+    their paths. InputError if ``out_dir`` cannot be written (old files are then kept)."""
+    out_dir = Path(out_dir)
+    atomic.check_writable(out_dir)
+    md, csv, png = file_names(run.scene)
+    image = figure_png(run)
+    files: dict[str, bytes | str] = {md: markdown(run, prov, png if image else None, command),
+                                     csv: frame(run).to_csv(index=False)}
+    if image:
+        files[png] = image
+    return atomic.write_set(out_dir, files)
