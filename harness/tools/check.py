@@ -487,12 +487,13 @@ def geom_inertials(path: Path) -> GeomInertials:
     spec.compiler.fusestatic = False
     spec.compiler.settotalmass, spec.compiler.boundmass, spec.compiler.boundinertia = -1.0, 0.0, 0.0
     spec.compiler.balanceinertia = False
-    try:
+    with_geoms = [k for k in wanted if list(spec.bodies[k].geoms)]  # before compiling: a failed compile
+    try:                                                              # leaves the spec unreadable
         with captured_native_stderr():
             m = spec.compile()
     except Exception as err:
         out.failed = _one_line(err).removeprefix("Error: ")
-        out.lost = [k for k in wanted if list(spec.bodies[k].geoms)]
+        out.lost = with_geoms
         return out
     out.model = m
     for k in wanted:

@@ -339,3 +339,18 @@ def test_joint_map_readers(tmp_path):
     with pytest.raises(InputError, match="mapped twice"):
         parse_map_options(["a=x", "a=y"])
     assert parse_map_options(None) == {}
+
+
+
+def test_baxter_with_unreachable_package_meshes_loses_the_geom_masses_without_crashing():
+    """example-robot-data's baxter names its meshes by ``package://`` URIs MuJoCo cannot open:
+    compiling the geometry for the geom masses fails, after which MuJoCo's spec refuses every
+    read (it raised from the list of lost bodies, crashing 14 of the collection's checks);
+    the failure is recorded (baxter's one link without ``<inertial>`` has no geom: nothing lost)."""
+    from harness.tools import zoo
+    from harness.tools.check import geom_inertials
+
+    baxter = {m.name: m for m in zoo.collection("example-robot-data").models}["baxter"].urdf
+    frozen = geom_inertials(baxter)
+    assert "Error opening file" in frozen.failed and frozen.model is None
+    assert frozen.lost == [] and frozen.values == {}
