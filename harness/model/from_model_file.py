@@ -122,6 +122,26 @@ def file_format(path: Path) -> str:
     return URDF if Path(path).suffix.lower() == ".urdf" else MJCF
 
 
+def read_spec(path: Path, *, root_joint: str = "none"):
+    """Parse an MJCF file, or a URDF (``*.urdf``: MuJoCo's URDF importer) with the root joint a
+    scene's ``urdf_root_joint`` names added to its root link (``add_urdf_root_joint``), into a
+    ``mujoco.MjSpec``; raise InputError (one line, naming the file) if it cannot be read.
+    ``root_joint`` is ignored for an MJCF (it states its own)."""
+    import mujoco
+
+    path = Path(path)
+    fmt = file_format(path)
+    if not path.is_file():
+        raise InputError(f"{path}: {fmt} file not found")
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+    except Exception as err:  # MuJoCo raises ValueError with a multi-line message
+        raise InputError(f"{path}: cannot load {fmt}: {_one_line(err)}") from None
+    if fmt == URDF:
+        add_urdf_root_joint(spec, root_joint, path)
+    return spec
+
+
 def read_model_file(path: Path, *, root_joint: str = "none", initial: str = ZERO,
                     fuse_static: bool | None = None) -> ModelFile:
     """The model file at ``path`` as MuJoCo compiles it, in the harness's frames (module docstring).
@@ -138,18 +158,9 @@ def read_model_file(path: Path, *, root_joint: str = "none", initial: str = ZERO
         InputError: the file is missing or does not compile, or holds what the harness cannot
             state (module docstring); one line naming the file and the body or joint.
     """
-    import mujoco
-
     path = Path(path)
     fmt = file_format(path)
-    if not path.is_file():
-        raise InputError(f"{path}: {fmt} file not found")
-    try:
-        spec = mujoco.MjSpec.from_file(str(path))
-    except Exception as err:  # MuJoCo raises ValueError with a multi-line message
-        raise InputError(f"{path}: MuJoCo cannot read the {fmt}: {_one_line(err)}") from None
-    if fmt == URDF:
-        add_urdf_root_joint(spec, root_joint, path)
+    spec = read_spec(path, root_joint=root_joint)
     if fuse_static is not None:
         spec.compiler.fusestatic = bool(fuse_static)
     try:

@@ -225,7 +225,7 @@ def test_a_fixed_child_is_merged_when_mujoco_fuses_it(tmp_path):
 
 @pytest.mark.parametrize("text,initial,fragment", [
     (None, "zero", "MJCF file not found"),
-    ("<mujoco><worldbody><body", "zero", "MuJoCo cannot read the MJCF"),
+    ("<mujoco><worldbody><body", "zero", "cannot load MJCF"),
     (MJCF_HEAD + '<body name="a"><joint type="hinge"/><geom size="0.1"/></body>' + MJCF_TAIL, "start",
      "no keyframe named 'start' for the initial state (known: zero, qpos0)"),
 ])

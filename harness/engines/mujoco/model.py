@@ -28,7 +28,7 @@ import numpy as np
 
 from harness.model import rotations
 from harness.model.errors import InputError
-from harness.model.from_model_file import URDF, add_urdf_root_joint, file_format
+from harness.model.from_model_file import URDF, file_format, read_spec  # read_spec: MJCF or URDF into an MjSpec
 from harness.model.forces import (FORCES, JOINT_SPRINGS, JOINT_TORQUES, POINT_FORCES, POINT_SPRINGS, JointSpring,
                                   JointTorque, PointForce, PointSpring)
 from harness.model.joints import JOINTS, JointType
@@ -68,23 +68,6 @@ def joint_kind(m: mujoco.MjModel, jid: int, unknown: str | None = None) -> str:
     if jt is not None:
         return jt.name
     return str(m.jnt_type[jid]) if unknown is None else unknown
-
-
-def read_spec(path: Path, *, root_joint: str = "none") -> mujoco.MjSpec:
-    """Parse an MJCF file, or a URDF (``*.urdf``: MuJoCo's URDF importer) with the root joint a
-    scene's ``urdf_root_joint`` names added to its root link; raise InputError (one line, naming
-    the file) if it cannot be read. ``root_joint`` is ignored for an MJCF (it states its own)."""
-    path = Path(path)
-    fmt = file_format(path)
-    if not path.is_file():
-        raise InputError(f"{path}: {fmt} file not found")
-    try:
-        spec = mujoco.MjSpec.from_file(str(path))
-    except Exception as err:  # MuJoCo raises ValueError with a multi-line message
-        raise InputError(f"{path}: cannot load {fmt}: {_one_line(err)}") from None
-    if fmt == URDF:
-        add_urdf_root_joint(spec, root_joint, path)
-    return spec
 
 
 def urdf_root_joint_of(model: Multibody) -> str:
