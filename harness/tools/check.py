@@ -1724,21 +1724,25 @@ def _geom_mass_hint(readings: dict[str, Reading], x: dict[str, JointBody], who: 
     return "; ".join(texts)
 
 
+def _urdf_links(path: Path) -> list:
+    """The ``<link>`` elements of a URDF; none for a file that does not parse as XML."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        return ET.parse(path).getroot().findall("link")
+    except (ET.ParseError, OSError):
+        return []
+
+
 def urdf_inertial_frames(path: Path) -> dict[str, tuple[str, np.ndarray, np.ndarray]]:
     """Link name -> (the ``rpy`` of its ``<inertial><origin>`` as written, R: the inertial frame's
     orientation in the link frame (fixed-axis roll, pitch, yaw: R = Rz(y) Ry(p) Rx(r)), the
     ``<inertia>`` tensor as written, in the inertial frame (kg m^2)), for the links whose
     inertial frame is rotated. Empty for a file that does not parse as a URDF."""
-    import xml.etree.ElementTree as ET
-
     from scipy.spatial.transform import Rotation
 
-    try:
-        root = ET.parse(path).getroot()
-    except (ET.ParseError, OSError):
-        return {}
     out = {}
-    for link in root.findall("link"):
+    for link in _urdf_links(path):
         inertial = link.find("inertial")
         origin = inertial.find("origin") if inertial is not None else None
         tensor = inertial.find("inertia") if inertial is not None else None
@@ -1814,14 +1818,8 @@ def _same_body(x: JointBody, mass: float, com: np.ndarray, inertia: np.ndarray, 
 def urdf_link_masses(path: Path) -> dict[str, float]:
     """Link name -> the ``<inertial><mass value>`` a URDF states (kg); empty for a file that does
     not parse as a URDF."""
-    import xml.etree.ElementTree as ET
-
-    try:
-        root = ET.parse(path).getroot()
-    except (ET.ParseError, OSError):
-        return {}
     out = {}
-    for link in root.findall("link"):
+    for link in _urdf_links(path):
         mass = link.find("inertial/mass")
         try:
             out[link.get("name")] = float(mass.get("value")) if mass is not None else 0.0

@@ -91,7 +91,9 @@ class RollingRows:
 
     def rows(self, q: np.ndarray, v: np.ndarray | None):
         """Height errors C (nc,) m (0 on the no-slip rows), Jacobian J (nc, nv) and the bias
-        gamma (nc,) (None when ``v`` is None). Needs ``forwardKinematics`` at q (and v)."""
+        gamma (nc,) (None when ``v`` is None). Runs the kinematics it needs itself (placements and
+        joint Jacobians at q; with ``v``, velocities and the bias accelerations at zero joint
+        acceleration), leaving them in ``data``."""
         pmodel, data = self.pmodel, self.data
         C = np.zeros(self.nc)
         J = np.zeros((self.nc, pmodel.nv))
@@ -172,7 +174,6 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
                if "reaction" in scene.checks else [])
 
     def solve(q, v):
-        pin.forwardKinematics(pmodel, data, q, v)
         J, gamma, U = rolling.independent(*rolling.rows(q, v)[1:])
         a = pin.forwardDynamics(pmodel, data, q, v, tau, J, gamma, 0.0)
         lam = np.array(data.lambda_c)
@@ -183,7 +184,6 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
 
     def project(q, v):
         for _ in range(MAX_PROJECTION_ITER):
-            pin.forwardKinematics(pmodel, data, q)
             C, J, _ = rolling.rows(q, None)
             M = pin.crba(pmodel, data, q)
             M = np.triu(M) + np.triu(M, 1).T
