@@ -25,6 +25,7 @@ kinematic loops (``Multibody.loops``, cut joints the URDF cannot state) in ``loo
 from __future__ import annotations
 
 import time
+import weakref
 from dataclasses import replace
 
 import numpy as np
@@ -33,8 +34,8 @@ import pinocchio as pin
 from harness.model.forces import POINT_FORCES, POINT_SPRINGS, elements, spring_force, spring_potential
 from harness.model.joints import JOINTS
 from harness.engines.base import RunSettings, check_settings
-from harness.engines.pinocchio.lie_group_integrators import METHODS, STEPPERS
-from harness.engines.pinocchio.model import blowup_reason, initial_configuration, load_urdf, read_maximal
+from harness.engines.pinocchio.lie_group_integrators import METHODS, stepper
+from harness.engines.pinocchio.model import MaximalReader, blowup_reason, initial_configuration, load_urdf
 from harness.engines.pinocchio.loops import simulate_loops
 from harness.engines.pinocchio.rolling import simulate_rolling
 from harness.model.scene import Scene
@@ -60,7 +61,7 @@ class PinocchioEngine:
         applied = _applied_function(pmodel, data, ids, model)
         joint_slots = _joint_slots(pmodel, ids, model)
         accel = _accel_function(pmodel, data, ids, model, applied)
-        step = STEPPERS[settings.integrator]
+        step = stepper(settings.integrator, pmodel)
         jointed = [(b.name, jid) for b, jid in zip(model.bodies, ids) if JOINTS[b.joint].constrained] if "reaction" in scene.checks else []
         react = {name: (np.full((settings.n_saves + 1, 3), np.nan), np.full((settings.n_saves + 1, 3), np.nan))
                  for name, _ in jointed}
@@ -68,29 +69,33 @@ class PinocchioEngine:
 
         n = settings.n_saves + 1
         buf = SampleBuffer(n, len(ids))
+        reader = MaximalReader(pmodel, data, ids, buf)
         status, message, saved, steps = "ok", "", 0, 0
         t0 = time.perf_counter()
         try:
             for k in range(n):
                 if k > 0:
                     for _ in range(settings.steps_per_save):
-                        q, v = step(pmodel, accel, steps * h, q, v, h)
+                        q, v = step(accel, steps * h, q, v, h)
                         steps += 1
                 reason = blowup_reason(q, v, steps * h)
                 if reason:
                     status, message = "blowup", reason
                     break
-                read_maximal(pmodel, data, ids, model, q, v, k, buf)
+                reader.read(q, v, k)
                 buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
                 buf.potential[k] = (pin.computePotentialEnergy(pmodel, data, q) + spring_energy(joint_slots, q)
                                     + point_spring_energy(pmodel, data, ids, model, q))
                 if jointed:
                     t_k = steps * h
-                    for name, (force, moment) in joint_reactions(pmodel, data, jointed, applied, accel, t_k, q, v).items():
+                    tau, fext = applied(t_k, q, v)
+                    a = _aba(pmodel, data, q, v, tau, fext)
+                    for name, (force, moment) in rnea_reactions(pmodel, data, jointed, tau, fext, q, v, a).items():
                         react[name][0][k], react[name][1][k] = force, moment
                 saved = k + 1
         except (RuntimeError, ValueError, np.linalg.LinAlgError) as err:
             status, message = "failed", f"{type(err).__name__} at t = {steps * h:.6g} s: {err}"
+        reader.finish(saved)
         stats = {"steps": steps, "wall_s": time.perf_counter() - t0,
                  "settings": f"aba, {settings.integrator} on the configuration Lie group (integrate/dIntegrate), "
                              f"step {h:g} s, root joint {scene.urdf_root_joint}"}
@@ -136,13 +141,9 @@ def point_spring_energy(pmodel, data, ids, model, q) -> float:
                                       _world_point(data, ids, body_index, sp.body_b, sp.p_B)) for sp in springs))
 
 
-def _applied_function(pmodel, data, ids, model):
-    """``applied(t, q, v) -> (tau, fext)``: the joint-space forces and the scene's prescribed
-    point forces as ``fext`` in the local frame of each body's joint (None without forces).
-
-    ``aba`` knows no springs: a joint-space force element enters ``tau`` as its generalised
-    force on the joint's dof (``ForceType.joint_force``; a spring ``-k (q - q_ref)``), zero
-    without them (no joint is actuated)."""
+def joint_force_function(pmodel, ids, model):
+    """``joint_forces(q, v) -> tau`` (nv,): the generalised forces of the joint-space force
+    elements (``_joint_slots``), zero without them (the same zero array each call)."""
     slots = _joint_slots(pmodel, ids, model)
     tau0 = np.zeros(pmodel.nv)
 
@@ -154,33 +155,73 @@ def _applied_function(pmodel, data, ids, model):
             tau[iv] += ft.joint_force(element, q[iq], v[iv])
         return tau
 
-    point_forces = POINT_FORCES.elements(model)
-    point_springs = POINT_SPRINGS.elements(model)
-    if not point_forces and not point_springs:
-        return lambda t, q, v: (joint_forces(q, v), None)
-    body_index = {b.name: i for i, b in enumerate(model.bodies)}
+    return joint_forces
 
-    def push(fext, body, p_B, f_W):
-        """Add the world force f_W at the point p_B of ``body`` (its joint frame) to ``fext``."""
-        jid = ids[body_index[body]]
-        f_L = data.oMi[jid].rotation.T @ f_W
-        fext[jid] += pin.Force(f_L, np.cross(p_B, f_L))
+
+def _applied_function(pmodel, data, ids, model):
+    """``applied(t, q, v) -> (tau, fext)``: the joint-space forces and the scene's prescribed
+    point forces as ``fext`` in the local frame of each body's joint (None without forces).
+
+    ``aba`` knows no springs: a joint-space force element enters ``tau`` as its generalised
+    force on the joint's dof (``ForceType.joint_force``; a spring ``-k (q - q_ref)``), zero
+    without them (no joint is actuated)."""
+    joint_forces = joint_force_function(pmodel, ids, model)
+    wrenches = point_wrenches(pmodel, data, ids, model)
+    if wrenches is None:
+        return lambda t, q, v: (joint_forces(q, v), None)
 
     def applied(t, q, v):
         tau = joint_forces(q, v)
         pin.forwardKinematics(pmodel, data, q)
         fext = [pin.Force.Zero() for _ in range(pmodel.njoints)]
-        for force in point_forces:
-            push(fext, force.body, force.p_BQ_B, force.force_W(t))
-        for spring in point_springs:  # -k (L - L0) d / L on end a, the opposite on end b
-            f = spring_force(spring, _world_point(data, ids, body_index, spring.body_a, spring.p_A),
-                             _world_point(data, ids, body_index, spring.body_b, spring.p_B))
-            push(fext, spring.body_a, spring.p_A, f)
-            if spring.body_b is not None:
-                push(fext, spring.body_b, spring.p_B, -f)
+        for jid, w in wrenches(t).items():
+            fext[jid] = pin.Force(w)
         return tau, fext
 
     return applied
+
+
+def point_wrenches(pmodel, data, ids, model):
+    """``wrenches(t) -> {joint id: wrench (6,)}``: the scene's prescribed point forces and the
+    springs between body points at time ``t`` (s), each as the spatial force ``[f_L, p x f_L]``
+    (N, N m) in the local frame of the joint that moves its body, summed per joint in the order
+    the forces are listed (point forces, then each spring's end a and end b); None without such
+    forces. Reads the placements ``data.oMi`` (``forwardKinematics`` at q must have run)."""
+    point_forces = POINT_FORCES.elements(model)
+    point_springs = POINT_SPRINGS.elements(model)
+    if not point_forces and not point_springs:
+        return None
+    body_index = {b.name: i for i, b in enumerate(model.bodies)}
+    jid_of = {b.name: ids[i] for i, b in enumerate(model.bodies)}
+    def point(p):
+        p = np.asarray(p, float)
+        return p, tuple(p.tolist())
+
+    forces = [(jid_of[f.body], point(f.p_BQ_B)[1], f.force_W) for f in point_forces]
+    springs = [(sp, jid_of[sp.body_a], *point(sp.p_A), None if sp.body_b is None else jid_of[sp.body_b], *point(sp.p_B))
+               for sp in point_springs]
+
+    def push(out, jid, p, f_W):
+        """Add the world force f_W at the point p (floats, joint frame) of joint ``jid``'s body to
+        ``out``: [f_L, p x f_L] (the products and differences of ``np.cross``)."""
+        f0, f1, f2 = (data.oMi[jid].rotation.T @ f_W).tolist()
+        p0, p1, p2 = p
+        w = np.array([f0, f1, f2, p1 * f2 - p2 * f1, p2 * f0 - p0 * f2, p0 * f1 - p1 * f0])
+        out[jid] = w if jid not in out else out[jid] + w
+
+    def wrenches(t):
+        out = {}
+        for jid, p, force_W in forces:
+            push(out, jid, p, force_W(t))
+        for spring, ja, p_A, pa, jb, p_B, pb in springs:  # -k (L - L0) d / L on end a, the opposite on end b
+            f = spring_force(spring, _world_point(data, ids, body_index, spring.body_a, p_A),
+                             _world_point(data, ids, body_index, spring.body_b, p_B))
+            push(out, ja, pa, f)
+            if jb is not None:
+                push(out, jb, pb, -f)
+        return out
+
+    return wrenches
 
 
 def _accel_function(pmodel, data, ids, model, applied=None):
@@ -196,28 +237,45 @@ def _accel_function(pmodel, data, ids, model, applied=None):
     return accel
 
 
-def joint_reactions(pmodel, data, jointed, applied, accel, t, q, v) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Constraint reaction of each ``(name, joint id)`` in ``jointed`` at time ``t`` (s) and state
-    (q, v): force (N) and moment about the joint origin (N m), world frame, that the parent
-    exerts on the joint's child (``rnea`` at the ``aba`` acceleration; see module docstring)."""
-    a = accel(t, q, v)
-    tau, fext = applied(t, q, v)
+def _aba(pmodel, data, q, v, tau, fext) -> np.ndarray:
+    return (pin.aba(pmodel, data, q, v, tau) if fext is None else pin.aba(pmodel, data, q, v, tau, fext)).copy()
+
+
+def rnea_reactions(pmodel, data, jointed, tau, fext, q, v, a) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Constraint reaction of each ``(name, joint id)`` in ``jointed`` at the state (q, v) with
+    acceleration ``a`` (from ``aba``, or a constrained one), the joint-space forces ``tau`` and
+    the external forces ``fext`` (a ``pin.Force`` per joint, or None): force (N) and moment about
+    the joint origin (N m), world frame, that the parent exerts on the joint's child (``rnea``;
+    see module docstring)."""
     if fext is None:
         pin.rnea(pmodel, data, q, v, a)
     else:
         pin.rnea(pmodel, data, q, v, a, fext)
     out = {}
+    forces, placements = data.f, data.oMi
     for name, jid in jointed:
-        f = data.f[jid]
+        f = forces[jid]
         lin, ang = np.array(f.linear), np.array(f.angular)
-        jm = pmodel.joints[jid]
-        if jm.nv == 1 and tau[jm.idx_v] != 0.0:  # the joint's own applied force along S
+        iv = _single_dof(pmodel, jid)
+        if iv is not None and tau[iv] != 0.0:  # the joint's own applied force along S
             S = np.array(data.joints[jid].S).reshape(6, -1)[:, 0]
-            lin -= tau[jm.idx_v] * S[:3]
-            ang -= tau[jm.idx_v] * S[3:]
-        R = data.oMi[jid].rotation
+            lin -= tau[iv] * S[:3]
+            ang -= tau[iv] * S[3:]
+        R = placements[jid].rotation
         out[name] = (R @ lin, R @ ang)
     return out
+
+
+_SINGLE_DOF: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _single_dof(pmodel, jid: int) -> int | None:
+    """The velocity index of joint ``jid`` if it has one degree of freedom, else None (cached per
+    model: ``pmodel.joints[jid]`` copies the joint model)."""
+    table = _SINGLE_DOF.get(pmodel)
+    if table is None:
+        table = _SINGLE_DOF[pmodel] = [jm.idx_v if jm.nv == 1 else None for jm in pmodel.joints]
+    return table[jid]
 
 
 ENGINE = PinocchioEngine()

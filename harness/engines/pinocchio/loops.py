@@ -56,10 +56,10 @@ whether or not the criterion is met (four_bar_near_singular: 1 solve in 20000 ra
 iterations taken (``prox_iter_max``).
 The Baumgarte corrector of the models is off (Kp = Kd = 0): drift is controlled by projection.
 
-``constraintDynamics`` takes no external forces: the scene's prescribed point forces (``fext`` of
-``engine._applied_function``: spatial forces in the local frame of the joint that moves the body)
-enter ``tau`` as generalised forces ``sum_j J_j^T f_j`` with ``J_j`` the joint's ``LOCAL`` Jacobian;
-joint springs are already in ``tau``.
+``constraintDynamics`` takes no external forces: the scene's prescribed point forces and point
+springs (``engine.point_wrenches``: spatial forces in the local frame of the joint that moves the
+body) enter ``tau`` as generalised forces ``sum_j J_j^T f_j`` with ``J_j`` the joint's ``LOCAL``
+Jacobian; joint springs are already in ``tau`` (``engine.joint_force_function``).
 
 Drift control (after every step of ``rkmk4`` or ``euler`` on the configuration Lie group, and once
 at t = 0): the position residual e(q) (m, world, all rows) is removed by Gauss-Newton in the tangent
@@ -88,6 +88,7 @@ this path.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import replace
 
@@ -95,8 +96,9 @@ import numpy as np
 import pinocchio as pin
 
 from harness.engines.base import RunSettings
-from harness.engines.pinocchio.lie_group_integrators import STEPPERS
-from harness.engines.pinocchio.model import blowup_reason, initial_configuration, load_urdf, read_maximal
+from harness.engines.pinocchio import linalg
+from harness.engines.pinocchio.lie_group_integrators import stepper
+from harness.engines.pinocchio.model import MaximalReader, blowup_reason, cross, initial_configuration, load_urdf
 from harness.measure.trajectory import SampleBuffer, Trajectory
 from harness.model.joints import JOINTS, keeps_axis, loop_kinds
 from harness.model.multibody import Multibody
@@ -148,20 +150,34 @@ class LoopConstraints:
                 self.models.append(cm)
                 self.datas.append(cm.createData())
         self.nc = 3 * len(self.models)
+        #: (model, data) per constraint model: Python references to the elements of ``models`` and
+        #: ``datas`` (iterating the Pinocchio vectors again costs ~8 us per element)
+        self.pairs = list(zip(self.models, self.datas))
+        #: ``(model index, joint id, first)``: the ends of the constraint models on a moving
+        #: joint (joint1 then joint2 of each model; ``first``: joint1)
+        self.ends = [(k, jid, end == 1) for k, cm in enumerate(self.models)
+                     for end, jid in ((1, cm.joint1_id), (2, cm.joint2_id)) if jid != 0]
 
-    def rows(self, pmodel: pin.Model, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-        """Position residual e (nc,) m, world (x_1 - x_2 = -R_1 c1Mc2.translation per model), its
-        Jacobian J (nc, nv) and the length scale (m) of the residual's round-off: the largest
-        distance of a constraint point from the world origin, at least 1 m; at configuration q
-        (``computeJointJacobians``, ``RigidConstraintModel.calc``, ``getConstraintsJacobian``)."""
+    def rows(self, pmodel: pin.Model, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Position residual e (nc,) m, world (x_1 - x_2 = -R_1 c1Mc2.translation per model) and
+        its Jacobian J (nc, nv) at configuration q (``computeJointJacobians``,
+        ``RigidConstraintModel.calc``, ``getConstraintsJacobian``). ``length()`` then gives the
+        length scale of the residual's round-off at q."""
         pin.computeJointJacobians(pmodel, data, q)
         e = np.empty(self.nc)
-        length = 1.0
-        for k, (cm, cd) in enumerate(zip(self.models, self.datas)):
+        for k, (cm, cd) in enumerate(self.pairs):
             cm.calc(pmodel, data, cd)
             e[3 * k : 3 * k + 3] = -cd.oMc1.rotation @ cd.c1Mc2.translation
-            length = max(length, float(np.linalg.norm(cd.oMc1.translation)), float(np.linalg.norm(cd.oMc2.translation)))
-        return e, pin.getConstraintsJacobian(pmodel, data, self.models, self.datas), length
+        return e, pin.getConstraintsJacobian(pmodel, data, self.models, self.datas)
+
+    def length(self) -> float:
+        """The length scale (m) of the residual's round-off: the largest distance of a constraint
+        point from the world origin, at least 1 m, at the configuration of the last ``rows``."""
+        sq = 1.0  # the largest squared distance (m^2), at least 1
+        for _, cd in self.pairs:
+            x1, x2 = cd.oMc1.translation, cd.oMc2.translation
+            sq = max(sq, float(x1.dot(x1)), float(x2.dot(x2)))
+        return math.sqrt(sq)  # sqrt(x.x) is np.linalg.norm(x), and sqrt is monotonic: the same number
 
     def reactions(self, lam: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Per cut joint, (force N, moment N m about the joint point), world, on body_a, from the
@@ -171,40 +187,45 @@ class LoopConstraints:
         for loop, first, count in self.items:
             force = np.zeros(3)
             moment = np.zeros(3)
-            x0 = np.array(self.datas[first].oMc1.translation)
+            x0 = np.array(self.pairs[first][1].oMc1.translation)
             for k in range(first, first + count):
                 f = lam[3 * k : 3 * k + 3]
                 force += f
-                moment += np.cross(np.array(self.datas[k].oMc1.translation) - x0, f)
+                moment += cross(np.array(self.pairs[k][1].oMc1.translation) - x0, f)
             out[loop.name] = (force, moment)
         return out
 
 
-def tree_reactions(pmodel: pin.Model, rdata: pin.Data, jointed, applied, constraints: LoopConstraints, lam: np.ndarray,
-                   t: float, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def tree_reactions(pmodel: pin.Model, rdata: pin.Data, jointed, tau: np.ndarray, wrenches: dict,
+                   constraints: LoopConstraints, lam: np.ndarray, q: np.ndarray, v: np.ndarray,
+                   a: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """The reactions of the tree's joints ``jointed`` (``(name, joint id)``) at (q, v) with the
-    constrained acceleration ``a``: ``engine.joint_reactions`` (``rnea``) with each constraint
-    model's force added to ``fext`` (``lam[3k:3k+3]``, world axes, on joint1 at its point, the
-    opposite on joint2) beside the scene's applied forces. Force (N) and moment about the joint
-    origin (N m), world, that the parent exerts on the child."""
-    from harness.engines.pinocchio.engine import joint_reactions
+    constrained acceleration ``a``: ``engine.rnea_reactions`` (``rnea``) with the joint-space
+    forces ``tau``, and as ``fext`` the scene's applied point forces ``wrenches`` (joint id ->
+    spatial force [f; m] in the joint's local frame, ``engine.point_wrenches``) with each
+    constraint model's force added (``lam[3k:3k+3]``, world axes, on joint1 at its point, the
+    opposite on joint2). Force (N) and moment about the joint origin (N m), world, that the parent
+    exerts on the child."""
+    from harness.engines.pinocchio.engine import rnea_reactions
 
     pin.forwardKinematics(pmodel, rdata, q)
-
-    def with_constraints(t_, q_, v_):
-        tau, fext = applied(t_, q_, v_)
-        fext = [pin.Force(f) for f in fext] if fext is not None else [pin.Force.Zero() for _ in range(pmodel.njoints)]
-        for k, (cm, cd) in enumerate(zip(constraints.models, constraints.datas)):
-            f_W = lam[3 * k : 3 * k + 3]
-            for jid, x_W, sign in ((cm.joint1_id, cd.oMc1.translation, 1.0), (cm.joint2_id, cd.oMc2.translation, -1.0)):
-                if jid == 0:
-                    continue
-                oMi = rdata.oMi[jid]
-                f_L = oMi.rotation.T @ (sign * f_W)
-                fext[jid] += pin.Force(f_L, np.cross(oMi.rotation.T @ (np.asarray(x_W) - oMi.translation), f_L))
-        return tau, fext
-
-    return joint_reactions(pmodel, rdata, jointed, with_constraints, lambda *_: a, t, q, v)
+    fext = dict(wrenches)
+    placements = {}
+    for k, jid, first in constraints.ends:
+        cd = constraints.pairs[k][1]
+        f_W = lam[3 * k : 3 * k + 3]
+        x_W = (cd.oMc1 if first else cd.oMc2).translation
+        if jid not in placements:
+            oMi = rdata.oMi[jid]
+            placements[jid] = (oMi.rotation.T, oMi.translation)
+        Rt, o = placements[jid]
+        f_L = Rt @ (f_W if first else -f_W)
+        w = np.concatenate((f_L, cross(Rt @ (x_W - o), f_L)))
+        fext[jid] = w if jid not in fext else fext[jid] + w
+    forces = [pin.Force.Zero() for _ in range(pmodel.njoints)]
+    for jid, w in fext.items():
+        forces[jid] = pin.Force(w)
+    return rnea_reactions(pmodel, rdata, jointed, tau, forces, q, v, a)
 
 
 def _baumgarte_off(constraints: LoopConstraints) -> None:
@@ -215,15 +236,13 @@ def _baumgarte_off(constraints: LoopConstraints) -> None:
         cm.setBaumgarteCorrectorParameters(bp)
 
 
-def _external_torque(pmodel: pin.Model, data: pin.Data, q: np.ndarray, fext) -> np.ndarray:
-    """Generalised force (nv,) of the spatial forces ``fext`` (one ``pin.Force`` per joint, in
-    the joint's local frame): ``sum_j J_j^T f_j`` with ``J_j`` the joint's LOCAL Jacobian."""
+def _external_torque(pmodel: pin.Model, data: pin.Data, wrenches: dict) -> np.ndarray:
+    """Generalised force (nv,) of the spatial forces ``wrenches`` (joint id -> [f; m] in the
+    joint's local frame): ``sum_j J_j^T f_j`` over the joints in increasing order, with ``J_j`` the
+    joint's LOCAL Jacobian (``computeJointJacobians`` at q must have run on ``data``)."""
     tau = np.zeros(pmodel.nv)
-    pin.computeJointJacobians(pmodel, data, q)
-    for jid in range(1, pmodel.njoints):
-        f = np.asarray(fext[jid].vector)
-        if np.any(f):
-            tau += pin.getJointJacobian(pmodel, data, jid, pin.ReferenceFrame.LOCAL).T @ f
+    for jid in sorted(wrenches):
+        tau += pin.getJointJacobian(pmodel, data, jid, pin.ReferenceFrame.LOCAL).T @ wrenches[jid]
     return tau
 
 
@@ -249,7 +268,7 @@ def proximal_settings(pmodel: pin.Model, data: pin.Data, q: np.ndarray, constrai
 def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Trajectory:
     """Run a scene with cut joints in Pinocchio (module docstring); the trajectory carries each cut
     joint's reaction on body_a in ``reactions[<loop name>]``."""
-    from harness.engines.pinocchio.engine import _applied_function, _joint_slots, point_spring_energy, spring_energy
+    from harness.engines.pinocchio.engine import joint_force_function, _joint_slots, point_spring_energy, point_wrenches, spring_energy
 
     pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
     data = pmodel.createData()
@@ -257,13 +276,23 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
     q, v = initial_configuration(pmodel, ids, model)
     constraints = LoopConstraints(pmodel, ids, model)
     _baumgarte_off(constraints)
-    applied = _applied_function(pmodel, fdata, ids, model)
+    joint_forces = joint_force_function(pmodel, ids, model)
+    wrenches = point_wrenches(pmodel, fdata, ids, model)
+
+    def applied(t, q, v):
+        """The joint-space forces (nv,) and the point forces' wrenches per joint ({} without)."""
+        tau = joint_forces(q, v)
+        if wrenches is None:
+            return tau, {}
+        pin.computeJointJacobians(pmodel, fdata, q)  # the placements oMi, and the Jacobians of _external_torque
+        return tau, wrenches(t)
     joint_slots = _joint_slots(pmodel, ids, model)
     counters = {"rhs_evals": 0, "prox_iter_max": 0, "prox_unconverged": 0, "projection_iter_max": 0}
-    step = STEPPERS[settings.integrator]
+    step = stepper(settings.integrator, pmodel)
     h = settings.dt
     n = settings.n_saves + 1
     buf = SampleBuffer(n, len(ids))
+    reader = MaximalReader(pmodel, data, ids, buf)
     react = {loop.name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for loop in model.loops}
     jointed = ([(b.name, ids[i]) for i, b in enumerate(model.bodies) if JOINTS[b.joint].constrained]
                if "reaction" in scene.checks else [])
@@ -272,13 +301,15 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
     status, message, saved, steps = "ok", "", 0, 0
     prox = None
 
-    def solve(t, q, v):
-        tau, fext = applied(t, q, v)
-        if fext is not None:
-            tau = tau + _external_torque(pmodel, fdata, q, fext)
+    def solve(t, q, v, forces=None):
+        tau, fext = forces or applied(t, q, v)
+        if fext:
+            tau = tau + _external_torque(pmodel, fdata, fext)
         a = pin.constraintDynamics(pmodel, data, q, v, tau, constraints.models, constraints.datas, prox)
-        counters["prox_iter_max"] = max(counters["prox_iter_max"], prox.iter)
-        if prox.iter >= prox.max_iter:
+        it = prox.iter
+        if it > counters["prox_iter_max"]:
+            counters["prox_iter_max"] = it
+        if it >= prox.max_iter:
             counters["prox_unconverged"] += 1
         return a.copy()
 
@@ -288,22 +319,22 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
 
     def project(q, v):
         for it in range(MAX_PROJECTION_ITER + 1):
-            e, J, length = constraints.rows(pmodel, data, q)
-            M = pin.crba(pmodel, data, q)
-            L = np.linalg.cholesky(np.triu(M) + np.triu(M, 1).T)
-            A = np.linalg.solve(L, J.T).T  # J L^-T
-            err = float(np.max(np.abs(e), initial=0.0))
-            if not np.isfinite(err):
+            e, J = constraints.rows(pmodel, data, q)
+            L = linalg.cholesky(pin.crba(pmodel, data, q).T)  # M = L L^T (lower triangle of M^T: M's upper one)
+            A = linalg.solve(L, J.T).T  # J L^-T
+            err = float(np.abs(e).max())
+            if not math.isfinite(err):
                 raise LoopClosureError("non-finite loop-closure residual")
-            if err <= PROJECTION_TOL * length:
+            if err <= PROJECTION_TOL or err <= PROJECTION_TOL * constraints.length():  # length() >= 1 m
                 break
             if it == MAX_PROJECTION_ITER:
                 raise LoopClosureError(f"position projection did not converge (closure residual {err:.3e} m)")
-            z = np.linalg.lstsq(A, -e, rcond=RCOND)[0]
-            q = pin.integrate(pmodel, q, np.linalg.solve(L.T, z))
-        counters["projection_iter_max"] = max(counters["projection_iter_max"], it)
-        z = np.linalg.lstsq(A, J @ v, rcond=RCOND)[0]
-        return q, v - np.linalg.solve(L.T, z)
+            z = linalg.lstsq(A, -e, RCOND)
+            q = pin.integrate(pmodel, q, linalg.solve(L.T, z))
+        if it > counters["projection_iter_max"]:
+            counters["projection_iter_max"] = it
+        z = linalg.lstsq(A, J @ v, RCOND)
+        return q, v - linalg.solve(L.T, z)
 
     t0 = time.perf_counter()
     try:
@@ -312,7 +343,7 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
         for k in range(n):
             if k > 0:
                 for _ in range(settings.steps_per_save):
-                    q, v = step(pmodel, accel, steps * h, q, v, h)
+                    q, v = step(accel, steps * h, q, v, h)
                     steps += 1
                     reason = blowup_reason(q, v, steps * h)
                     if reason:
@@ -322,20 +353,22 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
             if reason:
                 status, message = "blowup", reason
                 break
-            a = solve(steps * h, q, v)  # the multipliers at the sample (data.lambda_c)
+            forces = applied(steps * h, q, v)
+            a = solve(steps * h, q, v, forces)  # the multipliers at the sample (data.lambda_c)
             lam = np.array(data.lambda_c)
             for name, (force, moment) in constraints.reactions(lam).items():
                 react[name][0][k], react[name][1][k] = force, moment
             if jointed:  # the tree's joints: rnea at the constrained acceleration, cut forces as fext
-                for name, fm in tree_reactions(pmodel, rdata, jointed, applied, constraints, lam, steps * h, q, v, a).items():
+                for name, fm in tree_reactions(pmodel, rdata, jointed, *forces, constraints, lam, q, v, a).items():
                     react[name][0][k], react[name][1][k] = fm
-            read_maximal(pmodel, data, ids, model, q, v, k, buf)
+            reader.read(q, v, k)
             buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
             buf.potential[k] = (pin.computePotentialEnergy(pmodel, data, q) + spring_energy(joint_slots, q)
                                     + point_spring_energy(pmodel, data, ids, model, q))
             saved = k + 1
     except (RuntimeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
         status, message = "failed", f"{type(err).__name__} at t = {steps * h:.6g} s: {err}"
+    reader.finish(saved)
     mu = prox.mu if prox is not None else float("nan")
     acc = prox.relative_accuracy if prox is not None else float("nan")
     spans = "/".join(f"{lp.hinge_span:g}" for lp in model.loops if keeps_axis(lp.kind)) or "-"

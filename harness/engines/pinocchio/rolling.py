@@ -58,15 +58,31 @@ import numpy as np
 import pinocchio as pin
 
 from harness.engines.base import RunSettings
-from harness.engines.pinocchio.lie_group_integrators import STEPPERS
-from harness.engines.pinocchio.model import blowup_reason, initial_configuration, load_urdf, read_maximal
+from harness.engines.pinocchio import linalg
+from harness.engines.pinocchio.lie_group_integrators import stepper
+from harness.engines.pinocchio.model import MaximalReader, blowup_reason, cross, initial_configuration, load_urdf
 from harness.model.joints import JOINTS
-from harness.model.rolling_contact import FLAT, cross, offset_and_rate
+from harness.model.rolling_contact import FLAT, offset_and_rate
 from harness.measure.trajectory import SampleBuffer, Trajectory
 
 PROJECTION_TOL = 1e-13  # m, height error left by the position projection
 MAX_PROJECTION_ITER = 8
 RANK_RTOL = 1e-10  # singular values of the rolling rows below this fraction of the largest: dependent rows
+
+
+def _cross(a, b) -> tuple[float, float, float]:
+    """``a x b`` of two 3-sequences of floats (the products and differences of ``np.cross``)."""
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    return (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0)
+
+
+def _add(a, b) -> tuple[float, float, float]:
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def _sub(a, b) -> tuple[float, float, float]:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
 class FlatDiskError(ArithmeticError):
@@ -89,11 +105,11 @@ class RollingRows:
         self.redundant = any(JOINTS[model.body(c.body).joint].constrained for c in model.contacts)
         self._a0 = np.zeros(pmodel.nv)
 
-    def rows(self, q: np.ndarray, v: np.ndarray | None):
-        """Height errors C (nc,) m (0 on the no-slip rows), Jacobian J (nc, nv) and the bias
-        gamma (nc,) (None when ``v`` is None). Runs the kinematics it needs itself (placements and
-        joint Jacobians at q; with ``v``, velocities and the bias accelerations at zero joint
-        acceleration), leaving them in ``data``."""
+    def rows(self, q: np.ndarray, v: np.ndarray | None, heights: bool = True):
+        """Height errors C (nc,) m (0 on the no-slip rows; all 0 without ``heights``), Jacobian J
+        (nc, nv) and the bias gamma (nc,) (None when ``v`` is None). Runs the kinematics it needs
+        itself (placements and joint Jacobians at q; with ``v``, velocities and the bias
+        accelerations at zero joint acceleration), leaving them in ``data``."""
         pmodel, data = self.pmodel, self.data
         C = np.zeros(self.nc)
         J = np.zeros((self.nc, pmodel.nv))
@@ -105,21 +121,27 @@ class RollingRows:
             oMi = data.oMi[jid]
             R = oMi.rotation
             if v is not None:
-                vel, acc = data.v[jid], data.a[jid]
-                w, v_O = np.array(vel.angular), np.array(vel.linear)
+                vel, acc = data.v[jid], data.a[jid]  # views into data, read before the next kinematics
+                w, v_O = vel.angular, vel.linear
                 w_W = R @ w
             r_W, r_dot, s = offset_and_rate(R, None if v is None else w_W, c.radius, c.half_thickness, c.circle_z)
             if s < FLAT:
                 raise FlatDiskError(f"rolling contact {c.name!r}: the disk lies flat, the contact point is undefined")
             p = lever + R.T @ r_W
             rows = slice(3 * k, 3 * k + 3)
-            C[3 * k + 2] = oMi.translation[2] + R[2] @ p
+            if heights:
+                C[3 * k + 2] = oMi.translation[2] + R[2] @ p
             J_local = pin.getJointJacobian(pmodel, data, jid, pin.LOCAL)  # [v_O; w] of the joint frame, local
             J[rows] = R @ (J_local[:3] - pin.skew(p) @ J_local[3:])
             if v is not None:
-                p_dot = R.T @ (r_dot - cross(w_W, r_W))
-                bias = np.array(acc.linear) + cross(np.array(acc.angular), p)
-                gamma[rows] = R @ (bias + cross(w, v_O + cross(w, p)) + cross(w, p_dot))
+                # the elementwise parts in Python floats (the same IEEE operations, in the same
+                # order, as on 3-arrays), the products with R in NumPy
+                w_ = w.tolist()
+                p_dot = R.T @ np.array(_sub(r_dot.tolist(), _cross(w_W.tolist(), r_W.tolist())))
+                p_ = p.tolist()
+                bias = _add(acc.linear.tolist(), _cross(acc.angular.tolist(), p_))
+                arg = _add(_add(bias, _cross(w_, _add(v_O.tolist(), _cross(w_, p_)))), _cross(w_, p_dot.tolist()))
+                gamma[rows] = R @ np.array(arg)
         return C, J, gamma
 
     def independent(self, J: np.ndarray, gamma: np.ndarray | None):
@@ -130,7 +152,7 @@ class RollingRows:
         the joint); ``(J, gamma, None)`` otherwise."""
         if not self.redundant:
             return J, gamma, None
-        U, sv, _ = np.linalg.svd(J, full_matrices=False)
+        U, sv = linalg.svd_u(J)
         U = U[:, sv > RANK_RTOL * sv[0]]
         return U.T @ J, None if gamma is None else U.T @ gamma, U
 
@@ -144,21 +166,20 @@ class RollingRows:
             r_W, _, _ = offset_and_rate(R, None, c.radius, c.half_thickness, c.circle_z)
             p = lever + R.T @ r_W  # contact point from the joint origin, local frame
             f = R.T @ lam[3 * k : 3 * k + 3]
-            fext[jid] = fext[jid] + pin.Force(f, np.cross(p, f))
+            fext[jid] = fext[jid] + pin.Force(f, cross(p, f))
         return fext
 
 
 def joint_reactions(pmodel: pin.Model, data: pin.Data, rolling: RollingRows, jointed, q, v, a, lam):
     """Per ``(name, joint id)`` of ``jointed``: the force (N) and moment about the joint origin
     (N m), world, that the parent exerts on the joint's child (module docstring): the engine's
-    ``joint_reactions`` at the constrained acceleration ``a`` with the contact forces as
+    ``rnea_reactions`` at the constrained acceleration ``a`` with the contact forces as
     ``fext`` (no joint is actuated: ``tau`` zero)."""
-    from harness.engines.pinocchio.engine import joint_reactions as rnea_reactions
+    from harness.engines.pinocchio.engine import rnea_reactions
 
     pin.forwardKinematics(pmodel, data, q, v)
     fext = rolling.external_forces(lam)
-    tau = np.zeros(pmodel.nv)
-    return rnea_reactions(pmodel, data, jointed, lambda *_: (tau, fext), lambda *_: a, 0.0, q, v)
+    return rnea_reactions(pmodel, data, jointed, np.zeros(pmodel.nv), fext, q, v, a)
 
 
 def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
@@ -180,32 +201,33 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
         return a.copy(), lam if U is None else U @ lam
 
     def accel(t, q, v):
-        return solve(q, v)[0]
+        J, gamma, U = rolling.independent(*rolling.rows(q, v, heights=False)[1:])
+        return pin.forwardDynamics(pmodel, data, q, v, tau, J, gamma, 0.0).copy()
+
+    z = slice(2, rolling.nc, 3)  # the height rows
 
     def project(q, v):
         for _ in range(MAX_PROJECTION_ITER):
             C, J, _ = rolling.rows(q, None)
-            M = pin.crba(pmodel, data, q)
-            M = np.triu(M) + np.triu(M, 1).T
-            Minv_JT = np.linalg.solve(M, J.T)
-            err = float(np.max(np.abs(C)))
+            Minv_JT = linalg.solve(linalg.symmetric_from_upper(pin.crba(pmodel, data, q)), J.T)
+            err = float(np.abs(C).max())
             if err <= PROJECTION_TOL:
                 break
-            z = slice(2, rolling.nc, 3)
-            dq = -Minv_JT[:, z] @ np.linalg.solve(J[z] @ Minv_JT[:, z], C[z])
+            dq = -Minv_JT[:, z] @ linalg.solve(J[z] @ Minv_JT[:, z], C[z])
             q = pin.integrate(pmodel, q, dq)
         else:
             raise FlatDiskError(f"position projection did not converge (height error {err:.3e} m)")
         J, _, U = rolling.independent(J, None)
         if U is not None:
             Minv_JT = Minv_JT @ U
-        v = v - Minv_JT @ np.linalg.solve(J @ Minv_JT, J @ v)
+        v = v - Minv_JT @ linalg.solve(J @ Minv_JT, J @ v)
         return q, v
 
-    step = STEPPERS[settings.integrator]
+    step = stepper(settings.integrator, pmodel)
     h = settings.dt
     n = settings.n_saves + 1
     buf = SampleBuffer(n, len(ids))
+    reader = MaximalReader(pmodel, data, ids, buf)
     force = {c.name: np.full((n, 3), np.nan) for c in model.contacts}
     react = {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name, _ in jointed}
     status, message, saved, steps = "ok", "", 0, 0
@@ -215,14 +237,14 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
         for k in range(n):
             if k > 0:
                 for _ in range(settings.steps_per_save):
-                    q, v = step(pmodel, accel, steps * h, q, v, h)
+                    q, v = step(accel, steps * h, q, v, h)
                     q, v = project(q, v)
                     steps += 1
             reason = blowup_reason(q, v, steps * h)
             if reason:
                 status, message = "blowup", reason
                 break
-            read_maximal(pmodel, data, ids, model, q, v, k, buf)
+            reader.read(q, v, k)
             buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
             buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q)
             a, lam = solve(q, v)
@@ -234,6 +256,7 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
             saved = k + 1
     except (RuntimeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
         status, message = "failed", f"{type(err).__name__} at t = {steps * h:.6g} s: {err}"
+    reader.finish(saved)
     stats = {"steps": steps, "wall_s": time.perf_counter() - t0,
              "settings": f"forwardDynamics (KKT) with the rolling rows, {settings.integrator} on the configuration "
                          f"Lie group, step {h:g} s, projection after each step, root joint {scene.urdf_root_joint}"}
