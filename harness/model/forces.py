@@ -10,7 +10,8 @@ expresses it.
 Element types
 -------------
 * ``PointForce``: a prescribed force ``f_W(t)`` (N, world) at a point fixed in a body; it does
-  work (power ``f_W · v_Q``). MJCF: a site at the point and three motors ``<name>_fx/_fy/_fz``
+  work (power ``f_W · v_Q``). Its time law is a Python callable, or a ``HarmonicForce`` (constant
+  plus cosine and sine terms, ``PointForce.harmonic``) that compiled code can evaluate. MJCF: a site at the point and three motors ``<name>_fx/_fy/_fz``
   (site transmission, world reference site); URDF: none (Pinocchio gets it as ``fext``).
 * ``JointSpring``: a linear spring on a slide joint's coordinate, generalised force
   ``-stiffness (q - q_ref)``, potential ``stiffness (q - q_ref)^2 / 2``. MJCF: the joint's
@@ -44,13 +45,38 @@ from harness.model.errors import InputError
 
 
 @dataclass(frozen=True)
+class HarmonicForce:
+    """A force time law given by its numbers: ``f_W(t) = f_const_W + f_cos_W cos(omega t) +
+    f_sin_W sin(omega t)`` (N, world; omega in rad/s, t in s). It is a callable ``t -> array(3)``
+    like any ``PointForce.force_W``; unlike an arbitrary Python function, compiled code can
+    evaluate it from the numbers (the compiled in-house solver does). Build one with
+    ``PointForce.harmonic``.
+
+    Attributes:
+        f_const_W, f_cos_W, f_sin_W: the constant, cosine and sine amplitudes (N, world).
+        omega: angular frequency (rad/s).
+    """
+
+    f_const_W: tuple[float, float, float]
+    f_cos_W: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    f_sin_W: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    omega: float = 0.0
+
+    def __call__(self, t: float) -> np.ndarray:
+        wt = self.omega * t
+        return (np.array(self.f_const_W) + np.array(self.f_cos_W) * np.cos(wt)) + np.array(self.f_sin_W) * np.sin(wt)
+
+
+@dataclass(frozen=True)
 class PointForce:
     """A prescribed force ``f_W(t)`` (N, world frame) applied at a point fixed in a body.
 
     Attributes:
         body: name of the body the point belongs to.
         p_BQ_B: the point of application in the body frame (m).
-        force_W: callable ``t -> array(3)``, the force in world coordinates at time t (s).
+        force_W: callable ``t -> array(3)``, the force in world coordinates at time t (s): any
+            Python function, or a ``HarmonicForce`` (``harmonic``), whose numbers compiled code
+            can evaluate (``law``).
         name: name of the point in the model files (MJCF site, motors ``<name>_fx/_fy/_fz``).
     """
 
@@ -58,6 +84,25 @@ class PointForce:
     p_BQ_B: np.ndarray
     force_W: Callable[[float], np.ndarray]
     name: str = "force"
+
+    @classmethod
+    def harmonic(cls, body: str, p_BQ_B, f_const_W, f_cos_W=(0.0, 0.0, 0.0), f_sin_W=(0.0, 0.0, 0.0),
+                 omega: float = 0.0, name: str = "force") -> "PointForce":
+        """The force ``f_const_W + f_cos_W cos(omega t) + f_sin_W sin(omega t)`` (N, world;
+        omega rad/s) at ``p_BQ_B`` (m, body frame) of ``body``: its ``force_W`` is the
+        ``HarmonicForce`` of these numbers."""
+        def vector(v) -> tuple[float, float, float]:
+            x, y, z = (float(c) for c in np.asarray(v, dtype=float).reshape(3))
+            return (x, y, z)
+
+        law = HarmonicForce(vector(f_const_W), vector(f_cos_W), vector(f_sin_W), float(omega))
+        return cls(body, np.asarray(p_BQ_B, dtype=float), law, name)
+
+    @property
+    def law(self) -> HarmonicForce | None:
+        """The force's time law as numbers (``HarmonicForce``), or None for a force given only as
+        a Python function."""
+        return self.force_W if isinstance(self.force_W, HarmonicForce) else None
 
 
 @dataclass(frozen=True)
@@ -177,6 +222,9 @@ def _check_point_force(force: PointForce, model, source: str) -> None:
         raise InputError(f"{source}: force {force.name!r}: no body named {force.body!r}")
     if not np.all(np.isfinite(force.p_BQ_B)):
         raise InputError(f"{source}: force {force.name!r}: point of application is not finite")
+    law = force.law
+    if law is not None and not np.all(np.isfinite([*law.f_const_W, *law.f_cos_W, *law.f_sin_W, law.omega])):
+        raise InputError(f"{source}: force {force.name!r}: its amplitudes and frequency must be finite")
 
 
 # --------------------------------------------------------------------------- joint springs

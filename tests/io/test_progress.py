@@ -126,6 +126,17 @@ def _cold_cache(monkeypatch):
     return solver
 
 
+def _compiled_refuses(monkeypatch):
+    """Make the compiled in-house form refuse every model (``pack`` raises NotImplementedError),
+    as it refuses one it does not model; it models every scene today."""
+    from harness.engines.inhouse.compiled import solver
+
+    def refuse(nem):
+        raise NotImplementedError("the compiled in-house solver does not model this scene")
+
+    monkeypatch.setattr(solver, "pack", refuse)
+
+
 STRESS_COMPILED = """
 [defaults]
 bisect_iters = 1
@@ -170,20 +181,28 @@ def test_a_cold_compile_is_announced_once_per_stress_run_not_per_worker(monkeypa
     assert err.count("compiling the in-house kernels (once;") == 1, err
 
     _cold_cache(monkeypatch)
+    _compiled_refuses(monkeypatch)  # the compiled form models every scene: made to refuse the disk
     run_stress(cat, [cat.variant("disk")], ["inhouse"], jobs=2, timeout=120)  # unsupported: nothing compiles
     assert "compiling the in-house kernels" not in capfd.readouterr().err
 
 
 def test_the_parent_announces_a_cold_kernel_once_and_its_workers_inherit_it(monkeypatch, capfd):
+    from dataclasses import replace
+
+    import numpy as np
+
     from harness.engines.inhouse import COMPILED_KERNEL, announce_compilation
     from harness.engines.inhouse.integrators import COMPILED
+    from harness.model.multibody import PointForce
     from harness.model.scene import load_scene
 
     assert set(COMPILED_KERNEL) == set(COMPILED)
     solver = _cold_cache(monkeypatch)
-    top, disk = load_scene("torque_free").multibody(), load_scene("rolling_disk").multibody()
+    top = load_scene("torque_free").multibody()
+    # the one model the compiled form refuses: a prescribed force given only as a Python function
+    pushed = replace(top, forces=(PointForce("body", np.zeros(3), lambda t: np.ones(3)),))
     assert not announce_compilation([("rk4", top), ("DOP853", top)])  # no compiled method: Numba not needed
-    assert not announce_compilation([("rk4_compiled", disk)])  # the compiled form does not model it
+    assert not announce_compilation([("rk4_compiled", pushed)])  # the compiled form does not model it
     assert "compiling" not in capfd.readouterr().err and not solver._announced
     assert announce_compilation([("rk4_compiled", top), ("dop853_compiled", top)])
     assert announce_compilation([("rk4_compiled", top)])  # still cold, but said already

@@ -313,12 +313,19 @@ def test_validate_fails_an_engine_that_reports_ok_on_nan(monkeypatch):
     assert record.status == "blowup" and "reported ok" in record.message
 
 
-def test_an_unsupported_configured_integrator_is_a_failed_check_naming_the_reason():
-    """A scene whose own in-house integrator cannot run it (compiled form, rolling contact): the
-    run comes back "unsupported"; validate records a failed ``run`` check and a run record that
-    name the reason and call it bad configuration, and does not crash."""
+def test_an_unsupported_configured_integrator_is_a_failed_check_naming_the_reason(monkeypatch):
+    """A scene whose own in-house integrator cannot run it (compiled form made to refuse the
+    rolling contact: it models every scene today): the run comes back "unsupported"; validate
+    records a failed ``run`` check and a run record that name the reason and call it bad
+    configuration, and does not crash."""
     from dataclasses import replace
 
+    from harness.engines.inhouse.compiled import solver
+
+    def refuse(nem):  # forked workers inherit it
+        raise NotImplementedError("the compiled in-house solver does not model rolling contacts")
+
+    monkeypatch.setattr(solver, "pack", refuse)
     scene = short("rolling_disk")
     scene = replace(scene, integrators={**scene.integrators, "inhouse": "rk4_compiled"})
     (res,) = validate([scene], ["inhouse"], jobs=1)

@@ -10,11 +10,13 @@ integrator's name; ``integrators.METHODS`` lists every method):
   constraints, projection), ``newton_euler`` (equations of motion, reactions), ``rolling``
   (rolling contacts), ``integrators`` (time stepping); every model the harness has;
 * compiled (``compiled``: the same equations as Numba kernels, ``rk4_compiled``, ``rkmk4_compiled``
-  and ``dop853_compiled``; ``compiled.solver.run_batch`` for many initial states): free, ball, hinge
-  and slide joints, slide springs and gravity, no prescribed forces or rolling contacts (a run
-  of such a scene is an "unsupported" trajectory saying so: not run, not failed). Tested against
-  the per-state form (``tests/engines/inhouse/compiled``). Numba is imported only when a
-  compiled method runs.
+  and ``dop853_compiled``; ``compiled.solver.run_batch`` for many initial states): every model the
+  per-state form builds (loop joints and rolling contacts included; dependent rows by Cholesky with
+  diagonal pivoting), except a prescribed force whose time law is only a Python function, which
+  kernels cannot call (``harness.model.forces.HarmonicForce``, ``PointForce.harmonic``, gives one
+  they can): a run of such a model is an "unsupported" trajectory saying so: not run, not failed.
+  Tested against the per-state form on every scene (``tests/engines/inhouse/compiled``). Numba is
+  imported only when a compiled method runs.
 
 Drift control (documented choice, with the measurements that decided it):
 
@@ -220,6 +222,11 @@ class InhouseEngine:
                 traj = replace(traj, reactions=reaction_series(nem, res.t, res.y, gains))
             except Exception as err:  # a numerical failure must come back as a trajectory
                 return failed(self.name, method, names, "failed", f"reactions: {type(err).__name__}: {err}")
+        if nem.contacts and len(res.t):  # rolling contacts: the force at the contact, always (as simulate_model)
+            try:
+                traj = replace(traj, reactions={**traj.reactions, **contact_force_series(nem, res.t, res.y, gains)})
+            except Exception as err:  # a numerical failure must come back as a trajectory
+                return failed(self.name, method, names, "failed", f"contact force: {type(err).__name__}: {err}")
         stats = {"steps": res.steps, "rhs_evals": res.rhs_evals, "wall_s": res.wall_s,
                  "settings": self.describe(settings, gains)}
         return replace(traj, stats=stats, status=res.status, message=res.message)

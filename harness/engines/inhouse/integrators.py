@@ -90,12 +90,14 @@ METHODS = integrator_table(
     Integrator("BDF", "adaptive", 1, None, "SciPy BDF, orders 1-5 (implicit multistep); Baumgarte stabilisation"),
     Integrator("LSODA", "adaptive", 1, None, "SciPy LSODA (Adams/BDF switching); Baumgarte stabilisation"),
     Integrator("rk4_compiled", "fixed", RK4.order, len(RK4.b),
-               "the RK4 table compiled (Numba); projected after each step; no prescribed forces or rolling contacts"),
+               "the RK4 table compiled (Numba); projected after each step; every scene (not a force given only "
+               "as a function)"),
     Integrator("rkmk4_compiled", "fixed", RK4.order, len(RK4.b),
-               "rkmk4 compiled (Numba); projected after each step; no prescribed forces or rolling contacts"),
+               "rkmk4 compiled (Numba); projected after each step; every scene (not a force given only as a "
+               "function)"),
     Integrator("dop853_compiled", "adaptive", 8, 12,
                "DOP853 compiled (Numba; SciPy's coefficients and step control, 7th-order dense output); projected "
-               "after each step, no Baumgarte; no prescribed forces or rolling contacts"),
+               "after each step, no Baumgarte; every scene (not a force given only as a function)"),
 )
 
 _NUMERICAL_ERRORS = (ArithmeticError, np.linalg.LinAlgError)

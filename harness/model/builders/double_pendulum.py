@@ -35,13 +35,7 @@ def build(params: dict) -> Multibody:
     F0, omega_f = float(params["F0"]), float(params["omega_f"])
     forces: tuple[PointForce, ...] = ()
     if F0 != 0.0:
-        forces = (
-            PointForce(
-                body="bar1",
-                p_BQ_B=np.array([0.0, 0.0, -L]),
-                force_W=lambda t: np.array([F0 * np.cos(omega_f * t), 0.0, 0.0]),
-                name="pin",
-            ),
-        )
+        forces = (PointForce.harmonic("bar1", np.array([0.0, 0.0, -L]), np.zeros(3), f_cos_W=np.array([F0, 0.0, 0.0]),
+                                      omega=omega_f, name="pin"),)  # F0 cos(omega_f t) along world x
     gravity = np.array([0.0, 0.0, -float(params["g"])])
     return Multibody(bodies=(bar1, bar2), gravity_W=gravity, q0=q0, v0=v0, forces=forces)

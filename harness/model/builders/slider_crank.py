@@ -58,7 +58,6 @@ def build(params: dict) -> Multibody:
     F = float(params["F"])
     forces: tuple[PointForce, ...] = ()
     if F != 0.0:
-        push = np.array([F, 0.0, 0.0])
-        forces = (PointForce(body="slider", p_BQ_B=np.zeros(3), force_W=lambda t: push, name="piston"),)
+        forces = (PointForce.harmonic("slider", np.zeros(3), np.array([F, 0.0, 0.0]), name="piston"),)  # constant
     gravity = np.array([0.0, 0.0, -float(params["g"])])
     return Multibody(bodies=bodies, gravity_W=gravity, q0=q0, v0=v0, forces=forces, loops=(cut,))

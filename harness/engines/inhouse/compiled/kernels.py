@@ -19,7 +19,22 @@ over rows of a batch of initial states;
 Why compiled loops and not NumPy: a rigid-body right-hand side is a few hundred flops on
 3-vectors and 3x3 matrices; as NumPy calls each costs 1-2 us of interpreter overhead, as
 compiled code the whole right-hand side of a double pendulum costs about a microsecond. Why
-a hand-written Cholesky: LAPACK's call overhead exceeds the work at these sizes (<= 20 rows).
+a hand-written Cholesky: LAPACK's call overhead exceeds the work at these sizes (<= 50 rows).
+
+Scope: every model the per-state engine builds (``model.build``): free, ball, hinge and slide
+joints, loop (cut) joints, rolling contacts, gravity, springs on slide joints, hinge torques,
+point springs, and prescribed point forces whose time law is a ``HarmonicForce``
+(``harness.model.forces``; ``solver.pack`` refuses a force given only as a Python function).
+Dependent constraint rows (``NEModel.redundant``: loop joints, a rolling body with a joint) are
+solved by Cholesky with diagonal pivoting, which drops the pivots below ``RANK_RTOL`` of the
+largest diagonal entry (``_pivoted_cholesky``): the rows it keeps hold exactly, the multipliers
+of the others are zero, and the accelerations are the unique ones the per-state pseudo-inverse
+(``constraints.solve_rows``) gives, round-off apart; the multipliers themselves may differ from
+its minimum-norm ones (the kernels return none). Position rows are pivoted before the rolling
+contacts' no-slip rows, so the Gauss-Newton projection corrects every position error in one
+step (the per-state pseudo-inverse splits the error of a joint row with the no-slip row that
+repeats it, and converges linearly). A model without dependent rows takes plain Cholesky (a
+non-positive pivot is SINGULAR).
 
 Units and frames: as ``harness.engines.inhouse.model`` (state ``y = [p_WCm_W | quat_WB (wxyz)
 | v_WCm_W | w_WB_B]``: centre-of-mass positions (m) and velocities (m/s) in the world frame,
@@ -35,7 +50,24 @@ is a tuple of arrays (``solver.pack`` makes it)::
     slide joints: sc, sp (ns,) child and parent, src, srp (ns,3) joint points as rc, rp,
     sb1, sb2 (ns,3) unit perpendiculars of the axis (parent frame), saxis (ns,3) unit axis
     (child frame), srow (ns,) first row (after all ball and hinge rows); springs on slides:
-    kslide (nk,) slide index, k (nk,) N/m, qref (nk,) m.
+    kslide (nk,) slide index, k (nk,) N/m, qref (nk,) m;
+    rank_rtol: 0 for independent rows (plain Cholesky), else ``constraints.RANK_RTOL`` (pivoted);
+    flat: ``rolling_contact.FLAT``; elements (forces, torques, point springs, rolling
+    contacts, one table: every array of the tuple costs compile time) elem (ne,3) [kind | a |
+    b] and edata (ne,13), by kind:
+    FORCE, a prescribed point force on body a (b = nb): edata [r_B (3, m, from the COM, body
+    frame) | f_const_W | f_cos_W | f_sin_W (3 each, N) | omega (rad/s)];
+    TORQUE, a hinge torque on child a, parent b (nb = world): [unit axis (child frame) |
+    torque N m];
+    POINT_SPRING, ends on bodies a and b (b = nb: the world): [r_a | r_b (m, from the COM,
+    body frame; the world point for the world) | k N/m | rest length m];
+    ROLLING, a rolling contact of body a whose 3 rows start at row b: [radius m |
+    half-thickness m | circle_z m | 1 for one rolling circle, 0 for two rim edges];
+    slip: the first rolling-contact row (nc without contacts).
+
+Loop joints are ball/hinge joints like the tree's (jc the cut joint's ``body_a`` with its own
+axis, jp its ``body_b`` or the world with the perpendiculars of its axis), after them. Rows in
+order: ball/hinge joints, slide joints, rolling contacts (3 each, the last ``3 ncon`` rows).
 
 Constraint rows of joint j (child c, parent p; s = R r the joint point's offset in world,
 omega = R w the world angular velocity):
@@ -54,10 +86,19 @@ omega = R w the world angular velocity):
   (``constraints`` derives them);
 * spring on a slide: force ``-k (d . a - qref) a`` (a = R_c saxis) on the child at x_c, its
   opposite on the parent at the same point.
+* rolling contact (3 rows: x, y no slip, z height; ``harness.engines.inhouse.rolling``): r the
+  offset from the COM to the contact point and r' its rate (``rolling_contact.offset_and_rate``:
+  the lower rim edge, or the one circle of ``circle_z``), ``J u = v + omega x r``,
+  ``gamma = omega x r'``, C = 0, 0 and the contact's height ``p_z + r_z``;
+* applied forces (``newton_euler``): a prescribed force f at r_B, ``f / m`` and
+  ``r_B x R^T f``; a hinge torque ``torque a`` on the child (body frame), its opposite on the
+  parent; a point spring ``-k (L - L0) d / L`` at end a (d = x_a - x_b, L = |d|), its opposite
+  at end b.
 
 Status codes returned by the integrators (``solver.STATUS`` words them): 0 ok, 1 non-finite
 state, 2 singular constraint matrix, 3 projection did not converge, 4 step size underflow,
-5 too many steps, 6 non-finite error estimate.
+5 too many steps, 6 non-finite error estimate, 7 a rolling disk lies flat (the contact point is
+undefined: the per-state ``rolling.FlatDiskError``).
 """
 
 from __future__ import annotations
@@ -67,8 +108,10 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
+_KERNEL = dict(_JIT, _nrt=False)  # the work below the drivers: no reference counting (below)
 
-OK, NONFINITE, SINGULAR, NO_PROJECTION, UNDERFLOW, TOO_MANY_STEPS, BAD_ERROR = 0, 1, 2, 3, 4, 5, 6
+OK, NONFINITE, SINGULAR, NO_PROJECTION, UNDERFLOW, TOO_MANY_STEPS, BAD_ERROR, FLAT_DISK = 0, 1, 2, 3, 4, 5, 6, 7
+FORCE, TORQUE, POINT_SPRING, ROLLING = 0, 1, 2, 3  # kinds of the model's elements (module docstring)
 _QUADRATIC = 1e-9  # as constraints.project: below this a Gauss-Newton step is not re-evaluated
 _PROJECTION_ITERATIONS = 8
 
@@ -78,12 +121,21 @@ _PROJECTION_ITERATIONS = 8
 #
 # Every call of a compiled function that is not inlined increments and decrements the
 # reference count of each array it receives (an atomic operation, about 6 ns each), and ``rhs``
-# and ``project`` receive the model and workspace tuples (38 arrays): measured, that was most of
+# and ``project`` receive the model and workspace tuples (40 arrays): measured, that was most of
 # a right-hand side's time (torque_free: 0.6 us per call for 0.05 us of arithmetic). So each
 # driver (``erk``, ``erk_rows``, ``dop853``) allocates its buffers, keeps them alive itself
 # (``_hold`` after the work) and passes ``_borrow``-ed copies (the same data, no reference
 # count) down to the work. Views of a borrowed array are borrowed too. A borrowed array must
 # never outlive the driver call that made it: nothing here returns or stores one.
+#
+# The work below the drivers (every function but ``workspace``, the three drivers and ``_hold``)
+# is compiled without reference counting at all (``_KERNEL``: Numba's ``_nrt=False``): it never
+# allocates, and Numba would otherwise emit reference-count code for every array of the model
+# and workspace tuples in every function that receives them, code that LLVM optimises again at
+# each level of calls (measured: 16% less cold compile time of ``erk``; the calls are faster
+# too). For the same reason the helpers of ``rhs`` and ``_constraints`` take the arrays they use
+# rather than the tuples. Without reference counting Numba cannot assign one array to another
+# (``a[:] = b``): ``_copy`` does it.
 
 
 @intrinsic
@@ -119,7 +171,7 @@ def _hold(buffers):
 # Small vector algebra (3-vectors as the rows of larger arrays)
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _rotation(q0, q1, q2, q3, R):
     """R (3x3) of the unit quaternion (w, x, y, z) = (q0, q1, q2, q3)."""
     R[0, 0] = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
@@ -133,7 +185,7 @@ def _rotation(q0, q1, q2, q3, R):
     R[2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _cross(a, b, out):
     """out = a x b (3-vectors; out may alias a or b)."""
     x = a[1] * b[2] - a[2] * b[1]
@@ -142,14 +194,14 @@ def _cross(a, b, out):
     out[0], out[1], out[2] = x, y, z
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _matvec(R, x, out):
     """out = R x (3x3 matrix, 3-vector)."""
     for i in range(3):
         out[i] = R[i, 0] * x[0] + R[i, 1] * x[1] + R[i, 2] * x[2]
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _quat_rate(q, w, out, scale):
     """out = scale * 1/2 q (x) (0, w) (q wxyz, w body frame)."""
     h = 0.5 * scale
@@ -159,7 +211,7 @@ def _quat_rate(q, w, out, scale):
     out[3] = h * (q[0] * w[2] + q[1] * w[1] - q[2] * w[0])
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _cholesky(A, n):
     """A = L L^T in place (n x n symmetric positive definite; the lower triangle becomes L).
     Returns OK, SINGULAR (a pivot <= 0: not positive definite) or NONFINITE (a NaN pivot)."""
@@ -179,7 +231,7 @@ def _cholesky(A, n):
     return OK
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _cholesky_solve(L, b, x, n):
     """x = (L L^T)^-1 b with the factor of ``_cholesky``."""
     for i in range(n):  # L z = b
@@ -194,14 +246,103 @@ def _cholesky_solve(L, b, x, n):
         x[i] = s / L[i, i]
 
 
-@njit(**_JIT)
-def _spd_solve(A, b, x, n):
-    """Solve A x = b (symmetric positive definite; A is overwritten by its Cholesky factor).
-    Returns the status of ``_cholesky``."""
-    st = _cholesky(A, n)
-    if st == OK:
+@njit(**_KERNEL)
+def _pivoted_cholesky(A, n, perm, rtol, slip):
+    """P^T A P = L L^T in place for a symmetric positive semi-definite A (n x n; its lower
+    triangle becomes L, n x rank): Cholesky with diagonal pivoting (LAPACK's dpstf2), the
+    largest remaining pivot first, stopping when it falls to ``rtol`` times A's largest diagonal
+    entry (dependent rows). ``perm`` (n,) receives the permutation (row i of P^T A P is row
+    perm[i] of A). Rows from ``slip`` on, but for every third (the rolling contacts' no-slip
+    rows), are velocity-level: their error C is 0 by definition, so a projection that kept one
+    of them in place of a position row it depends on would never correct that row's error; they
+    are pivoted after every position-level row above the floor. Returns (status, rank): OK,
+    SINGULAR (A is zero) or NONFINITE."""
+    dmax = 0.0
+    for i in range(n):
+        perm[i] = i
+        if not np.isfinite(A[i, i]):
+            return NONFINITE, 0
+        dmax = max(dmax, A[i, i])
+    if not dmax > 0.0:
+        return SINGULAR, 0
+    floor = rtol * dmax
+    for k in range(n):
+        p = -1
+        for i in range(k, n):  # the largest position-level pivot, ...
+            if (perm[i] < slip or (perm[i] - slip) % 3 == 2) and (p < 0 or A[i, i] > A[p, p]):
+                p = i
+        if p < 0 or not A[p, p] > floor:  # ... else the largest of all
+            p = k
+            for i in range(k + 1, n):
+                if A[i, i] > A[p, p]:
+                    p = i
+        d = A[p, p]
+        if not d > floor:
+            return (OK if d <= floor else NONFINITE), k
+        if p != k:  # swap k and p in P, in L's rows, and in the trailing lower triangle
+            perm[k], perm[p] = perm[p], perm[k]
+            A[k, k], A[p, p] = A[p, p], A[k, k]
+            for m in range(k):
+                A[k, m], A[p, m] = A[p, m], A[k, m]
+            for i in range(k + 1, p):
+                A[i, k], A[p, i] = A[p, i], A[i, k]
+            for i in range(p + 1, n):
+                A[i, k], A[i, p] = A[i, p], A[i, k]
+        d = np.sqrt(d)
+        A[k, k] = d
+        for i in range(k + 1, n):
+            A[i, k] /= d
+        for j in range(k + 1, n):  # the Schur complement of the trailing rows
+            ljk = A[j, k]
+            for i in range(j, n):
+                A[i, j] -= A[i, k] * ljk
+    return OK, n
+
+
+@njit(**_KERNEL)
+def _pivoted_solve(L, b, x, n, rank, perm):
+    """x = a solution of A x = b from ``_pivoted_cholesky``'s factor (``rank``, ``perm``): the
+    rows of the ``rank`` pivots solved exactly, the multipliers of the dropped (dependent) rows
+    zero. For a right-hand side in the range of A (the KKT and projection systems) every row
+    holds and M^-1 J^T x, the accelerations or the correction, is the unique one. b is
+    overwritten (scratch)."""
+    for i in range(rank):  # P^T b, then L z = P^T b
+        s = b[perm[i]]
+        for m in range(i):
+            s -= L[i, m] * x[m]
+        x[i] = s / L[i, i]
+    for i in range(rank - 1, -1, -1):  # L^T z = z
+        s = x[i]
+        for m in range(i + 1, rank):
+            s -= L[m, i] * x[m]
+        x[i] = s / L[i, i]
+    for i in range(rank):
+        b[i] = x[i]
+    for i in range(n):
+        x[i] = 0.0
+    for i in range(rank):
+        x[perm[i]] = b[i]
+
+
+@njit(**_KERNEL)
+def _factor(A, n, perm, rtol, slip):
+    """Factor A = J M^-1 J^T (n x n) in place: Cholesky when ``rtol`` is 0 (independent rows; a
+    failure is SINGULAR), else Cholesky with diagonal pivoting (``_pivoted_cholesky``: rows that
+    may be dependent, loop joints or a rolling body with a joint; pivots below ``rtol`` of the
+    largest diagonal entry dropped, as ``constraints.solve_rows`` drops eigenvalues; ``slip``
+    the first rolling-contact row). Returns (status, rank)."""
+    if rtol > 0.0:
+        return _pivoted_cholesky(A, n, perm, rtol, slip)
+    return _cholesky(A, n), n
+
+
+@njit(**_KERNEL)
+def _solve(A, b, x, n, rank, perm, rtol):
+    """x = (J M^-1 J^T)^-1 b with ``_factor``'s factor in A (b may be overwritten)."""
+    if rtol > 0.0:
+        _pivoted_solve(A, b, x, n, rank, perm)
+    else:
         _cholesky_solve(A, b, x, n)
-    return st
 
 
 # ---------------------------------------------------------------------------------------------
@@ -210,9 +351,10 @@ def _spd_solve(A, b, x, n):
 
 @njit(**_JIT)
 def workspace(model):
-    """Buffers for one trajectory: (R, omega, s, J, A, B, u0, lam, bias, C, tmp, qn, vec):
+    """Buffers for one trajectory: (R, omega, s, J, A, B, u0, lam, bias, C, tmp, qn, vec, perm):
     rotations and world angular velocities (the world last), joint offsets, the constraint
-    Jacobian, J M^-1 J^T, M^-1 J^T, accelerations, multipliers, bias, error, scratch."""
+    Jacobian, J M^-1 J^T, M^-1 J^T, accelerations, multipliers, bias, error, scratch, the
+    pivot order of ``_pivoted_cholesky``."""
     mass, nc = model[0], model[13]
     nb = mass.shape[0]
     R = np.zeros((nb + 1, 3, 3))
@@ -221,10 +363,10 @@ def workspace(model):
     return (R, np.zeros((nb + 1, 3)), np.zeros((2, 3)), np.zeros((max(nc, 1), 6 * nb)),
             np.zeros((max(nc, 1), max(nc, 1))), np.zeros((6 * nb, max(nc, 1))), np.zeros(6 * nb),
             np.zeros(max(nc, 1)), np.zeros(max(nc, 1)), np.zeros(max(nc, 1)), np.zeros(8), np.zeros((nb, 4)),
-            np.zeros((16, 3)))
+            np.zeros((16, 3)), np.zeros(max(nc, 1), dtype=np.int64))
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _unit_quaternions(y, nb, Q):
     """Q (nb,4) = the quaternions of state y divided by their norms (Q may be y's own
     quaternion entries: each norm is taken before its quaternion is written)."""
@@ -235,12 +377,10 @@ def _unit_quaternions(y, nb, Q):
             Q[i, m] = y[k + m] / n
 
 
-@njit(**_JIT)
-def _frames(model, y, ws, with_velocity):
-    """Unit quaternions (ws qn), rotations R (ws R) and, when asked, world angular velocities
-    omega = R w_B (ws omega) of every body."""
-    nb = model[0].shape[0]
-    R, omega, qn = ws[0], ws[1], ws[11]
+@njit(**_KERNEL)
+def _frames(y, nb, R, omega, qn, with_velocity):
+    """Unit quaternions qn, rotations R and, when asked, world angular velocities
+    omega = R w_B of every body (ws qn, R, omega)."""
     _unit_quaternions(y, nb, qn)
     for i in range(nb):
         _rotation(qn[i, 0], qn[i, 1], qn[i, 2], qn[i, 3], R[i])
@@ -248,16 +388,17 @@ def _frames(model, y, ws, with_velocity):
             _matvec(R[i], y[10 * nb + 3 * i: 10 * nb + 3 * i + 3], omega[i])
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _position(y, nb, body, m):
     """Component m of a body's centre-of-mass position (m, world); 0 for the world (nb)."""
     return y[3 * body + m] if body < nb else 0.0
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _constraints(model, y, ws, with_bias, with_error):
     """Fill J (ws J, nc x 6nb, columns [v bodies | w_B bodies]), and when asked the bias gamma
-    (ws bias) and the position error C (ws C). Needs ``_frames`` first."""
+    (ws bias) and the position error C (ws C). Needs ``_frames`` first. Returns OK, or FLAT_DISK
+    from a rolling contact (``_rolling``)."""
     mass, jc, jp, rc, rp, hinge, axis, b1, b2, row = (model[0], model[4], model[5], model[6], model[7], model[8],
                                                       model[9], model[10], model[11], model[12])
     nb = mass.shape[0]
@@ -318,36 +459,37 @@ def _constraints(model, y, ws, with_bias, with_error):
                     _cross(omega[p], nk, u)
                     _cross(a, u, v)  # A x (omega_p x N_k)
                     bias[r] = ((tmp[0] + v[0]) * tmp[3] + (tmp[1] + v[1]) * tmp[4] + (tmp[2] + v[2]) * tmp[5])
-    _slides(model, y, ws, with_bias, with_error)
+    _slides(y, nb, model[14], model[15], model[16], model[17], model[18], model[19], model[21], R, omega, J, bias, C,
+            ws[12], with_bias, with_error)
+    if model[27].shape[0] > 0:
+        return _rolling(y, nb, R, omega, J, bias, C, ws[12], model[27], model[28], model[26], with_bias, with_error)
+    return OK
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _velocity(y, nb, body, m):
     """Component m of a body's centre-of-mass velocity (m/s, world); 0 for the world (nb)."""
     return y[7 * nb + 3 * body + m] if body < nb else 0.0
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _dot(a, b):
     """a . b of two 3-vectors."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _row_times_rotation(x, R, J, r, col0, sign):
     """J[r, col0:col0+3] = sign x^T R (a body-frame angular-velocity block)."""
     for col in range(3):
         J[r, col0 + col] = sign * (x[0] * R[0, col] + x[1] * R[1, col] + x[2] * R[2, col])
 
 
-@njit(**_JIT)
-def _slides(model, y, ws, with_bias, with_error):
+@njit(**_KERNEL)
+def _slides(y, nb, sc, sp, src, srp, sb1, sb2, srow, R, omega, J, bias, C, vec, with_bias, with_error):
     """The 5 rows of each slide joint (module docstring) into J, and when asked the bias and
-    the error. Needs ``_frames`` (with velocities when the bias is asked)."""
-    mass, sc, sp, src, srp, sb1, sb2, srow = (model[0], model[14], model[15], model[16], model[17], model[18],
-                                              model[19], model[21])
-    nb = mass.shape[0]
-    R, omega, J, bias, C, vec = ws[0], ws[1], ws[3], ws[8], ws[9], ws[12]
+    the error (the arrays of ``model`` and ``ws`` it needs). Needs ``_frames`` (with velocities
+    when the bias is asked)."""
     n, x, t1, t2, wn = vec[0], vec[1], vec[2], vec[3], vec[4]
     s_c, s_p, d, wsc, wsp, dd = vec[8], vec[9], vec[10], vec[11], vec[12], vec[13]
     for j in range(sc.shape[0]):
@@ -405,15 +547,11 @@ def _slides(model, y, ws, with_bias, with_error):
                            + (t2[2] + wn[2]) * (omega[c, 2] - omega[p, 2]))
 
 
-@njit(**_JIT)
-def _springs(model, y, ws, u0):
-    """Add the slide springs' accelerations to u0 ([dv_WCm_W | dw_WB_B], free part). Needs
-    ``_frames``."""
-    mass, Iinv, sc, sp, src, srp, saxis, kslide, stiffness, qref = (model[0], model[2], model[14], model[15],
-                                                                   model[16], model[17], model[20], model[22],
-                                                                   model[23], model[24])
+@njit(**_KERNEL)
+def _springs(y, mass, Iinv, sc, sp, src, srp, saxis, kslide, stiffness, qref, R, vec, u0):
+    """Add the slide springs' accelerations to u0 ([dv_WCm_W | dw_WB_B], free part; the arrays
+    of ``model`` and ``ws`` it needs). Needs ``_frames``."""
     nb = mass.shape[0]
-    R, vec = ws[0], ws[12]
     s_c, s_p, d, a, f, fB, arm, mom = vec[8], vec[9], vec[10], vec[11], vec[12], vec[13], vec[14], vec[15]
     for e in range(kslide.shape[0]):
         j = kslide[e]
@@ -442,12 +580,110 @@ def _springs(model, y, ws, u0):
                 u0[3 * nb + 3 * p + m] -= Iinv[p, m, 0] * mom[0] + Iinv[p, m, 1] * mom[1] + Iinv[p, m, 2] * mom[2]
 
 
-@njit(**_JIT)
-def _minv_jt(model, ws):
-    """B = M^-1 J^T (6nb x nc) and A = J B (nc x nc), from ws J."""
-    mass, Iinv, nc = model[0], model[2], model[13]
+@njit(**_KERNEL)
+def _rolling(y, nb, R, omega, J, bias, C, vec, elem, edata, flat, with_bias, with_error):
+    """The 3 rows of each rolling contact (elements of kind ROLLING) into J, and when asked the
+    bias and the error; the contact offset r and its rate as
+    ``harness.model.rolling_contact.offset_and_rate``. Needs ``_frames`` (with velocities when
+    the bias is asked; the arrays of ``model`` and ``ws`` it needs). Returns OK, or FLAT_DISK
+    when a disk lies flat (s below ``flat``)."""
+    r, d, rdot, g = vec[8], vec[9], vec[10], vec[11]
+    for e in range(elem.shape[0]):
+        if elem[e, 0] != ROLLING:
+            continue
+        i, r0, radius = elem[e, 1], elem[e, 2], edata[e, 0]
+        n0, n1, nz = R[i, 0, 2], R[i, 1, 2], R[i, 2, 2]  # the symmetry axis n = R e_z
+        s = np.sqrt(max(1.0 - nz * nz, 0.0))
+        if s < flat:
+            return FLAT_DISK
+        si = 1.0 / max(s, flat)
+        u0, u1, u2 = -nz * n0 * si, -nz * n1 * si, (1.0 - nz * nz) * si  # up in the disk plane
+        if edata[e, 3] > 0.0:  # one rolling circle at body z = circle_z
+            hs = -edata[e, 2]
+        else:  # the lower of the two rim edges
+            hs = edata[e, 1] * (1.0 if nz > 0.0 else (-1.0 if nz < 0.0 else 0.0))
+        r[0], r[1], r[2] = -radius * u0 - hs * n0, -radius * u1 - hs * n1, -radius * u2 - hs * nz
+        for m in range(3):  # [ I3 | -[r]x R ]
+            m1, m2 = (m + 1) % 3, (m + 2) % 3
+            J[r0 + m, 3 * i + m] = 1.0
+            for col in range(3):
+                J[r0 + m, 3 * nb + 3 * i + col] = -(r[m1] * R[i, m2, col] - r[m2] * R[i, m1, col])
+        if with_error:  # no slip has no position error; the height row's is z_C
+            C[r0] = 0.0
+            C[r0 + 1] = 0.0
+            C[r0 + 2] = y[3 * i + 2] + r[2]
+        if with_bias:  # gamma = w x r', r' the rate of the contact offset
+            w = omega[i]
+            d[0], d[1], d[2] = w[1] * nz - w[2] * n1, w[2] * n0 - w[0] * nz, w[0] * n1 - w[1] * n0  # n' = w x n
+            kk = nz * d[2] * si
+            rdot[0] = -radius * ((-d[2] * n0 - nz * d[0] + u0 * kk) * si) - hs * d[0]
+            rdot[1] = -radius * ((-d[2] * n1 - nz * d[1] + u1 * kk) * si) - hs * d[1]
+            rdot[2] = -radius * ((-d[2] * nz - nz * d[2] + u2 * kk) * si) - hs * d[2]
+            _cross(w, rdot, g)
+            for m in range(3):
+                bias[r0 + m] = g[m]
+    return OK
+
+
+@njit(**_KERNEL)
+def _push(mass, Iinv, R, i, r_B, f, sign, fB, mom, u0):
+    """Add to u0 the accelerations of body i under ``sign`` f (N, world) at r_B from its centre
+    of mass (body frame, m): ``f / m`` and ``I^-1 (r_B x R^T f)`` (fB, mom: scratch 3-vectors)."""
     nb = mass.shape[0]
-    J, A, B = ws[3], ws[4], ws[5]
+    for m in range(3):
+        u0[3 * i + m] += sign * f[m] / mass[i]
+        fB[m] = R[i, 0, m] * f[0] + R[i, 1, m] * f[1] + R[i, 2, m] * f[2]
+    _cross(r_B, fB, mom)
+    for m in range(3):
+        u0[3 * nb + 3 * i + m] += sign * (Iinv[i, m, 0] * mom[0] + Iinv[i, m, 1] * mom[1] + Iinv[i, m, 2] * mom[2])
+
+
+@njit(**_KERNEL)
+def _applied(t, y, mass, Iinv, R, vec, elem, edata, u0):
+    """Add the accelerations of the prescribed point forces (their time laws at t, s), hinge
+    torques and point springs (elements of kinds FORCE, TORQUE, POINT_SPRING; module docstring)
+    to u0 ([dv_WCm_W | dw_WB_B], free part). Needs ``_frames`` (ws R; vec: ws scratch)."""
+    nb = mass.shape[0]
+    f, m_B, m_W, arm_a, arm_b, d = vec[8], vec[9], vec[10], vec[11], vec[12], vec[13]
+    for e in range(elem.shape[0]):
+        kind, a, b = elem[e, 0], elem[e, 1], elem[e, 2]
+        if kind == TORQUE:  # torque axis on the child (a), its opposite on the parent (b)
+            for m in range(3):
+                m_B[m] = edata[e, 3] * edata[e, m]
+            for m in range(3):
+                u0[3 * nb + 3 * a + m] += Iinv[a, m, 0] * m_B[0] + Iinv[a, m, 1] * m_B[1] + Iinv[a, m, 2] * m_B[2]
+            if b < nb:
+                _matvec(R[a], m_B, m_W)
+                for m in range(3):  # R_b^T R_a m_B
+                    m_B[m] = R[b, 0, m] * m_W[0] + R[b, 1, m] * m_W[1] + R[b, 2, m] * m_W[2]
+                for m in range(3):
+                    u0[3 * nb + 3 * b + m] -= Iinv[b, m, 0] * m_B[0] + Iinv[b, m, 1] * m_B[1] + Iinv[b, m, 2] * m_B[2]
+            continue
+        if kind == FORCE:  # f_W(t) = f_const + f_cos cos(omega t) + f_sin sin(omega t)
+            wt = edata[e, 12] * t
+            c, s = np.cos(wt), np.sin(wt)
+            for m in range(3):
+                f[m] = (edata[e, 3 + m] + edata[e, 6 + m] * c) + edata[e, 9 + m] * s
+        elif kind == POINT_SPRING:  # -k (L - L0) d / L at end a, its opposite at end b
+            _matvec(R[a], edata[e, 0:3], arm_a)
+            _matvec(R[b], edata[e, 3:6], arm_b)  # the world's R is the identity: the world point
+            for m in range(3):
+                d[m] = (_position(y, nb, a, m) + arm_a[m]) - (_position(y, nb, b, m) + arm_b[m])
+            L = np.sqrt(_dot(d, d))
+            magnitude = -edata[e, 6] * (L - edata[e, 7]) / L
+            for m in range(3):
+                f[m] = magnitude * d[m]
+        else:
+            continue
+        _push(mass, Iinv, R, a, edata[e, 0:3], f, 1.0, vec[14], vec[15], u0)
+        if b < nb:  # a point spring's other end (a force's b is the world)
+            _push(mass, Iinv, R, b, edata[e, 3:6], f, -1.0, vec[14], vec[15], u0)
+
+
+@njit(**_KERNEL)
+def _minv_jt(mass, Iinv, nc, J, A, B):
+    """B = M^-1 J^T (6nb x nc) and A = J B (nc x nc), from J (ws J, A, B)."""
+    nb = mass.shape[0]
     for r in range(nc):
         for i in range(nb):
             for m in range(3):
@@ -466,13 +702,13 @@ def _minv_jt(model, ws):
             A[s, r] = acc
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def rhs(t, y, dy, model, ws):
-    """dy/dt of state y at time t (s) into dy. Returns a status code (OK, SINGULAR or
-    NONFINITE)."""
+    """dy/dt of state y at time t (s) into dy. Returns a status code (OK, SINGULAR, NONFINITE or
+    FLAT_DISK)."""
     mass, I_B, Iinv, grav, nc = model[0], model[1], model[2], model[3], model[13]
     nb = mass.shape[0]
-    _frames(model, y, ws, nc > 0)
+    _frames(y, nb, ws[0], ws[1], ws[11], nc > 0)
     qn, u0, vec = ws[11], ws[6], ws[12]
     Iw, tau = vec[5], vec[6]
     for i in range(nb):
@@ -485,19 +721,25 @@ def rhs(t, y, dy, model, ws):
         _cross(Iw, w, tau)  # -w x I w
         _matvec(Iinv[i], tau, u0[3 * nb + 3 * i: 3 * nb + 3 * i + 3])
     if model[22].shape[0] > 0:
-        _springs(model, y, ws, u0)
+        _springs(y, mass, Iinv, model[14], model[15], model[16], model[17], model[20], model[22], model[23], model[24],
+                 ws[0], ws[12], u0)
+    if model[27].shape[0] > 0:
+        _applied(t, y, mass, Iinv, ws[0], ws[12], model[27], model[28], u0)
     if nc > 0:
-        J, A, B, lam, bias = ws[3], ws[4], ws[5], ws[7], ws[8]
-        _constraints(model, y, ws, True, False)
-        _minv_jt(model, ws)
+        J, A, B, lam, bias, perm, rtol = ws[3], ws[4], ws[5], ws[7], ws[8], ws[13], model[25]
+        st = _constraints(model, y, ws, True, False)
+        if st != OK:
+            return st
+        _minv_jt(mass, model[2], nc, ws[3], ws[4], ws[5])
         for r in range(nc):  # rhs = -gamma - J u0
             acc = -bias[r]
             for k in range(6 * nb):
                 acc -= J[r, k] * u0[k]
             bias[r] = acc
-        st = _spd_solve(A, bias, lam, nc)
+        st, rank = _factor(A, nc, perm, rtol, model[29])
         if st != OK:
             return st
+        _solve(A, bias, lam, nc, rank, perm, rtol)
         for k in range(6 * nb):
             acc = u0[k]
             for r in range(nc):
@@ -508,7 +750,7 @@ def rhs(t, y, dy, model, ws):
     return OK
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def project(y, model, ws, tol):
     """In place: unit quaternions, positions on the constraint manifold (mass-weighted
     Gauss-Newton until max |C| <= tol), velocities in the null space of J (mass-weighted
@@ -518,13 +760,16 @@ def project(y, model, ws, tol):
     _unit_quaternions(y, nb, y[3 * nb: 7 * nb].reshape(nb, 4))
     if nc == 0:
         return OK
-    J, A, B, lam, C, dq, dth = ws[3], ws[4], ws[5], ws[7], ws[9], ws[10], ws[12][7]
-    factored = False  # whether A holds the Cholesky factor of the last Gauss-Newton step
+    J, A, B, lam, C, dq, dth, perm, rtol = ws[3], ws[4], ws[5], ws[7], ws[9], ws[10], ws[12][7], ws[13], model[25]
+    factored = False  # whether ws A holds the factor of the last Gauss-Newton step
     converged = False
+    rank = nc
     for _ in range(_PROJECTION_ITERATIONS):
-        _frames(model, y, ws, False)
-        _constraints(model, y, ws, False, True)
-        _minv_jt(model, ws)
+        _frames(y, nb, ws[0], ws[1], ws[11], False)
+        st = _constraints(model, y, ws, False, True)
+        if st != OK:
+            return st
+        _minv_jt(mass, model[2], nc, ws[3], ws[4], ws[5])
         factored = False
         err = 0.0
         for r in range(nc):
@@ -534,9 +779,10 @@ def project(y, model, ws, tol):
         if err <= tol:
             converged = True
             break
-        st = _spd_solve(A, C, lam, nc)
+        st, rank = _factor(A, nc, perm, rtol, model[29])
         if st != OK:
             return st
+        _solve(A, C, lam, nc, rank, perm, rtol)
         factored = True
         for i in range(nb):  # dx = -M^-1 J^T lam: positions, then q <- q (x) (1, dtheta_B / 2)
             for m in range(3):
@@ -565,7 +811,7 @@ def project(y, model, ws, tol):
         return NO_PROJECTION
     # velocities: u -= B (A^-1 J u), with J of the last evaluation (as constraints.project)
     if not factored:
-        st = _cholesky(A, nc)
+        st, rank = _factor(A, nc, perm, rtol, model[29])
         if st != OK:
             return st
     for r in range(nc):
@@ -573,7 +819,7 @@ def project(y, model, ws, tol):
         for k in range(6 * nb):
             acc += J[r, k] * y[7 * nb + k]
         C[r] = acc
-    _cholesky_solve(A, C, lam, nc)
+    _solve(A, C, lam, nc, rank, perm, rtol)
     for k in range(6 * nb):
         acc = 0.0
         for r in range(nc):
@@ -582,7 +828,15 @@ def project(y, model, ws, tol):
     return OK
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
+def _copy(src, dst):
+    """dst[:] = src (1-d arrays of the same length; as a loop: NumPy's array assignment needs
+    reference counting, which the work below the drivers is compiled without)."""
+    for k in range(src.shape[0]):
+        dst[k] = src[k]
+
+
+@njit(**_KERNEL)
 def _finite(y):
     """Whether every entry of y is finite."""
     for k in range(y.shape[0]):
@@ -595,7 +849,7 @@ def _finite(y):
 # Explicit Runge-Kutta methods, fixed step, driven by a Butcher table
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _exp_right(qw, qx, qy, qz, tx, ty, tz, out, o):
     """out[o:o+4] = q (x) exp_q(Theta) (wxyz) for q = (qw, qx, qy, qz) and Theta = (tx, ty, tz)
     (rad, body frame): ``lie_group.exp_right``. q's entries come by value: out may hold q."""
@@ -609,7 +863,7 @@ def _exp_right(qw, qx, qy, qz, tx, ty, tz, out, o):
     out[o + 3] = qw * ez + c * qz + (qx * ey - qy * ex)
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _lie_stage(y, nb, i, h, A, series, KT, tmp):
     """The orientations of RKMK stage i (``lie_group.rkmk_step``): per body
     ``Theta_i = h sum_{m < i} A[i, m] KT[m]``, the stage quaternion ``q0 (x) exp_q(Theta_i)``
@@ -637,7 +891,7 @@ def _lie_stage(y, nb, i, h, A, series, KT, tmp):
         KT[i, body, 2] = oz
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _erk_steps(model, ws, y, t0, h, nsteps, proj_tol, A, b, c, series, K, KT, tmp):
     """``nsteps`` steps of ``h`` s from time ``t0`` s of the explicit Runge-Kutta method with
     Butcher table ``A`` (s x s, strictly lower triangular), ``b`` (s,), ``c`` (s,), y in place,
@@ -684,13 +938,13 @@ def _erk_steps(model, ws, y, t0, h, nsteps, proj_tol, A, b, c, series, K, KT, tm
     return OK, nsteps
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _erk(model, ws, y, K, KT, tmp, t_save, steps_per_save, proj_tol, out, A, b, c, series):
     """``erk`` on its (borrowed) buffers; y holds the initial state."""
     st = project(y, model, ws, proj_tol)
     if st != OK or not _finite(y):
         return (st if st != OK else NONFINITE), 0, 0
-    out[0, :] = y
+    _copy(y, out[0])
     steps = 0
     for s in range(1, t_save.shape[0]):
         t0 = t_save[s - 1]
@@ -701,7 +955,7 @@ def _erk(model, ws, y, K, KT, tmp, t_save, steps_per_save, proj_tol, out, A, b, 
             return st, s, steps
         if not _finite(y):
             return NONFINITE, s, steps
-        out[s, :] = y
+        _copy(y, out[s])
     return OK, t_save.shape[0], steps
 
 
@@ -720,11 +974,11 @@ def erk(model, y0, t_save, steps_per_save, proj_tol, out, A, b, c, series):
     return result
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _erk_rows(model, ws, y, K, KT, tmp, Y0, nstep, h, proj_tol, A, b, c, series, Yend, status, first, last):
     """``erk_rows`` on its (borrowed) buffers."""
     for r in range(first, last):
-        y[:] = Y0[r]
+        _copy(Y0[r], y)
         st = project(y, model, ws, proj_tol)
         if st == OK:
             st, _ = _erk_steps(model, ws, y, 0.0, h, nstep, proj_tol, A, b, c, series, K, KT, tmp)
@@ -732,7 +986,7 @@ def _erk_rows(model, ws, y, K, KT, tmp, Y0, nstep, h, proj_tol, A, b, c, series,
             st = NONFINITE
         status[r] = st
         if st == OK:
-            Yend[r] = y
+            _copy(y, Yend[r])
         else:
             Yend[r] = np.nan
 
@@ -756,7 +1010,7 @@ def erk_rows(model, Y0, nstep, h, proj_tol, A, b, c, series, Yend, status, first
 # DOP853, adaptive, with 7th-order dense output at the save times
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _stage_state(y, K, A, s, h, out):
     """out = y + h sum_{m < s} A[s, m] K[m]: the state at which stage s is evaluated."""
     for i in range(y.shape[0]):
@@ -783,7 +1037,7 @@ def dop853(model, y0, t_save, rtol, atol, first_step, proj_tol, max_steps, out, 
     return result
 
 
-@njit(**_JIT)
+@njit(**_KERNEL)
 def _dop853(model, ws, y, K, ynew, tmp, F, samp, t_save, rtol, atol, first_step, proj_tol, max_steps, out, coef):
     """``dop853`` on its (borrowed) buffers; y holds the initial state."""
     A, Bw, Cn, E3, E5, D = coef
@@ -794,7 +1048,7 @@ def _dop853(model, ws, y, K, ynew, tmp, F, samp, t_save, rtol, atol, first_step,
     st = project(y, model, ws, proj_tol)
     if st != OK or not _finite(y):
         return (st if st != OK else NONFINITE), 0, 0, 0, evals
-    out[0, :] = y
+    _copy(y, out[0])
     t, t_end = t_save[0], t_save[t_save.shape[0] - 1]
     st = rhs(t, y, K[0], model, ws)
     evals += 1
@@ -913,7 +1167,7 @@ def _dop853(model, ws, y, K, ynew, tmp, F, samp, t_save, rtol, atol, first_step,
                     return st, k_next, steps, rejected, evals
                 if not _finite(samp):
                     return NONFINITE, k_next, steps, rejected, evals
-                out[k_next, :] = samp
+                _copy(samp, out[k_next])
                 k_next += 1
             else:  # the step ends on this save time
                 break
@@ -923,13 +1177,13 @@ def _dop853(model, ws, y, K, ynew, tmp, F, samp, t_save, rtol, atol, first_step,
         if not _finite(ynew):
             return NONFINITE, k_next, steps, rejected, evals
         if k_next < n_save and t_save[k_next] <= t_new + tol_t:
-            out[k_next, :] = ynew
+            _copy(ynew, out[k_next])
             k_next += 1
         steps += 1
         if steps + rejected > max_steps:
             return TOO_MANY_STEPS, k_next, steps, rejected, evals
         t = t_new
-        y[:] = ynew
+        _copy(ynew, y)
         st = rhs(t, y, K[0], model, ws)
         evals += 1
         if st != OK:

@@ -22,9 +22,12 @@ state), with no Baumgarte terms, as the per-state engine's fixed-step methods do
 are the per-state engine's (``harness.engines.inhouse.model``: ``[p_WCm_W | quat_WB (wxyz) |
 v_WCm_W | w_WB_B]``, SI units, body-frame angular velocity); times in s.
 
-Scope: free, ball, hinge and slide joints, springs on slide joints and gravity; ``pack`` raises
-NotImplementedError for rolling contacts, prescribed forces, joint torques, point springs and loop joints (the engine turns that into an
-"unsupported" trajectory: not run, rather than failed).
+Scope: every model the per-state engine builds (free, ball, hinge and slide joints, loop joints,
+rolling contacts, gravity, springs on slide joints, hinge torques, point springs, prescribed point
+forces; ``kernels`` states how), except a prescribed force whose time law is only a Python
+function: ``pack`` raises NotImplementedError for it (the engine turns that into an "unsupported"
+trajectory: not run, rather than failed); a force built with ``PointForce.harmonic`` (a
+``harness.model.forces.HarmonicForce``) is covered.
 
 The first call in a fresh environment compiles the kernel it needs (``warm_up``); later
 processes load it from Numba's on-disk cache. ``Result.wall_s`` never includes compilation:
@@ -48,9 +51,12 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from harness.engines.inhouse.compiled import kernels
+from harness.engines.inhouse.constraints import RANK_RTOL
 from harness.engines.inhouse.integrators import RK4, ButcherTableau, Result
 from harness.engines.inhouse.lie_group import DEXPINV_SERIES
 from harness.engines.inhouse.model import NEModel
+from harness.model.forces import HarmonicForce
+from harness.model.rolling_contact import FLAT
 
 __all__ = ["KERNELS", "MAX_ADAPTIVE_STEPS", "STATUS", "announce_cold", "default_threads", "integrate_dop853",
            "integrate_fixed", "pack", "run_batch", "tableau_arrays", "warm_up"]
@@ -65,6 +71,7 @@ STATUS = {
     kernels.UNDERFLOW: ("failed", "DOP853 step size underflow"),
     kernels.TOO_MANY_STEPS: ("failed", f"more than {MAX_ADAPTIVE_STEPS} steps: step size collapsed"),
     kernels.BAD_ERROR: ("blowup", "non-finite DOP853 error estimate (a stage overflowed)"),
+    kernels.FLAT_DISK: ("failed", "rolling contact: the disk lies flat, the contact point is undefined"),
 }
 
 _DOP853 = tuple(np.ascontiguousarray(a, dtype=float) for a in (_dop.A, _dop.B, _dop.C, _dop.E3, _dop.E5, _dop.D))
@@ -72,15 +79,13 @@ _DOP853 = tuple(np.ascontiguousarray(a, dtype=float) for a in (_dop.A, _dop.B, _
 
 def pack(nem: NEModel) -> tuple:
     """The model tuple of ``kernels`` (its module docstring lists the entries).
-    Raises NotImplementedError for a model outside the compiled solver's scope."""
-    if nem.contacts:
-        raise NotImplementedError("the compiled in-house solver does not model rolling contacts")
-    if nem.forces:
-        raise NotImplementedError("the compiled in-house solver does not model prescribed forces")
-    if nem.torques or nem.point_springs:
-        raise NotImplementedError("the compiled in-house solver does not model joint torques or point springs")
-    if nem.redundant:
-        raise NotImplementedError("the compiled in-house solver does not model loop joints")
+    Raises NotImplementedError for a model outside the compiled solver's scope: a prescribed
+    force whose time law is only a Python function."""
+    for i, _, law in nem.forces:
+        if not isinstance(law, HarmonicForce):
+            raise NotImplementedError(f"the compiled in-house solver cannot evaluate the prescribed force on "
+                                      f"{nem.body_names[i]!r}: its time law is a Python function, not a "
+                                      "HarmonicForce (PointForce.harmonic)")
     nj = nem.nj
     hinge = np.array([t == "hinge" for t in nem.joint_types], dtype=np.int64)
     rows = 3 + 2 * hinge
@@ -88,6 +93,9 @@ def pack(nem: NEModel) -> tuple:
     n_fast = int(rows.sum())
     if n_fast != nem.nc_fast:
         raise NotImplementedError(f"the compiled in-house solver expects {n_fast} ball/hinge rows, the model has {nem.nc_fast}")
+    nc = n_fast + 5 * len(nem.slides) + 3 * len(nem.contacts)
+    if nc != nem.nc:
+        raise NotImplementedError(f"the compiled in-house solver expects {nc} constraint rows, the model has {nem.nc}")
     D = nem.D_end
     vectors = lambda a: np.ascontiguousarray(a, dtype=float).reshape(-1, 3)  # noqa: E731
     indices = lambda a: np.asarray(a, dtype=np.int64).reshape(-1)  # noqa: E731
@@ -106,7 +114,7 @@ def pack(nem: NEModel) -> tuple:
         vectors(D[nj:, :, 1]),
         vectors(D[nj:, :, 2]),
         row,
-        int(n_fast + 5 * len(slides)),
+        int(nc),
         indices([sl.child for sl in slides]),
         indices([sl.parent for sl in slides]),
         vectors([sl.r_c for sl in slides]),
@@ -118,7 +126,34 @@ def pack(nem: NEModel) -> tuple:
         indices([sp.slide for sp in springs]),
         np.array([sp.k for sp in springs], dtype=float),
         np.array([sp.q_ref for sp in springs], dtype=float),
+        float(RANK_RTOL) if nem.redundant else 0.0,
+        float(FLAT),
+        *_elements(nem, nc),
+        int(nc - 3 * len(nem.contacts)),
     )
+
+
+def _elements(nem: NEModel, nc: int) -> tuple[np.ndarray, np.ndarray]:
+    """The element table of ``kernels`` (elem (ne, 3) int, edata (ne, 13) float): prescribed
+    forces, hinge torques, point springs, then rolling contacts (rows: the last 3 per contact)."""
+    nb, first = nem.nb, nc - 3 * len(nem.contacts)
+    elem, edata = [], []
+
+    def add(kind, a, b, *numbers):
+        elem.append((kind, a, b))
+        edata.append(np.concatenate([np.ravel(np.asarray(x, dtype=float)) for x in numbers] + [np.zeros(13)])[:13])
+
+    for i, r_B, law in nem.forces:
+        add(kernels.FORCE, i, nb, r_B, law.f_const_W, law.f_cos_W, law.f_sin_W, law.omega)
+    for tq in nem.torques:
+        add(kernels.TORQUE, tq.child, tq.parent, tq.axis_B, tq.torque)
+    for ps in nem.point_springs:
+        add(kernels.POINT_SPRING, ps.body_a, ps.body_b, ps.r_a, ps.r_b, ps.k, ps.rest_length)
+    for k, c in enumerate(nem.contacts):
+        add(kernels.ROLLING, c.body, first + 3 * k, c.radius, c.half_thickness,
+            0.0 if c.circle_z is None else c.circle_z, float(c.circle_z is not None))
+    return (np.asarray(elem, dtype=np.int64).reshape(-1, 3),
+            np.ascontiguousarray(np.asarray(edata, dtype=float).reshape(-1, 13)))
 
 
 def tableau_arrays(tableau: ButcherTableau) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -243,20 +243,6 @@ def test_failures_are_returned_not_raised():
     assert not coarse.ok and coarse.message
 
 
-@pytest.mark.parametrize("name,params,what", [
-    ("rolling_disk", {}, "rolling contacts"),
-    ("double_pendulum", {"F0": 1.0, "omega_f": 2.0}, "prescribed forces"),
-])
-@pytest.mark.parametrize("method", ["rk4_compiled", "dop853_compiled"])
-def test_models_outside_the_compiled_solver_give_an_unsupported_trajectory(name, params, what, method):
-    scene = load_scene(name).with_params(**params)
-    with pytest.raises(NotImplementedError, match=what):
-        compiled.pack(build(scene.multibody()))
-    traj = ENGINE.simulate(scene, RunSettings(0.1, 0.01, 0.05, method))
-    assert traj.status == "unsupported" and traj.unsupported and not traj.ok and len(traj.t) == 0
-    assert what in traj.message and method in traj.message and "\n" not in traj.message
-
-
 def test_integrate_takes_one_state():
     nem, _, Y = states_near("torque_free", 2)
     with pytest.raises(ValueError, match="one state"):

@@ -1,0 +1,200 @@
+"""The compiled in-house solver covers every scene in ``models/``: loop joints (dependent rows,
+pivoted Cholesky), rolling contacts, hinge torques, point springs and prescribed forces with a
+``HarmonicForce`` time law, against the per-state engine (the readable oracle). A force given
+only as a Python function stays "unsupported"; a disk lying flat fails with its own status. No
+wall-clock assertions."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from harness.engines.base import RunSettings
+from harness.engines.inhouse import (ENGINE, build, from_trajectory, initial_state, make_rhs, project, projection_tolerance,
+                                     violation)
+from harness.engines.inhouse.compiled import kernels
+from harness.engines.inhouse.compiled import solver as compiled
+from harness.model.forces import HarmonicForce, PointForce
+from harness.model.scene import available_scenes, load_scene
+
+# Fixed steps of each scene's own dt compared below: a few hundred, fewer where a per-state step
+# is slow (andrews_squeezer: 50 rows, ~40 ms per per-state step; bricard ~80 ms).
+STEPS = {"andrews_squeezer": 30, "bricard": 25}
+DEFAULT_STEPS = 200
+
+# rk4_compiled against the per-state rk4 at the scene's dt (STEPS steps): the largest difference
+# of positions, quaternions, velocities and angular velocities, each relative to the largest
+# value of that quantity (measured): andrews_squeezer 3.7e-15, bricard 4.4e-14, cart_pendulum
+# 8.9e-16, double_pendulum 1.9e-13, double_pendulum forced (F0 = 2 N, omega_f = 3 rad/s) 1.1e-13,
+# four_bar 3.7e-15, four_bar_near_singular 1.7e-15, heavy_top 1.2e-15, plate_pendulum 2.4e-15,
+# rocking_semicylinder 6.4e-16, rolling_cone 3.2e-14, rolling_cylinder_bar 1.9e-15, rolling_disk
+# 1.4e-15, rotating_plate 4.4e-16, slider_crank 3.4e-15, spring_pendulum 8.4e-15,
+# three_link_chain 4.0e-15, torque_free 1.3e-15, torque_free_symmetric 3.3e-16. The dependent
+# rows of the loops and of rolling_cone are solved differently (pivoted Cholesky here, the
+# pseudo-inverse there): the same accelerations, different round-off.
+RK4_RTOL = 1e-11
+
+
+def relative_difference(a, b) -> float:
+    """Largest difference of the four state quantities of trajectories a and b, each relative to
+    the largest magnitude of that quantity in b."""
+    worst = 0.0
+    for x, y in ((a.p_WCm_W, b.p_WCm_W), (a.quat_WB, b.quat_WB), (a.v_WCm_W, b.v_WCm_W), (a.w_WB_W, b.w_WB_W)):
+        assert x.shape == y.shape
+        worst = max(worst, float(np.max(np.abs(x - y))) / max(float(np.max(np.abs(y))), 1e-12))
+    return worst
+
+
+def scenes():
+    yield from ((name, {}) for name in available_scenes())
+    yield "double_pendulum", {"F0": 2.0, "omega_f": 3.0}  # the scene's force is off by default
+
+
+@pytest.mark.parametrize("name,params", list(scenes()))
+def test_rk4_compiled_reproduces_the_per_state_rk4_on_every_scene(name, params):
+    scene = load_scene(name).with_params(**params)
+    steps = STEPS.get(name, DEFAULT_STEPS)
+    settings = RunSettings(steps * scene.dt, scene.dt, steps // 5 * scene.dt, "rk4")
+    slow = ENGINE.simulate(scene, settings)
+    fast = ENGINE.simulate(scene, replace(settings, integrator="rk4_compiled"))
+    assert slow.ok and fast.ok, (slow.message, fast.message)
+    assert fast.stats["steps"] == steps
+    assert relative_difference(fast, slow) < RK4_RTOL
+    # the joint reactions (scenes that check them) and the rolling contacts' forces, from the
+    # oracle's multipliers at the compiled states
+    assert set(fast.reactions) == set(slow.reactions)
+    for key, (force, moment) in slow.reactions.items():
+        scale = max(1.0, float(np.max(np.abs(force))), float(np.max(np.abs(moment))))
+        np.testing.assert_allclose(fast.reactions[key][0], force, rtol=0, atol=1e-8 * scale)
+        np.testing.assert_allclose(fast.reactions[key][1], moment, rtol=0, atol=1e-8 * scale)
+
+
+# rkmk4_compiled against the per-state rkmk4 (measured: four_bar 7.2e-16, rolling_disk 2.6e-15,
+# andrews_squeezer 3.1e-15, slider_crank 3.5e-15)
+@pytest.mark.parametrize("name,steps", [("four_bar", 200), ("rolling_disk", 200), ("andrews_squeezer", 10),
+                                        ("slider_crank", 200)])
+def test_rkmk4_compiled_reproduces_the_per_state_rkmk4(name, steps):
+    scene = load_scene(name)
+    settings = RunSettings(steps * scene.dt, scene.dt, steps * scene.dt / 2, "rkmk4")
+    slow = ENGINE.simulate(scene, settings)
+    fast = ENGINE.simulate(scene, replace(settings, integrator="rkmk4_compiled"))
+    assert slow.ok and fast.ok, (slow.message, fast.message)
+    assert relative_difference(fast, slow) < RK4_RTOL
+
+
+# dop853_compiled (rtol = atol = 1e-12, projection after each step) against the per-state DOP853
+# (SciPy, rtol = atol = 1e-13, Baumgarte terms): both converge to the exact motion, so they agree
+# to about their tolerances (measured: four_bar 4.1e-11, slider_crank 3.3e-11, rolling_disk
+# 2.9e-13, rolling_cone 5.4e-13, double_pendulum forced 1.6e-12).
+@pytest.mark.parametrize("name,params,t_end", [
+    ("four_bar", {}, 0.5),
+    ("slider_crank", {}, 0.3),
+    ("rolling_disk", {}, 0.2),
+    ("rolling_cone", {}, 0.2),
+    ("double_pendulum", {"F0": 2.0, "omega_f": 3.0}, 0.5),
+])
+def test_dop853_compiled_agrees_with_the_per_state_dop853(name, params, t_end):
+    scene = load_scene(name).with_params(**params)
+    ref = ENGINE.simulate(scene, RunSettings(t_end, scene.dt, t_end / 5, "DOP853", rtol=1e-13, atol=1e-13))
+    fast = ENGINE.simulate(scene, RunSettings(t_end, scene.dt, t_end / 5, "dop853_compiled", rtol=1e-12, atol=1e-12))
+    assert ref.ok and fast.ok, (ref.message, fast.message)
+    assert relative_difference(fast, ref) < 1e-9
+
+
+# rhs: relative to the largest derivative; projection of a state 1e-8 off the manifold: relative
+# to max(1, largest entry) (measured, rhs / projection: four_bar 3.6e-12 / 1.2e-15, bricard
+# 8.2e-12 / 7.8e-16, slider_crank 1.1e-11 / 1.4e-14, andrews_squeezer 2.4e-10 / 8.1e-14,
+# rolling_cone 3.5e-15 / 1.3e-9, rolling_cylinder_bar 3.9e-16 / 2.2e-16, rolling_disk 1.6e-15 /
+# 3.9e-18). The rhs differences of the loops are the per-state pseudo-inverse's round-off (its
+# accelerations leave J du/dt + gamma at 5e-8 on andrews_squeezer, the pivoted Cholesky's at
+# 9e-12). rolling_cone: the per-state projection splits the ball joint's error along the
+# apex-contact line with the no-slip row that repeats it (whose "error" is 0 by definition), so
+# its Gauss-Newton converges linearly and stops with |C| = 4.5e-10; the compiled one pivots the
+# position rows first and reaches 1e-15.
+PROJECTION_RTOL = {"rolling_cone": 1e-8}
+
+
+@pytest.mark.parametrize("name", ["four_bar", "bricard", "slider_crank", "andrews_squeezer", "rolling_cone",
+                                  "rolling_cylinder_bar", "rolling_disk"])
+def test_rhs_and_projection_equal_the_per_state_ones(name):
+    """At states on the constraint manifold (samples of a short per-state run): the same
+    accelerations, and the same projection of a state 1e-8 off the manifold, which satisfies the
+    constraints."""
+    scene = load_scene(name)
+    mb = scene.multibody()
+    nem = build(mb)
+    model = compiled.pack(nem)
+    ws = kernels.workspace(model)
+    tol = projection_tolerance(nem)
+    oracle = make_rhs(nem)
+    rng = np.random.default_rng(3)
+    run = ENGINE.simulate(scene, RunSettings(10 * scene.dt, scene.dt, 5 * scene.dt, "rk4"))
+    for t, y in zip(run.t, from_trajectory(nem, run)):
+        expected = oracle(t, y)
+        got = np.empty_like(y)
+        assert kernels.rhs(t, y, got, model, ws) == kernels.OK
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.max(np.abs(expected)))
+        off = y + 1e-8 * rng.standard_normal(len(y))
+        expected = project(nem, off, tol=tol)
+        assert kernels.project(off, model, ws, tol) == kernels.OK
+        np.testing.assert_allclose(off, expected, rtol=0,
+                                   atol=PROJECTION_RTOL.get(name, 1e-11) * max(1.0, np.max(np.abs(expected))))
+        position, velocity = violation(nem, off)
+        assert position <= 10 * tol and velocity <= 1e-12
+
+
+def test_a_batch_of_a_loop_model_is_its_scalar_trajectories():
+    mb = load_scene("four_bar").multibody()
+    nem = build(mb)
+    model, tol = compiled.pack(nem), projection_tolerance(nem)
+    y0 = initial_state(mb, nem)
+    Y = np.array([project(nem, y0 + 1e-3 * d, tol=tol) for d in np.random.default_rng(5).standard_normal((3, len(y0)))])
+    Yend, words = compiled.run_batch(model, Y, 20, 1e-3, threads=2, proj_tol=tol)
+    assert list(words) == ["ok"] * 3
+    for i, y in enumerate(Y):
+        res = compiled.integrate_fixed(model, y, np.array([0.0, 0.02]), steps_per_save=20, proj_tol=tol)
+        np.testing.assert_array_equal(Yend[i], res.y[-1])
+
+
+def test_harmonic_force_is_its_numbers():
+    f = PointForce.harmonic("bar1", [0.0, 0.0, -1.0], [1.0, 0.0, 0.5], f_cos_W=[2.0, 0.0, 0.0],
+                            f_sin_W=[0.0, -3.0, 0.0], omega=4.0, name="pin")
+    assert isinstance(f.force_W, HarmonicForce) and f.law is f.force_W and f.name == "pin"
+    for t in (0.0, 0.3, 1.7):
+        np.testing.assert_allclose(f.force_W(t), [1.0 + 2.0 * np.cos(4.0 * t), -3.0 * np.sin(4.0 * t), 0.5],
+                                   rtol=0, atol=1e-15)
+    assert PointForce("bar1", np.zeros(3), lambda t: np.zeros(3)).law is None
+
+
+@pytest.mark.parametrize("method", ["rk4_compiled", "dop853_compiled"])
+def test_a_force_given_only_as_a_python_function_is_unsupported(method):
+    scene = load_scene("double_pendulum")
+    mb = scene.multibody()
+    mb = replace(mb, forces=(PointForce("bar1", np.array([0.0, 0.0, -1.0]), lambda t: np.array([np.cos(t), 0.0, 0.0]),
+                                        name="pin"),))
+    with pytest.raises(NotImplementedError, match="prescribed force on 'bar1'.*Python function"):
+        compiled.pack(build(mb))
+    traj = ENGINE.simulate_model(mb, RunSettings(0.1, 0.01, 0.05, method))
+    assert traj.status == "unsupported" and traj.unsupported and not traj.ok and len(traj.t) == 0
+    assert "Python function" in traj.message and method in traj.message and "\n" not in traj.message
+    per_state = ENGINE.simulate_model(mb, RunSettings(0.1, 0.01, 0.05, "rk4"))  # the per-state form runs it
+    assert per_state.ok
+
+
+def test_a_disk_lying_flat_has_its_own_status():
+    mb = load_scene("rolling_disk").multibody()
+    nem = build(mb)
+    model = compiled.pack(nem)
+    y = initial_state(mb, nem)
+    y[3:7] = [1.0, 0.0, 0.0, 0.0]  # axis vertical: the contact point is undefined
+    with pytest.raises(Exception, match="lies flat"):  # the per-state FlatDiskError
+        project(nem, y)
+    res = compiled.integrate_fixed(model, y, np.array([0.0, 0.01]), steps_per_save=2)
+    assert res.status == "failed" and "disk lies flat, the contact point is undefined" in res.message
+    assert compiled.STATUS[kernels.FLAT_DISK][1] in res.message
+    ws = kernels.workspace(model)
+    assert kernels.rhs(0.0, y, np.empty_like(y), model, ws) == kernels.FLAT_DISK
+    res = compiled.integrate_dop853(model, y, np.array([0.0, 0.01]))
+    assert res.status == "failed" and "lies flat" in res.message
