@@ -101,6 +101,15 @@ def add_engines(parser) -> None:
                         help=f"comma-separated engines among {ENGINES_HELP} (default: all)")
 
 
+def add_per_state(parser) -> None:
+    """The ``--per-state`` option of the commands that run the in-house engine at the scenes'
+    defaults (validate, debug): the readable per-state methods instead of their compiled twins."""
+    parser.add_argument("--per-state", action="store_true",
+                        help="run the in-house engine's per-state NumPy methods (the readable oracle: rk4, "
+                             "DOP853 for the reference) instead of their compiled twins (rk4_compiled, "
+                             "dop853_compiled), which run by default wherever the compiled form models the scene")
+
+
 def dask_address(text: str) -> str:
     """A Dask scheduler address: ``tcp://host:port`` (``host:port`` means tcp; tls://, ws://...
     as Dask spells them). Whether a scheduler answers there is ``connect_dask``'s to say."""

@@ -23,7 +23,7 @@ from harness.cli import workprecision as cli_workprecision
 from harness.io.progress import set_quiet
 from harness.io.provenance import set_argv
 from harness.model.errors import InputError
-from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_dask, add_engines, add_out_dir, check_samples, check_selection,
+from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_dask, add_engines, add_per_state, add_out_dir, check_samples, check_selection,
                                    connect_dask, csv_list as _csv_list,
                                    float_arg as _float, int_arg as _int, models_dir_arg as _models_dir,
                                    out_dir, require_scene_files_utf8)
@@ -39,7 +39,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 #: ``validate`` options that make a run partial (its reports then go to reports/partial/validate)
-VALIDATE_SUBSET = ("scenes", "engines", "set", "tolerances", "models_dir")
+VALIDATE_SUBSET = ("scenes", "engines", "set", "tolerances", "models_dir", "per_state")
 
 def _overrides(items: list[str] | None) -> dict[str, str]:
     from harness.model.scene import parse_set
@@ -78,6 +78,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="absolute tolerance of adaptive integrators (>= 0, SI units of the state, default 1e-12)")
     s.add_argument("--out", required=True, type=Path, metavar="FILE.csv", help="CSV file to write (replaced atomically)")
     s.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
+    s.add_argument("--fast", action="store_true",
+                   help="in-house engine: run the compiled twin of the integrator (rk4 -> rk4_compiled, rkmk4 -> "
+                        "rkmk4_compiled, DOP853 -> dop853_compiled) where the compiled form models the scene")
 
     v = sub.add_parser("validate", help="run every scene on every engine, check, write reports/",
                        description="Run every selected scene on every selected engine (and the in-house reference), "
@@ -98,6 +101,7 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--timeout", type=_float, default=300.0, metavar="S",
                    help="seconds allowed per scene x engine case (> 0, default 300)")
     add_dask(v)
+    add_per_state(v)
     v.add_argument("--quiet", action="store_true",
                    help="no progress bar and no compile notice on stderr (the results and errors still print); "
                         "the bar is drawn only when stderr is a terminal")
@@ -152,6 +156,14 @@ def cmd_simulate(args) -> int:
     require_scene_files_utf8(scene)
     model = scene.multibody()
     check_samples(settings.t_end, settings.save_every, len(model.bodies))
+    if args.fast:
+        if args.engine != "inhouse":
+            raise InputError(f"--fast selects the in-house engine's compiled methods; {args.engine} has none")
+        from dataclasses import replace
+
+        from harness.engines.inhouse import fast_method
+
+        settings = replace(settings, integrator=fast_method(settings.integrator, model))
     traj = engine.simulate(scene, settings)
     if traj.unsupported:  # the engine/integrator does not model this scene: bad input, nothing written
         raise InputError(f"{args.engine} cannot run {scene.name} with {settings.integrator}: {traj.message}")
@@ -262,10 +274,13 @@ def cmd_validate(args) -> int:
     if "inhouse" in engines:  # a compiled in-house default: its compilation announced once, here, not per worker
         from harness.engines.inhouse import announce_compilation
 
-        announce_compilation((s.integrators.get("inhouse", ""), s.multibody()) for s in scenes)
+        from harness.validate.run import default_settings, reference_settings
+
+        announce_compilation([(m.integrator, s.multibody()) for s in scenes
+                              for m in (default_settings(s, "inhouse", not args.per_state), reference_settings(s, not args.per_state))])
     with make_bar(len(scenes) * (1 + len(engines)), desc="validate", unit="case", quiet=args.quiet) as bar:
         results = validate(scenes, engines, jobs=args.jobs or None, timeout=args.timeout, tolerance_changes=changes,
-                           progress=bar, dask=args.dask)
+                           progress=bar, dask=args.dask, fast=not args.per_state)
     # the model-file checks run before any engine: a scene whose runs gave no check judged nothing
     empty = [r.scene for r in results if not any(not c.check.startswith("model.") for c in r.checks)]
     if not results or empty:

@@ -13,7 +13,7 @@ import shlex
 import sys
 import warnings
 from pathlib import Path
-from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_dask, check_samples, connect_dask, csv_list as _csv_list, float_arg as _float,
+from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_dask, add_per_state, check_samples, connect_dask, csv_list as _csv_list, float_arg as _float,
                                    int_arg as _int, models_dir_arg as _models_dir, require_scene_files_utf8,
                                    require_utf8)
 from harness.model.errors import InputError
@@ -54,6 +54,7 @@ def add_parsers(sub) -> None:
     d.add_argument("--out-dir", type=Path, default=Path("."), metavar="DIR",
                    help="folder for debug_<scene>_<A>_<B>.png (default: .)")
     d.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
+    add_per_state(d)
 
     c = sub.add_parser("check", help="read a model (MJCF and/or URDF) with MuJoCo, Pinocchio and Drake; name the odd one "
                                      "out; write a report",
@@ -143,7 +144,7 @@ def cmd_debug(args) -> int:
         raise InputError(f"horizon t_end must be positive and finite, got {args.t_end!r}")
     t_end = args.t_end if args.t_end is not None else scene.t_end
     check_samples(t_end, save_interval(scene), len(scene.multibody().bodies), options="--t-end")
-    result = debug(scene, engines, args.t_end)
+    result = debug(scene, engines, args.t_end, fast=not args.per_state)
     print("\n".join(summary(result)))
     path = write_plot(result, args.out_dir)
     print(f"wrote {path}")

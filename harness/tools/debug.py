@@ -91,12 +91,13 @@ def parse_engines(text: list[str]) -> tuple[str, str]:
     return text[0], text[1]
 
 
-def run_engine(scene: Scene, engine: str, t_end: float | None) -> Trajectory:
-    """One run at the scene's default settings (horizon ``t_end`` if given); InputError for an
-    engine the scene excludes (``[not_run]``)."""
+def run_engine(scene: Scene, engine: str, t_end: float | None, fast: bool = True) -> Trajectory:
+    """One run at the scene's default settings (horizon ``t_end`` if given; with ``fast`` the
+    in-house runs use their methods' compiled twins where they apply, as ``validate``);
+    InputError for an engine the scene excludes (``[not_run]``)."""
     if engine in scene.not_run:
         raise InputError(f"{engine} does not run {scene.name}: {scene.not_run[engine]}")
-    settings = reference_settings(scene) if engine == "reference" else default_settings(scene, engine)
+    settings = reference_settings(scene, fast) if engine == "reference" else default_settings(scene, engine, fast)
     if t_end is not None:
         settings = replace(settings, t_end=t_end)
     return get_engine("inhouse" if engine == "reference" else engine).simulate(scene, settings)
@@ -144,10 +145,10 @@ def tolerances(scene: Scene, engines: tuple[str, str]) -> dict[str, float | None
     return out
 
 
-def debug(scene: Scene, engines: tuple[str, str], t_end: float | None = None) -> DebugResult:
+def debug(scene: Scene, engines: tuple[str, str], t_end: float | None = None, fast: bool = True) -> DebugResult:
     """Run both engines and find where each quantity first leaves its tolerance."""
     model = scene.multibody()
-    a, b = (run_engine(scene, e, t_end) for e in engines)
+    a, b = (run_engine(scene, e, t_end, fast) for e in engines)
     judge = (a, b)[judge_index(engines)]
     scales = compare.motion_scales(judge, model) if len(judge.t) else {"length": 1.0, "velocity": 1.0, "angular_velocity": 1.0}
     t, errors = error_series(a, b, model, scales)

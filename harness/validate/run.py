@@ -10,7 +10,11 @@ files with the scene's parameters written over them (``load_mjcf``, ``load_urdf`
 ``--set`` overrides reach every engine, and why a wrong number in a file shows only here.
 
 Then, for each scene: an in-house reference run (DOP853, rtol = atol = 1e-12) is made first; then
-each engine runs at the scene's default integrator and step. Checks (those the scene declares
+each engine runs at the scene's default integrator and step. The in-house runs (the reference
+included) use the compiled twin of their method (``harness.engines.inhouse.fast_method``:
+``rk4_compiled`` for ``rk4``, ``dop853_compiled`` for ``DOP853``) wherever the compiled form models
+the scene, unless ``fast=False`` (``harness validate --per-state``: the readable per-state oracle
+everywhere); each run's record names the method that ran. Checks (those the scene declares
 in ``[checks.*]`` of its ``scene.toml``):
 
 * ``energy_drift`` (unforced; over the reference run's energy scale) or ``energy_balance``
@@ -135,20 +139,34 @@ def save_interval(scene: Scene) -> float:
     return scene.dt if forces.does_work(scene.multibody()) else scene.save_every
 
 
-def reference_settings(scene: Scene) -> RunSettings:
-    """The in-house high-accuracy run that judges the engines' trajectories."""
+def _method(scene: Scene, engine: str, method: str, fast: bool) -> str:
+    """``method`` of ``engine``, or for the in-house engine with ``fast`` its compiled twin where
+    the compiled form models the scene (``harness.engines.inhouse.fast_method``)."""
+    if not fast or engine != "inhouse":
+        return method
+    from harness.engines.inhouse import fast_method
+
+    return fast_method(method, scene.multibody())
+
+
+def reference_settings(scene: Scene, fast: bool = True) -> RunSettings:
+    """The in-house high-accuracy run that judges the engines' trajectories (with ``fast``, the
+    compiled DOP853 where the compiled form models the scene)."""
     save = save_interval(scene)
-    return RunSettings(scene.t_end, save, save, REFERENCE_METHOD, rtol=REFERENCE_TOL, atol=REFERENCE_TOL)
+    method = _method(scene, REFERENCE_ENGINE, REFERENCE_METHOD, fast)
+    return RunSettings(scene.t_end, save, save, method, rtol=REFERENCE_TOL, atol=REFERENCE_TOL)
 
 
-def default_settings(scene: Scene, engine: str) -> RunSettings:
-    """The engine's default integrator and the scene's step, horizon and save interval."""
-    return RunSettings(scene.t_end, scene.dt, save_interval(scene), scene.integrators[engine])
+def default_settings(scene: Scene, engine: str, fast: bool = True) -> RunSettings:
+    """The engine's default integrator (for the in-house engine with ``fast``, its compiled twin
+    where the compiled form models the scene) and the scene's step, horizon and save interval."""
+    method = _method(scene, engine, scene.integrators[engine], fast)
+    return RunSettings(scene.t_end, scene.dt, save_interval(scene), method)
 
 
-def reference_case(scene: Scene) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
+def reference_case(scene: Scene, fast: bool = True) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
     """Worker body: the reference run and its own checks."""
-    settings = reference_settings(scene)
+    settings = reference_settings(scene, fast)
     t0 = time.perf_counter()
     traj = mark_non_finite(get_engine(REFERENCE_ENGINE).simulate(scene, settings), scene.multibody())
     record = _record(scene, "reference", settings, traj, time.perf_counter() - t0)
@@ -156,9 +174,10 @@ def reference_case(scene: Scene) -> tuple[Trajectory, RunRecord, list[CheckResul
     return traj, record, checks
 
 
-def engine_case(scene: Scene, engine: str, ref: Trajectory | None) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
+def engine_case(scene: Scene, engine: str, ref: Trajectory | None,
+                fast: bool = True) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
     """Worker body: one engine's run at the scene's defaults and its checks."""
-    settings = default_settings(scene, engine)
+    settings = default_settings(scene, engine, fast)
     t0 = time.perf_counter()
     traj = mark_non_finite(get_engine(engine).simulate(scene, settings), scene.multibody())  # NaN "ok" -> blowup
     record = _record(scene, engine, settings, traj, time.perf_counter() - t0)
@@ -168,11 +187,12 @@ def engine_case(scene: Scene, engine: str, ref: Trajectory | None) -> tuple[Traj
 
 def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None,
              timeout: float = DEFAULT_TIMEOUT, tolerance_changes: dict[str, list[str]] | None = None,
-             progress=None, dask: str | None = None) -> list[SceneValidation]:
+             progress=None, dask: str | None = None, fast: bool = True) -> list[SceneValidation]:
     """Validate ``scenes`` on ``engines``, each run isolated in a worker process.
     ``progress``: a bar (``harness.io.progress.make_bar``) ticked once per finished case (each
     scene's reference run, then each scene x engine run), or None. ``dask``: the address of a
     ``dask.distributed`` scheduler whose workers run the cases (same results), else the local pool.
+    ``fast``: the in-house runs use their methods' compiled twins where they apply (module docstring).
 
     Raises InputError if any case reports bad input (e.g. a model that does not load).
     """
@@ -180,13 +200,13 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
     defaults = {s.name: _defaults(s) for s in scenes}
     models = {s.name: model_checks(s, engines, defaults[s.name]) for s in scenes}
     tick = None if progress is None else (lambda key, outcome: progress.update(1))
-    refs = run_cases([(s.name, reference_case, (s,)) for s in scenes], jobs, timeout, on_done=tick, dask=dask)
+    refs = run_cases([(s.name, reference_case, (s, fast)) for s in scenes], jobs, timeout, on_done=tick, dask=dask)
     _raise_input_errors(refs)
     cases = []
     for s in scenes:
         ref_outcome = refs[s.name]
         ref = ref_outcome.value[0] if ref_outcome.status == "ok" else None
-        cases += [((s.name, e), engine_case, (s, e, ref)) for e in engines if e not in s.not_run]
+        cases += [((s.name, e), engine_case, (s, e, ref, fast)) for e in engines if e not in s.not_run]
     outcomes = run_cases(cases, jobs, timeout, on_done=tick, dask=dask)
     _raise_input_errors(outcomes)
 
@@ -196,14 +216,14 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
                             tolerance_changes=list((tolerance_changes or {}).get(s.name, [])),
                             overrides=parameter_overrides(s, defaults[s.name]))
         v.checks.extend(models[s.name])
-        _collect(v, s, "reference", refs[s.name], reference_settings(s))
+        _collect(v, s, "reference", refs[s.name], reference_settings(s, fast))
         trajectories = {}
         v.not_run = {e: s.not_run[e] for e in engines if e in s.not_run}
         for e in engines:
             if e in v.not_run:
                 continue
             outcome = outcomes[(s.name, e)]
-            _collect(v, s, e, outcome, default_settings(s, e))
+            _collect(v, s, e, outcome, default_settings(s, e, fast))
             if outcome.status == "ok" and outcome.value[0].ok:
                 trajectories[e] = outcome.value[0]
             if refs[s.name].status != "ok" and "trajectory" in s.checks:

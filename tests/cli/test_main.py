@@ -249,6 +249,23 @@ def test_simulate_a_scene_the_compiled_form_does_not_model_is_exit_2(tmp_path, c
     assert not out_file.exists()
 
 
+def test_simulate_fast_runs_the_compiled_twin(tmp_path, capsys):
+    out_file = tmp_path / "tf.csv"
+    code, out, _ = run(["simulate", "torque_free", "--engine", "inhouse", "--fast", "--t-end", "0.1",
+                        "--out", str(out_file)], capsys)
+    assert code == 0 and "inhouse/rk4_compiled" in out, out
+    code, out, _ = run(["simulate", "torque_free", "--engine", "inhouse", "--t-end", "0.1", "--out", str(out_file)],
+                       capsys)
+    assert code == 0 and "inhouse/rk4," in out, out  # without --fast: the scene's per-state default
+
+
+def test_simulate_fast_on_another_engine_is_exit_2(tmp_path, capsys):
+    out_file = tmp_path / "x.csv"
+    code, _, err = run(["simulate", "torque_free", "--engine", "mujoco", "--fast", "--out", str(out_file)], capsys)
+    assert_one_line_error(code, err, "--fast selects the in-house engine's compiled methods; mujoco has none")
+    assert not out_file.exists()
+
+
 def test_validate_overflowing_parameter_is_exit_2(tmp_path, capsys):
     code, _, err, reports = _validate(["--scenes", "double_pendulum", "--engines", "mujoco", "--set", "L=1e300"],
                                       tmp_path, capsys)
@@ -427,6 +444,18 @@ def test_subset_validation_never_replaces_the_full_snapshot(tmp_path, capsys, mo
     partial = tmp_path / "reports" / "partial" / "validate" / "validation.md"
     assert "Reproduce with `harness validate --scenes rotating_plate --engines mujoco`" in partial.read_text()
     assert (partial.stat().st_mode & 0o777) == 0o666 & ~_umask()
+
+
+def test_per_state_validation_is_a_partial_run(tmp_path, monkeypatch):
+    """--per-state runs the in-house oracle instead of the compiled twins: not the snapshot's run."""
+    from harness.cli.arg_types import out_dir
+    from harness.cli.main import VALIDATE_SUBSET, build_parser
+
+    monkeypatch.chdir(tmp_path)
+    full, oracle = (build_parser().parse_args(["validate", *extra]) for extra in ([], ["--per-state"]))
+    assert not full.per_state and oracle.per_state
+    assert out_dir(full, "validate", VALIDATE_SUBSET).parts[-1] == "reports"
+    assert out_dir(oracle, "validate", VALIDATE_SUBSET).parts[-2:] == ("partial", "validate")
 
 
 def _umask() -> int:

@@ -75,6 +75,11 @@ LIE_GROUP = frozenset({"rkmk4", "rkmk4_compiled"})
 ADAPTIVE = {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
 # ... and the methods the compiled form runs (``harness.engines.inhouse.compiled``).
 COMPILED = frozenset({"rk4_compiled", "dop853_compiled", "rkmk4_compiled"})
+# The compiled twin of each per-state method that has one: the same Butcher table or coefficients
+# and step control, compiled. ``harness validate`` (unless ``--per-state``) and ``--fast`` run the
+# twin wherever the compiled form models the scene (``harness.engines.inhouse.fast_method``). The
+# twin of ``DOP853`` projects after each step instead of using Baumgarte terms.
+COMPILED_TWIN = {"rk4": "rk4_compiled", "rkmk4": "rkmk4_compiled", "DOP853": "dop853_compiled"}
 
 METHODS = integrator_table(
     Integrator("rk4", "fixed", RK4.order, len(RK4.b),

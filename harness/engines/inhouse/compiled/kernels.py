@@ -1021,24 +1021,26 @@ def _stage_state(y, K, A, s, h, out):
 
 
 @njit(**_JIT)
-def dop853(model, y0, t_save, rtol, atol, first_step, proj_tol, max_steps, out, coef):
+def dop853(model, y0, t_save, rtol, atol, first_step, max_step, proj_tol, max_steps, out, coef):
     """DOP853 (Hairer's coefficients ``coef = (A, B, C, E3, E5, D)``, SciPy's tables), step-size
     control as SciPy's ``DOP853``, projection after each accepted step (and of ``y0``), 7th-order
     dense output at the save times ``t_save`` (s) inside a step, samples into ``out``
-    (len(t_save) x ny). ``first_step`` (s) <= 0 selects the first step as SciPy does; more than
+    (len(t_save) x ny). ``first_step`` (s) <= 0 selects the first step as SciPy does;
+    ``max_step`` (s) > 0 caps every step as SciPy's ``max_step`` (<= 0: no cap); more than
     ``max_steps`` accepted + rejected steps fail. Returns (status, samples, steps, rejected,
     rhs_evals)."""
     n = y0.shape[0]
     ws, y, K = workspace(model), y0.copy(), np.zeros((coef[0].shape[0], n))
     ynew, tmp, F, samp = np.empty(n), np.empty(n), np.empty((7, n)), np.empty(n)
     result = _dop853(_borrow(model), _borrow(ws), _borrow(y), _borrow(K), _borrow(ynew), _borrow(tmp), _borrow(F),
-                     _borrow(samp), t_save, rtol, atol, first_step, proj_tol, max_steps, out, coef)
+                     _borrow(samp), t_save, rtol, atol, first_step, max_step, proj_tol, max_steps, out, coef)
     _hold((ws, y, K, ynew, tmp, F, samp))
     return result
 
 
 @njit(**_KERNEL)
-def _dop853(model, ws, y, K, ynew, tmp, F, samp, t_save, rtol, atol, first_step, proj_tol, max_steps, out, coef):
+def _dop853(model, ws, y, K, ynew, tmp, F, samp, t_save, rtol, atol, first_step, max_step, proj_tol, max_steps, out,
+            coef):
     """``dop853`` on its (borrowed) buffers; y holds the initial state."""
     A, Bw, Cn, E3, E5, D = coef
     n_stages = 12
@@ -1082,6 +1084,8 @@ def _dop853(model, ws, y, K, ynew, tmp, F, samp, t_save, rtol, atol, first_step,
         else:
             h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
         h_abs = min(100.0 * h0, h1)
+        if max_step > 0.0:
+            h_abs = min(h_abs, max_step)
     h_abs = min(h_abs, t_end - t)
     n_save = t_save.shape[0]
     k_next = 1
@@ -1089,6 +1093,8 @@ def _dop853(model, ws, y, K, ynew, tmp, F, samp, t_save, rtol, atol, first_step,
     rejected = 0
     while t < t_end and k_next < n_save:
         step_rejected = False
+        if max_step > 0.0 and h_abs > max_step:  # as SciPy, at the start of each step
+            h_abs = max_step
         while True:
             h = min(h_abs, t_end - t)
             if h < 10.0 * np.abs(np.spacing(t)):

@@ -216,18 +216,21 @@ def integrate_fixed(model: tuple, y0: np.ndarray, t_save: np.ndarray, tableau: B
 
 
 def integrate_dop853(model: tuple, y0: np.ndarray, t_save: np.ndarray, *, rtol: float = 1e-10, atol: float = 1e-12,
-                     first_step: float | None = None, proj_tol: float = 1e-13) -> Result:
+                     first_step: float | None = None, max_step: float | None = None,
+                     proj_tol: float = 1e-13) -> Result:
     """Integrate one state ``y0`` (ny,) of the packed ``model`` with DOP853 at ``rtol``/``atol``
     from ``t_save[0]``, sampling at ``t_save`` (s); ``first_step`` (s) is the first step tried
-    (None: SciPy's choice). ``wall_s`` covers the integration alone."""
+    (None: SciPy's choice); ``max_step`` (s) caps every step (None: no cap). ``wall_s`` covers
+    the integration alone."""
     y0 = _state(y0)
     t_save = np.ascontiguousarray(t_save, dtype=float)
     out = np.full((len(t_save), len(y0)), np.nan)
     h0 = float(first_step) if first_step else 0.0
     warm_up(model, y0, "dop853")
     start = time.perf_counter()
-    status, n, steps, _rejected, evals = kernels.dop853(model, y0, t_save, float(rtol), float(atol), h0, float(proj_tol),
-                                                        MAX_ADAPTIVE_STEPS, out, _DOP853)
+    h_max = float(max_step) if max_step else 0.0
+    status, n, steps, _rejected, evals = kernels.dop853(model, y0, t_save, float(rtol), float(atol), h0, h_max,
+                                                        float(proj_tol), MAX_ADAPTIVE_STEPS, out, _DOP853)
     wall = time.perf_counter() - start
     return _result(status, t_save, out, n, steps, evals, wall)
 
@@ -361,7 +364,7 @@ def warm_up(model: tuple, y0: np.ndarray, kernel: str) -> None:
     if kernel == "erk":
         kernels.erk(model, y0, t, 1, 1e-13, out, A, b, c, dexpinv_series(None))
     elif kernel == "dop853":
-        kernels.dop853(model, y0, t, 1e-6, 1e-6, 1e-3, 1e-13, 1, out, _DOP853)
+        kernels.dop853(model, y0, t, 1e-6, 1e-6, 1e-3, 0.0, 1e-13, 1, out, _DOP853)
     elif kernel == "erk_rows":
         kernels.erk_rows(model, y0[None], 1, 1e-3, 1e-13, A, b, c, dexpinv_series(None), out[:1],
                          np.zeros(1, dtype=np.int64), 0, 1)
