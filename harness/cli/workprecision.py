@@ -8,6 +8,7 @@ input (one line on stderr, no report touched). A run that fails is a recorded po
 from __future__ import annotations
 
 import os
+import time
 from dataclasses import replace
 
 from harness.model.errors import InputError
@@ -30,6 +31,18 @@ def add_parser(sub) -> None:
     w.add_argument("--repeats", type=_int, metavar="N", help="timed runs after the warm-up (>= 1, default 3)")
     w.add_argument("--max-run-s", type=_float, metavar="S",
                    help="stop refining a curve after a run this slow (s, > 0, default 2)")
+    w.add_argument("--budget-s", type=_float, metavar="S",
+                   help="wall time a curve's points may take together (s, > 0, default 0.5; MuJoCo's loop "
+                        "variants half of it)")
+    w.add_argument("--key-budget-s", type=_float, metavar="S",
+                   help="the same for the curves the targets are measured on, MuJoCo RK4 and the in-house DOP853 "
+                        "(s, > 0, default 3; up to 10 while one still converges towards a target)")
+    w.add_argument("--no-budget", action="store_true",
+                   help="no time budgets: refine every curve until --max-run-s, its error or the ladder stops it "
+                        "(much longer: without budgets the sweep took more than an hour)")
+    w.add_argument("--per-state", choices=("uncovered", "all", "none"),
+                   help="where the per-state in-house curves run: on scenes the compiled form does not model "
+                        "(uncovered, the default), on every scene (all), nowhere (none)")
     w.add_argument("--saves", type=_int, metavar="N",
                    help="saved intervals over the horizon, where errors are measured (>= 1, default 20)")
     w.add_argument("--t-end", type=_float, metavar="S", help="horizon (s, > 0) instead of each scene's")
@@ -37,6 +50,8 @@ def add_parser(sub) -> None:
                    help="initial conditions of the batched-throughput benchmark (>= 0, default 1000; 0 skips it)")
     w.add_argument("--batch-steps", type=_int, metavar="N",
                    help="steps per trajectory in that benchmark (>= 1, default 100)")
+    w.add_argument("--batch-budget-s", type=_float, metavar="S",
+                   help="about the time of that benchmark's timed runs, which sizes its batch (s, > 0, default 3)")
     w.add_argument("--quick", action="store_true", help="a small, fast sweep (for tests and smoke checks)")
     w.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true",
                    help="no progress bar and no compile notice on stderr (the summary and errors still print; "
@@ -57,13 +72,21 @@ def options_from_args(args):
     for name, attr, ok in (("repeats", "repeats", lambda v: v >= 1), ("max_run_s", "max_run_s", lambda v: v > 0),
                            ("saves", "saves", lambda v: 1 <= v <= MAX_SAMPLES), ("t_end", "horizon", lambda v: v > 0),
                            ("batch", "batch", lambda v: 0 <= v <= MAX_SAMPLES),
-                           ("batch_steps", "batch_steps", lambda v: 1 <= v <= MAX_SAMPLES)):
+                           ("batch_steps", "batch_steps", lambda v: 1 <= v <= MAX_SAMPLES),
+                           ("budget_s", "curve_budget_s", lambda v: v > 0), ("key_budget_s", "key_budget_s", lambda v: v > 0),
+                           ("batch_budget_s", "batch_budget_s", lambda v: v > 0)):
         value = getattr(args, name)
         if value is None:
             continue
         if not ok(value):
             raise InputError(f"--{name.replace('_', '-')} out of range: {value!r}")
         changes[attr] = value
+    if "curve_budget_s" in changes and opts.loop_budget_s is not None:
+        changes["loop_budget_s"] = changes["curve_budget_s"] / 2
+    if args.no_budget:
+        changes.update(curve_budget_s=None, key_budget_s=None, loop_budget_s=None, reach_budget_s=None)
+    if args.per_state:
+        changes["per_state"] = args.per_state
     changes["progress"] = not args.quiet
     return replace(opts, **changes)
 
@@ -88,8 +111,10 @@ def run(args) -> int:
     connect_dask(args)  # an unreachable scheduler: one line, exit 2, nothing written
     folder = out_dir(args, "workprecision", SUBSET)
     load_before = os.getloadavg()[0]
+    start = time.perf_counter()
     results = run_sweep(scenes, engines, options, dask=args.dask)
-    paths = write_reports(results, provenance(), options, folder, (load_before, os.getloadavg()[0]))
+    wall = time.perf_counter() - start
+    paths = write_reports(results, provenance(), options, folder, (load_before, os.getloadavg()[0]), wall_s=wall)
     for sweep in results:
         rows = time_table(sweep)
         parts = []
@@ -97,6 +122,8 @@ def run(args) -> int:
             best = min(((r[f"t({target:g})"], r["label"]) for r in rows if r[f"t({target:g})"] == r[f"t({target:g})"]),
                        default=None)
             parts.append(f"fastest to {target:g}: {best[1]} ({best[0]:.3g} s)" if best else f"{target:g} not reached")
-        print(f"{sweep.scene}: {len(sweep.points)} points; " + "; ".join(parts))
+        print(f"{sweep.scene}: {len(sweep.points)} points in {sweep.walls.get('total', float('nan')):.1f} s; "
+              + "; ".join(parts))
+    print(f"sweep: {wall:.0f} s wall")
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0

@@ -1,7 +1,17 @@
 """Reports of a work-precision sweep: ``workprecision.md``, ``workprecision.csv`` and one
 log-log figure per scene, ``workprecision/<scene>.png``; written as one set
 (``harness.io.atomic.write_set``: all old or all new) and stamped with the provenance of the
-run and the command that made it."""
+run, the command that made it, its wall time and the machine's load.
+
+``workprecision.md`` opens with the targets (``targets_section``: per scene the in-house time
+over MuJoCo RK4's at equal state error, from the head to head, and the batched throughput over
+``mujoco.rollout``'s, each "met", "not met", "not reached by MuJoCo" or "not run (why)"), then how
+the sweep was run, the interpolated times, the head to head, the batch, where the time went
+(``walls_section``), and one section per scene (figure, times to each target, observed orders
+with each curve's wall time and why it stopped).
+
+The figures are laid out with fixed margins, not ``tight_layout``: it measured every tick label
+again and took 1.0 of the 2.4 s a figure took (18 figures: 0.9 s each now)."""
 
 from __future__ import annotations
 
@@ -9,7 +19,8 @@ import math
 from pathlib import Path
 
 from harness.io import atomic
-from harness.studies.workprecision.run import TARGETS, SceneSweep, SweepOptions, by_curve, observed_order, points_table, time_table
+from harness.studies.workprecision.run import (TARGET_RATIO, TARGET_THROUGHPUT, TARGETS, SceneSweep, SweepOptions, by_curve,
+                                               observed_order, points_table, time_table)
 from harness.io.figures import new_figure, png_bytes
 
 ENGINE_COLORS = {"mujoco": "tab:blue", "pinocchio": "tab:green", "inhouse": "tab:red"}
@@ -33,6 +44,12 @@ def _style(label: str, index: int) -> dict:
                  "rk4_compiled": "magenta", "dop853_compiled": "tab:brown"}.get(label.split()[1], "black")
     elif engine == "pinocchio":
         color = {"rkmk4": "tab:green", "euler": "yellowgreen"}[label.split()[1]]
+    elif engine == "drake":
+        color = {"RK3": "dimgray", "RK5": "black", "Radau3": "darkgoldenrod", "RK3_fixed": "silver",
+                 "RK2": "tan"}.get(label.split()[1], "black")
+    elif engine == "exudyn":
+        color = {"GeneralizedAlpha": "teal", "TrapezoidalIndex2": "darkslateblue", "RK44": "steelblue",
+                 "RK67": "navy"}.get(label.split()[1], "black")
     dashed = "(loop)" in label or "(per-state)" in label or engine == "pinocchio"
     return {"color": color, "linestyle": "--" if dashed else "-", "marker": _MARKERS[index % len(_MARKERS)],
             "markersize": 4, "linewidth": 1.4}
@@ -117,7 +134,7 @@ def plot_scene(sweep: SceneSweep, provenance: dict) -> bytes:
                  f"times — MuJoCo {provenance.get('mujoco', '?')}, Pinocchio {provenance.get('pinocchio', '?')}, "
                  f"Exudyn {provenance.get('exudyn', '?')}, "
                  f"{provenance.get('date_utc', '')}", fontsize=11)
-    fig.tight_layout(rect=(0, 0.14, 1, 0.95))
+    fig.subplots_adjust(left=0.06, right=0.99, bottom=0.23, top=0.9, wspace=0.18)  # as tight_layout(rect=(0, 0.14, 1, 0.95)), at half the cost
     return png_bytes(fig, dpi=110)
 
 
@@ -135,28 +152,40 @@ def _best(rows: list[dict], predicate, target: float) -> tuple[str, float]:
 
 
 def markdown(results: list[SceneSweep], provenance: dict, options: SweepOptions,
-             load: tuple[float, float] | None = None, command: str | None = None) -> str:
+             load: tuple[float, float] | None = None, command: str | None = None, wall_s: float | None = None) -> str:
     """The report (see the module docstring). ``command``: the "Reproduce with" command (default
-    ``harness.io.provenance.command_line()``, the command this process was started with)."""
+    ``harness.io.provenance.command_line()``, the command this process was started with);
+    ``load``: the 1-minute load average before and after the sweep; ``wall_s``: the sweep's wall
+    time (s)."""
     if command is None:
         from harness.io.provenance import command_line
 
         command = command_line()
     lines = ["# Work-precision: error against run time", ""]
     lines.append(f"Reproduce with `{command}`. Made with " + ", ".join(f"{k} {v}" for k, v in provenance.items()) + ".")
+    run_line = []
+    if wall_s is not None:
+        run_line.append(f"The sweep took {wall_s:.0f} s wall ({wall_s / 60:.1f} min) for {len(results)} scenes")
     if load:
-        lines.append(f"Load average of the machine (1 min) before and after the sweep: {load[0]:.2f}, {load[1]:.2f} "
-                     "(other processes share the cores: compare times within one report only).")
-    lines += ["",
+        run_line.append(f"load average of the machine (1 min) before and after: {load[0]:.2f}, {load[1]:.2f} "
+                        "(other processes share the cores: compare times within one report only)")
+    if run_line:
+        lines.append("; ".join(run_line) + ".")
+    lines += [""] + targets_section(results, options) + [""]
+    lines += ["## How the sweep was run", "",
               "Each point is one run: one warm-up (which gives the errors), then the median (and minimum) of "
-              f"up to {options.repeats} timed runs (once only when a run takes more than {options.slow_run_s:g} s). "
+              f"{options.repeats} timed runs (one only when the warm-up took more than {options.slow_run_s:g} s). "
               "Errors are against the reference at the saved times (`harness/studies/workprecision/run.py` defines them): "
               "state error = max over bodies and saved steps of max(|Δp|/L, geodesic angle, |Δv|/V, |Δω|/Ω); "
               "energy and momentum errors relative to their scales. Times: MuJoCo `rollout` = time inside "
               "`mujoco.rollout`; MuJoCo `loop` = the harness's Python stepping loop (with reading each saved "
-              "sample); Pinocchio and in-house `per-state` = the engine's run; in-house `compiled` = the "
-              "compiled integrator alone (compiled before the clock starts). Raw points: `workprecision.csv`.", ""]
-    summary = ["## Summary: in-house against MuJoCo RK4 at equal state error", "",
+              "sample); Pinocchio, Drake, Exudyn and in-house `per-state` = the engine's run; in-house `compiled` = the "
+              "compiled integrator alone (compiled before the clock starts). Raw points: `workprecision.csv`.", "",
+              budget_text(options), ""]
+    lines += per_state_lines(results, options)
+    summary = ["## In-house against MuJoCo RK4, interpolated on the curves", "",
+               "Time each reaches a target state error, interpolated in log-log on its curve (the head to head "
+               "below times recorded runs again instead).", "",
                "| scene | target | best in-house (time) | MuJoCo RK4 rollout | ratio | MuJoCo RK4 loop | ratio |",
                "|---|---|---|---|---|---|---|"]
     body: list[str] = []
@@ -193,14 +222,17 @@ def markdown(results: list[SceneSweep], provenance: dict, options: SweepOptions,
                                                         for t in TARGETS) + " |")
         body += ["", "Observed order of convergence (fixed step: slope of log error vs log dt; adaptive: effective "
                  "order -slope vs log accepted steps, and the slope vs log tolerance):", "",
-                 "| curve | nominal | observed | points | range (dt or tol) | slope vs tol | best state error | runs failed |",
-                 "|---|---|---|---|---|---|---|---|"]
+                 "| curve | nominal | observed | points | range (dt or tol) | slope vs tol | best state error | runs failed "
+                 "| wall (s) | stopped |",
+                 "|---|---|---|---|---|---|---|---|---|---|"]
         for label, pts in by_curve(sweep.points).items():
             o = observed_order(pts, options.error_floor)
             best = min((p.state_max for p in pts if p.ok), default=float("nan"))
             bad = sum(not p.ok for p in pts)
+            log = sweep.curves.get(label, {})
             body.append(f"| {label} | {pts[0].nominal_order} | {_fmt(o['order'], '.2f')} | {o['n']} | {o['range'] or '—'} | "
-                        f"{_fmt(o.get('tol_slope', float('nan')), '.2f')} | {_fmt(best, '.1e')} | {bad} |")
+                        f"{_fmt(o.get('tol_slope', float('nan')), '.2f')} | {_fmt(best, '.1e')} | {bad} | "
+                        f"{_fmt(log.get('wall_s', float('nan')), '.2f')} | {log.get('stop', '—')} |")
         over = overhead_rows(sweep)
         if over:
             body += ["", "MuJoCo through the harness's stepping loop against `mujoco.rollout` (medians over the "
@@ -215,7 +247,7 @@ def markdown(results: list[SceneSweep], provenance: dict, options: SweepOptions,
             for p in failed:
                 body.append(f"- {p.label} at {p.param:.3g}: {p.status} — {p.message or 'non-finite error'}")
         body.append("")
-    lines += summary + [""] + h2h_section(results) + [""] + batch_section(results) + [""] + body
+    lines += summary + [""] + h2h_section(results) + [""] + batch_section(results) + [""] + walls_section(results) + [""] + body
     return "\n".join(lines) + "\n"
 
 
@@ -247,21 +279,186 @@ def h2h_section(results: list[SceneSweep]) -> list[str]:
         return []
     out = ["## Head to head at equal state error (timed in alternation)", "",
            "For each target, the cheapest recorded in-house run and MuJoCo RK4 run that reach it are timed again "
-           "in alternation (5 rounds, medians), so that both see the same machine load. Ratio < 1: the in-house "
-           "solver is faster.", "",
-           "| scene | target | in-house run | error | time (s) | MuJoCo RK4 rollout run | error | time (s) | ratio | "
-           "MuJoCo RK4 loop time (s) | ratio |",
-           "|---|---|---|---|---|---|---|---|---|---|---|"]
+           "in alternation (rounds: at least 3, up to 5 while they take less than 2 s; medians), so that both see "
+           "the same machine load; MuJoCo's loop is timed at the rollout run's dt. Ratio < 1: the in-house solver "
+           "is faster. Where `mujoco.rollout` cannot run a scene (prescribed forces), MuJoCo RK4 is its loop.", "",
+           "| scene | target | in-house run | error | time (s) | MuJoCo RK4 run | error | time (s) | ratio | "
+           "MuJoCo RK4 loop time (s) | ratio to loop | rounds |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for scene, h in rows:
         if h.get("status") != "ok":
-            out.append(f"| {scene} | {h.get('target', '—')} | {h.get('status')} | | | | | | | | |")
+            target = h.get("target")
+            out.append(f"| {scene} | {_fmt(target, 'g') if target else '—'} | {h.get('status')} | | | | | | | | | |")
             continue
-        ih, mr = h["inhouse"], h["mujoco RK4 (rollout)"]
+        side = h.get("mujoco", "rollout")
+        ih, mj = h["inhouse"], h[f"mujoco RK4 ({side})"]
         ml = h.get("mujoco RK4 (loop)")
         out.append(f"| {scene} | {h['target']:g} | {ih['label']} at {ih['param']:.3g} | {ih['state_max']:.1e} | "
-                   f"{ih['time_s']:.4g} | dt {mr['param']:.3g} | {mr['state_max']:.1e} | {mr['time_s']:.4g} | "
-                   f"{h['ratio_rollout']:.2f} | {_fmt(ml['time_s'] if ml else float('nan'), '.4g')} | "
-                   f"{_fmt(h.get('ratio_loop', float('nan')), '.2f')} |")
+                   f"{ih['time_s']:.4g} | {side} dt {mj['param']:.3g} | {mj['state_max']:.1e} | {mj['time_s']:.4g} | "
+                   f"{h['ratio']:.2f} | {_fmt(ml['time_s'] if ml else float('nan'), '.4g')} | "
+                   f"{_fmt(h.get('ratio_loop', float('nan')), '.2f')} | {h.get('rounds', '—')} |")
+    return out
+
+
+MET, NOT_MET, NOT_REACHED, NOT_RUN = "met", "not met", "not reached by MuJoCo", "not run"
+
+
+def _h2h_cell(h: dict | None) -> dict:
+    """The target cell of one head-to-head row: ``{"status", "value", "note"}`` (``status`` one of
+    ``MET``, ``NOT_MET``, ``NOT_REACHED``, ``NOT_RUN``)."""
+    nan = float("nan")
+    if h is None:
+        return {"status": NOT_RUN, "value": nan, "note": "no head to head (MuJoCo and the in-house engine both needed)"}
+    status = h.get("status", "")
+    if status == "ok":
+        ratio = h["ratio"]
+        note = "against MuJoCo's loop: mujoco.rollout cannot run this scene" if h.get("mujoco") == "loop" else ""
+        return {"status": MET if ratio <= TARGET_RATIO else NOT_MET, "value": ratio, "note": note}
+    if status in ("not reached by MuJoCo RK4", "not reached by either"):
+        return {"status": NOT_REACHED, "value": nan, "note": ""}
+    if status == "not reached by the in-house solver":
+        return {"status": NOT_MET, "value": nan, "note": "the in-house solver did not reach it in the sweep"}
+    return {"status": NOT_RUN, "value": nan, "note": status}
+
+
+def _batch_cell(b: dict | None) -> dict:
+    nan = float("nan")
+    if not b:
+        return {"status": NOT_RUN, "value": nan, "note": "no batch benchmark (--batch 0, or an engine not selected)"}
+    if "compiled_steps_per_s" not in b:
+        return {"status": NOT_RUN, "value": nan, "note": str(b.get("status", ""))}
+    ratio = b["compiled_steps_per_s"] / b["mujoco_steps_per_s"]
+    note = "" if b.get("status") == "ok" else str(b.get("status"))
+    return {"status": MET if ratio >= TARGET_THROUGHPUT and not note else NOT_MET, "value": ratio, "note": note}
+
+
+def _mujoco_best(sweep: SceneSweep, side: str) -> str:
+    """How far MuJoCo RK4 (``side``: "rollout" or "loop") got: its best state error and why its
+    curve stopped."""
+    label = f"mujoco RK4 ({side})"
+    best = min((p.state_max for p in sweep.points if p.label == label and p.ok), default=float("nan"))
+    stop = sweep.curves.get(label, {}).get("stop")
+    return f"best {_fmt(best, '.1e')}" + (f", {stop}" if stop else "") if math.isfinite(best) else ""
+
+
+def target_rows(results: list[SceneSweep], targets=TARGETS) -> list[dict]:
+    """Per scene, the targets of the in-house solver against MuJoCo: ``{"scene", target: cell for
+    each of ``targets`` (head-to-head ratio <= ``TARGET_RATIO``), "batch": cell (throughput ratio at
+    threads = cores >= ``TARGET_THROUGHPUT``)}``, each cell ``{"status": "met" / "not met" /
+    "not reached by MuJoCo" / "not run", "value", "note"}``."""
+    out = []
+    for sweep in results:
+        by_target = {h.get("target"): h for h in sweep.head_to_head}
+        row: dict = {"scene": sweep.scene}
+        for target in targets:
+            h = by_target.get(target)
+            if h is None and sweep.head_to_head and "target" not in sweep.head_to_head[0]:
+                h = sweep.head_to_head[0]  # the whole head to head failed: one row says why
+            row[target] = _h2h_cell(h)
+            if row[target]["status"] == NOT_REACHED:
+                row[target]["note"] = _mujoco_best(sweep, (h or {}).get("mujoco", "rollout"))
+        row["batch"] = _batch_cell(sweep.batch)
+        out.append(row)
+    return out
+
+
+def _cell_text(cell: dict, spec: str) -> str:
+    status, value, note = cell["status"], cell["value"], cell["note"]
+    if status in (MET, NOT_MET):
+        text = f"{status} ({_fmt(value, spec)})" if math.isfinite(value) else status
+        return text + (f" — {note}" if note else "")
+    if status == NOT_RUN:
+        return f"not run ({note})" if note else "not run"
+    return f"{status} ({note})" if note else status
+
+
+def targets_section(results: list[SceneSweep], options: SweepOptions, targets=TARGETS) -> list[str]:
+    """The "Targets" table: per scene, the in-house time over MuJoCo RK4's at equal state error
+    (head to head) at each target, and the batched throughput over ``mujoco.rollout``'s."""
+    rows = target_rows(results, targets)
+    out = ["## Targets", "",
+           f"In-house time over MuJoCo RK4's at equal state error (head to head, below): target ≤ {TARGET_RATIO:g} at "
+           + " and ".join(f"{t:g}" for t in targets) + " on every scene MuJoCo reaches; batched throughput of the "
+           f"compiled in-house RK4 over `mujoco.rollout`'s (threads = cores): target ≥ {TARGET_THROUGHPUT:g}×. "
+           "Where MuJoCo RK4 does not reach a target, its best state error and why its curve stopped are given "
+           "(\"error stalled\": its error no longer falls as its step is halved, e.g. on soft loop or contact "
+           "constraints).", "",
+           "| scene | " + " | ".join(f"ratio at {t:g}" for t in targets) + " | batched throughput ratio |",
+           "|---|" + "---|" * (len(targets) + 1)]
+    for row in rows:
+        out.append(f"| {row['scene']} | " + " | ".join(_cell_text(row[t], ".2f") for t in targets)
+                   + f" | {_cell_text(row['batch'], '.2f')} |")
+    counts = []
+    for key, what in [(t, f"ratio at {t:g}") for t in targets] + [("batch", "throughput")]:
+        cells = [r[key]["status"] for r in rows]
+        judged = cells.count(MET) + cells.count(NOT_MET)
+        others = [f"{cells.count(c)} {c}" for c in (NOT_REACHED, NOT_RUN) if cells.count(c)]
+        counts.append(f"{what}: met on {cells.count(MET)} of {judged} scenes judged"
+                      + (f" ({', '.join(others)})" if others else ""))
+    out += ["", "; ".join(counts) + "."]
+    return out
+
+
+def budget_text(options: SweepOptions) -> str:
+    """What the sweep's refinement rules were (``run`` module docstring)."""
+    def b(v):
+        return "no budget" if v is None else f"{v:g} s"
+
+    start = ("from the save interval" if options.coarsest_dt is None
+             else f"from {options.coarsest_dt:g} × the scene's dt")
+    return (f"Refinement: timesteps halved {start} down to save/2^{options.dt_levels - 1}, tolerances "
+            f"{max(options.tolerances):g} to {min(options.tolerances):g}; a curve stops when its next point would "
+            f"exceed its time budget (warm-up, repeats and errors of all its points: {b(options.curve_budget_s)}; "
+            f"{b(options.key_budget_s)} for the curves the targets are measured on, MuJoCo RK4 and the in-house DOP853, "
+            f"{b(options.reach_budget_s)} while one still converges at its order towards a target it must reach; "
+            f"{b(options.loop_budget_s)} for MuJoCo's other loop variants), after a run slower than {options.max_run_s:g} s, "
+            f"once its state error is below {options.stop_error:g}, when its error stalls or its runs fail. Each "
+            "curve's wall time and why it stopped are in its scene's order table.")
+
+
+def per_state_lines(results: list[SceneSweep], options: SweepOptions) -> list[str]:
+    """Where the per-state in-house curves ran and where the sweep left them out."""
+    omitted = [r.scene for r in results if any("per-state" in k for k in r.omitted)]
+    ran = [r.scene for r in results if any(p.variant == "per-state" for p in r.points)]
+    if not omitted and not ran:
+        return []
+    text = "Per-state in-house curves (the readable oracle, NumPy per step): "
+    if options.per_state == "uncovered":
+        text += ("swept only where the compiled form does not model the scene"
+                 + (f" ({', '.join(ran)})" if ran else " (none: it models every scene of this run)")
+                 + "; `--per-state all` sweeps them everywhere.")
+    elif options.per_state == "none":
+        text += "not swept (`--per-state none`)."
+    else:
+        text += "swept on every scene (`--per-state all`)."
+    return [text, ""]
+
+
+def walls_section(results: list[SceneSweep]) -> list[str]:
+    """Where the sweep's time went: per scene its stages and its three most expensive curves."""
+    rows = [r for r in results if r.walls]
+    if not rows:
+        return []
+    out = ["## Where the time went", "",
+           "Wall time per scene (s): the reference (with its check against the scene's closed form, where there "
+           "is one), all curves, the head to head, the batch benchmark, and the curves that took longest (their "
+           "points' warm-ups, timed repeats and errors). The figures and the CSV are written after the sweep.", "",
+           "| scene | total | reference | curves | head to head | batch | longest curves |",
+           "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        w = r.walls
+        top = sorted(r.curves.items(), key=lambda kv: -kv[1]["wall_s"])[:3]
+        out.append(f"| {r.scene} | {_fmt(w.get('total', float('nan')), '.1f')} | {_fmt(w.get('reference', float('nan')), '.2f')} | "
+                   f"{_fmt(w.get('curves', float('nan')), '.1f')} | {_fmt(w.get('head_to_head', float('nan')), '.1f')} | "
+                   f"{_fmt(w.get('batch', float('nan')), '.1f')} | "
+                   + ", ".join(f"{k} {v['wall_s']:.1f}" for k, v in top) + " |")
+    total = {k: sum(r.walls.get(k, 0.0) for r in rows) for k in ("total", "reference", "curves", "head_to_head", "batch")}
+    out.append(f"| all | {total['total']:.1f} | {total['reference']:.2f} | {total['curves']:.1f} | "
+               f"{total['head_to_head']:.1f} | {total['batch']:.1f} | |")
+    kernels = sum(r.walls.get("kernels", 0.0) for r in rows)
+    if kernels:
+        out += ["", f"Loading the compiled in-house kernels before the scenes (compiling them, when Numba's cache does "
+                f"not hold them) took {kernels:.1f} s, outside the scenes' totals."]
     return out
 
 
@@ -271,12 +468,17 @@ def batch_section(results: list[SceneSweep]) -> list[str]:
         return []
     out = ["## Batched throughput: RK4 over many initial conditions", "",
            "Same batch of initial conditions (joint coordinates perturbed, `workprecision.batch_initial_states`), "
-           "same dt (the scene's), same number of steps, all timed in alternation (medians): `mujoco.rollout` "
+           "same dt (the scene's), same number of steps, all timed in alternation (medians of up to 3 rounds): `mujoco.rollout` "
            "against the compiled in-house RK4 (`rk4_compiled`'s kernel, `compiled.solver.run_batch`: one "
            "trajectory after another on each thread), each with threads = cores and with one thread. "
-           "Trajectory-steps per second = nbatch × nstep / median wall time. Ratios compare equal thread counts. "
+           "Trajectory-steps per second = nbatch × nstep / median wall time; nbatch is sized from a calibration run "
+           "so that the timed runs fit the batch's time budget (at most `--batch`, at least one per thread). Ratios "
+           "compare equal thread counts. "
            "Last column: largest state difference between the MuJoCo and the in-house batch at the end "
-           "(relative, as the state error).", "",
+           "(relative, as the state error). On scenes with loop joints or rolling contacts the perturbed initial "
+           "states break the constraints, which each engine restores its own way (MuJoCo's soft constraints, the "
+           "in-house projection), so the two batches follow different motions there (differences of order 1); both "
+           "still take nbatch × nstep RK4 steps.", "",
            "| scene | nbatch × nstep | dt (s) | threads | rollout (steps/s) | in-house compiled (steps/s) | "
            "compiled / rollout | rollout 1 thread | compiled 1 thread | ratio 1 thread | MuJoCo vs in-house |",
            "|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -294,7 +496,8 @@ def batch_section(results: list[SceneSweep]) -> list[str]:
 
 
 def write_reports(results: list[SceneSweep], provenance: dict, options: SweepOptions, out_dir: Path,
-                  load: tuple[float, float] | None = None, command: str | None = None) -> list[Path]:
+                  load: tuple[float, float] | None = None, command: str | None = None,
+                  wall_s: float | None = None) -> list[Path]:
     """Write ``workprecision.md``, ``workprecision.csv`` and ``workprecision/<scene>.png`` under
     ``out_dir`` as one set (``harness.io.atomic.write_set``: all old or all new); returns the
     paths. ``command``: the "Reproduce with" command (default
@@ -305,7 +508,7 @@ def write_reports(results: list[SceneSweep], provenance: dict, options: SweepOpt
     table = points_table(results)
     header = "# " + "; ".join(f"{k}: {v}" for k, v in provenance.items()) + "\n"
     files: dict[str, bytes | str] = {
-        "workprecision.md": markdown(results, provenance, options, load, command),
+        "workprecision.md": markdown(results, provenance, options, load, command, wall_s),
         "workprecision.csv": header + table.to_csv(index=False),
     }
     for sweep in results:
@@ -313,4 +516,4 @@ def write_reports(results: list[SceneSweep], provenance: dict, options: SweepOpt
     return atomic.write_set(out_dir, files)
 
 
-__all__ = ["markdown", "plot_scene", "write_reports"]
+__all__ = ["markdown", "plot_scene", "target_rows", "targets_section", "write_reports"]

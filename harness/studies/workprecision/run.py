@@ -20,22 +20,91 @@ What is swept, per scene (``curves``):
 * Exudyn: GeneralizedAlpha and TrapezoidalIndex2 (implicit, every scene) and RK44, RK67
   (explicit, free bodies only) over timesteps, through ``ExudynEngine.simulate`` (the engine's
   whole run: building the Exudyn system, solving, reading the sensors).
-* In-house, all through ``InhouseEngine.simulate``: the per-state methods (variant
-  ``per-state``; the engine's whole run): rk4, euler over timesteps and SciPy's RK45, DOP853
-  over tolerances; and the compiled ones (variant ``compiled``; the integration alone, the
-  kernel compiled before the clock starts; ``time_total_s`` adds building the model and
-  converting the result): rk4_compiled over timesteps, dop853_compiled over tolerances.
+* In-house, all through ``InhouseEngine.simulate``: the compiled methods (variant ``compiled``;
+  the integration alone, the kernel compiled before the clock starts; ``time_total_s`` adds
+  building the model and converting the result): rk4_compiled over timesteps, dop853_compiled
+  over tolerances; and the per-state methods (variant ``per-state``, the slow readable oracle;
+  the engine's whole run): rk4, euler over timesteps and SciPy's RK45, DOP853 over tolerances,
+  by default only on a scene the compiled form does not model (``per_state``, below).
 
 Every curve except MuJoCo's ``rollout`` variant runs through its engine's ``simulate`` (the
 registry's ``get_engine``); whether a method is adaptive and its nominal order come from the
 engine's ``Integrator`` records (``harness.engines.integrator``).
 
-Timesteps are ``dt = save / 2^k``; tolerances ``rtol = atol`` per decade. A curve is refined
-until a run takes longer than ``max_run_s``, or its state error is below ``error_floor``
-(the reference's own accuracy), or the ladder ends. A method that does not model the scene (its
-run comes back with status ``"unsupported"``, e.g. the compiled in-house integrators on the
-rolling disk, or ``mujoco.rollout`` with a prescribed force) is skipped on that scene after its
-first run: no points, its reason in ``SceneSweep.skipped``, and the report says so.
+Timesteps are ``dt = save / 2^k`` (whole steps per saved interval), from the first level at or
+below ``coarsest_dt`` times the scene's own dt down to ``save / 2^(dt_levels - 1)``;
+tolerances ``rtol = atol`` per decade. A method that does not model the scene (its run comes
+back with status ``"unsupported"``, e.g. ``mujoco.rollout`` with a prescribed force) is skipped on
+that scene after its first run: no points, its reason in ``SceneSweep.skipped``, and the report
+says so.
+
+How long a sweep takes, and why (the default ``SweepOptions``)
+---------------------------------------------------------------
+The sweep used to refine every curve until one run took longer than ``max_run_s`` = 2 s, with
+four runs per point below 0.25 s, the per-state reference and all per-state curves: heavy_top
+alone took 316 s (load 2.4-4.2 on 2 cores): every one of its 25 curves 8-19 s, the batch 26 s,
+the head to head 19 s, the per-state reference 3.8 s; four_bar 315 s with a 77 s batch and a
+14 s reference; andrews_squeezer's per-state reference alone did not end in 10 minutes. The 18
+scenes took more than 66 minutes. With the choices below the 18 scenes take 210 s of sweep
+(3 min 47 s for the whole command with its figures and imports; load 1.7 -> 3.0): the curves
+133 s, the batches 41 s, the head to head 20 s, the references 15 s (10 s of it
+andrews_squeezer's closed-form check, which integrates its own DAE reference). ``SceneSweep.curves``
+and ``SceneSweep.walls`` record where the time of a run went (the report has the table):
+
+* A time budget per curve (``curve_budget_s``): the wall time of all its points (warm-up, timed
+  repeats, errors). Before each point its cost is predicted from the last two (a halved dt
+  doubles the work: per-run time times the runs it will take, ``next_cost``) and the curve
+  stops when the point would end past the budget; the first point always runs, and
+  ``max_run_s`` still stops a curve after one slow run. The curves the targets are measured on
+  get ``key_budget_s`` (MuJoCo RK4 through ``mujoco.rollout``, or through the loop where rollout
+  cannot run the scene, and the in-house DOP853: compiled, or per-state where the compiled form
+  does not model the scene), MuJoCo's ``loop`` variants ``loop_budget_s`` (their errors are the
+  rollout variant's; they give the harness's overhead table, and the head to head times the loop
+  at the rollout point's dt itself). Defaults 0.5, 3 and 0.25 s: 18 scenes x about 25 curves
+  must fit in 5 minutes with the reference, head to head and batch.
+* A target curve still converging (``converging``: its last halving cut the error at at least
+  half its order) and above the error it must reach (``reach``: MuJoCo RK4 the smallest target;
+  the in-house solver the smallest target MuJoCo RK4 reached) gets ``reach_budget_s`` = 10 s
+  instead: with 3 s only, heavy_top's MuJoCo RK4 stopped at 2.0e-10 (dt 1.2e-4, 2.1 s spent),
+  one halving short of 1e-10 (a 0.4 s run), and the table said "not reached by MuJoCo" where
+  the budget, not MuJoCo, stopped it. MuJoCo on a soft loop or contact (four_bar, order 0.5;
+  rolling_cone 0.4) converges too slowly for the extension and keeps its 3 s.
+* A curve also stops once its state error is below ``stop_error`` = 1e-11, a decade under the
+  smallest target (the order fits use errors above 100 x ``error_floor`` = 1e-10 only), when
+  the error of a fixed-step curve stalls (the best of its last three points is not twice better
+  than the best before, below 1e-2: MuJoCo's soft loop constraints; not for tolerances: bricard's
+  compiled DOP853 sits at 2.6e-6 from rtol 1e-3 to 1e-6 and is 7e-10 off at 1e-13), or when its
+  last three runs failed after a sound one. ``SceneSweep.curves[label]["stop"]`` says which.
+* Ladders start where errors mean something: fixed steps at ``coarsest_dt`` = 32 times the
+  scene's dt (RK4 errors there are ~32^4 = 1e6 times those at the scene's dt, 1e-4 to 1e-2
+  on these scenes), not at the save interval (a 0.25-0.5 s step, where every explicit method
+  blows up and each of Drake's or Exudyn's runs still costs its 0.05-0.5 s of setup).
+* Repeats: a point whose warm-up took less than ``slow_run_s`` = 0.02 s is timed ``repeats`` =
+  3 more times (median), a slower one once more only (it was 0.25 s: a 0.2 s run then cost
+  0.8 s, more than an ordinary curve's whole budget; a cheap point's fixed cost, the errors and
+  the runner's set-up, is 5-30 ms, so more than about four points per 0.5 s budget leave no
+  room for repeats).
+* The reference is the compiled in-house DOP853 whenever the compiled form models the scene,
+  the per-state DOP853 otherwise (``reference``; measurements below). The compiled kernels are
+  loaded (or compiled, when Numba's cache misses) before a scene's sweep (``warm_kernels``; once
+  per process), so that no curve's budget pays for it.
+* Per-state in-house curves (``per_state``): by default only on scenes the compiled form does
+  not model ("uncovered"), where they are the in-house solver; "all" runs them everywhere (the
+  oracle's own work-precision; heavy_top: 50 s of per-state curves), "none" never.
+* Head to head: at least 3 rounds, up to ``h2h_rounds`` = 5 while a target's rounds took less
+  than ``h2h_budget_s`` = 2 s.
+* Batch: after warm-ups on one trajectory per thread, a calibration run of the one-thread
+  variants on 4 trajectories per thread sizes the batch so that one timed run of the slower
+  takes about ``batch_budget_s`` / 12 (4 variants x 3 rounds; never more than ``batch`` = 1000
+  trajectories, never fewer than one per thread); rounds past the first only while the rounds
+  took less than ``batch_budget_s``. Throughput (trajectory-steps per second) is a rate: fewer
+  trajectories measure the same rate once a run is long against a call's own cost (torque_free,
+  load 1.6: ``mujoco.rollout`` 1.2-1.4e5 steps/s from 8 to 512 trajectories; the compiled batch
+  on 2 threads 2.8e5 at 8, 4.8e5 at 32, 7.6e5 at 128, 9.1e5 at 512, which is why the
+  calibration does not use the threaded variants: sized from a 2-trajectory warm-up the batch
+  came out at 77 trajectories there, and the ratio at 4.5 instead of 7). Before, four_bar's
+  1000 x 100 steps took 13 s per compiled run, 104 s for the benchmark; the 1000 initial states
+  alone took 0.2-0.8 s per scene.
 
 Error measures (one definition, used everywhere; ``errors``)
 ------------------------------------------------------------
@@ -53,10 +122,23 @@ E; ``compare.momentum_scales`` p and Lm):
 
 each reported at the final time (``*_final``) and as the max over the saved samples (``*_max``).
 
-Reference: the per-state in-house DOP853 at rtol = atol = 1e-13 with steps capped at a tenth of
-the save interval (``reference``); where the scene's reference module has an exact check that
-needs no runs of its own, the reference's own error against it is reported
-(``harness.measure.exact``).
+Reference (``reference``): the compiled in-house DOP853 at rtol = atol = 1e-13 (first step a
+tenth of the save interval; it projects onto the constraints after every step) when the compiled
+form models the scene, else the per-state in-house DOP853 at rtol = atol = 1e-13 with steps capped
+at a tenth of the save interval. Measured on the 18 scenes (save = t_end / 20, load 3.6-5.9 on
+2 cores): the compiled reference took 0.02-0.8 s per scene (andrews_squeezer 4.3 s of
+integration), the per-state one 0.2-58 s (bricard 58 s; andrews_squeezer and
+four_bar_near_singular did not end within 60 s, andrews_squeezer not within 10 minutes). Where
+both ended they agree to 1e-14..6e-12 in state error, except on the loop and rolling scenes where
+the compiled one is the closer of the two to the scene's closed form: four_bar 3.4e-11 against
+5.8e-9, slider_crank 4.9e-10 against 2.3e-8 (the compiled one is the same at 100 slices: the
+closed form's own floor), bricard 3.5e-13 against 4.8e-13; rolling_cylinder_bar 4.4e-11
+against 1.5e-11 (the compiled rolling contact's round-off: 25 to 400 slices scatter 2e-12 to
+1e-10). The slices matter: run through the engine in one go (dense output, no step cap) bricard's
+compiled reference took 105 steps and was 7.2e-10 off its closed form (3.4e-10 at rtol 3e-14);
+capped at save / 10, 1.7e-11; at save / 25 (500 steps), 3.5e-13 (also at save / 50).
+Where the scene's reference module has an exact check that needs no runs of its own, the
+reference's own error against it is reported (``harness.measure.exact``).
 
 Observed order of convergence (``observed_order``): least-squares slope of log(state error max)
 against log(dt) over the asymptotic range (the four smallest timesteps whose errors lie between
@@ -83,43 +165,72 @@ from harness.engines.base import RunSettings
 from harness.model.scene import Scene
 from harness.measure.trajectory import UNSUPPORTED, Trajectory
 
+_clock = time.perf_counter  # the sweep's clock (budgets and stage walls)
+
 TARGETS = (1e-6, 1e-10)
+TARGET_RATIO = 0.5  # the in-house solver's time at equal state error over MuJoCo RK4's: at most this
+TARGET_THROUGHPUT = 5.0  # batched throughput of the compiled in-house RK4 over mujoco.rollout's: at least this
 ERROR_KEYS = ("state_final", "state_max", "energy_final", "energy_max", "momentum_final", "momentum_max")
+PER_STATE = ("uncovered", "all", "none")  # values of SweepOptions.per_state
 
 
 @dataclass(frozen=True)
 class SweepOptions:
-    """How a sweep is run.
+    """How a sweep is run (the module docstring says why the defaults are what they are).
 
     Attributes:
         repeats: timed runs after the warm-up (median and minimum are reported).
         slow_run_s: a run whose warm-up took longer than this is timed once more only.
         max_run_s: stop refining a curve after a run this slow (s).
         saves: number of saved intervals over the horizon (errors are measured there).
-        dt_levels: timesteps ``save / 2^k`` for k = 0 .. dt_levels - 1.
+        dt_levels: timesteps ``save / 2^k`` for k up to dt_levels - 1.
+        coarsest_dt: the first timestep is the largest ``save / 2^k`` at or below this many times
+            the scene's dt (at least three levels); None: from the save interval.
         tolerances: rtol = atol values of the adaptive methods.
-        error_floor: stop refining once the state error is below this (reference accuracy).
+        error_floor: the reference's accuracy (the order fits use errors above 100 x this).
+        stop_error: stop refining a curve once its state error is below this.
+        curve_budget_s: wall time (s) a curve's points may take together; None: no budget.
+        key_budget_s: the same for the curves the targets are measured on (module docstring).
+        reach_budget_s: theirs while they still converge towards the error they must reach
+            (``reach``; None: no budget then).
+        loop_budget_s: the same for MuJoCo's ``loop`` variants.
+        per_state: where the per-state in-house curves run: "uncovered" (scenes the compiled
+            form does not model), "all" or "none".
+        h2h_rounds: most rounds of the head to head (at least 3).
+        h2h_budget_s: rounds past the third only while a target's rounds took less than this (s).
         horizon: the scene's t_end when None.
-        batch: initial conditions of the batched-throughput benchmark (0: skip it).
+        batch: most initial conditions of the batched-throughput benchmark (0: skip it).
         batch_steps: steps of each trajectory in that benchmark.
+        batch_budget_s: about the time (s) of that benchmark's timed runs (None: always ``batch``).
         progress: draw the progress bar on stderr (only ever when stderr is a terminal).
     """
 
     repeats: int = 3
-    slow_run_s: float = 0.25
+    slow_run_s: float = 0.02
     max_run_s: float = 2.0
     saves: int = 20
     dt_levels: int = 16
+    coarsest_dt: float | None = 32.0
     tolerances: tuple[float, ...] = tuple(10.0 ** -k for k in range(3, 14))
     error_floor: float = 1e-12
+    stop_error: float = 1e-11
+    curve_budget_s: float | None = 0.5
+    key_budget_s: float | None = 3.0
+    reach_budget_s: float | None = 10.0
+    loop_budget_s: float | None = 0.25
+    per_state: str = "uncovered"
+    h2h_rounds: int = 5
+    h2h_budget_s: float = 2.0
     horizon: float | None = None
     batch: int = 1000
     batch_steps: int = 100
+    batch_budget_s: float | None = 3.0
     progress: bool = True
 
 
-QUICK = SweepOptions(repeats=1, slow_run_s=0.05, max_run_s=0.05, saves=5, dt_levels=7,
-                     tolerances=(1e-4, 1e-6, 1e-8), horizon=None, batch=16, batch_steps=5)
+QUICK = SweepOptions(repeats=1, slow_run_s=0.05, max_run_s=0.05, saves=5, dt_levels=7, coarsest_dt=None,
+                     tolerances=(1e-4, 1e-6, 1e-8), horizon=None, batch=16, batch_steps=5, per_state="all",
+                     h2h_rounds=3, batch_budget_s=None)
 
 
 @dataclass(frozen=True)
@@ -195,7 +306,10 @@ class WorkPrecisionPoint:
 
 @dataclass
 class SceneSweep:
-    """Everything a sweep produced for one scene."""
+    """Everything a sweep produced for one scene: its points, the curves it skipped (the method
+    does not model the scene) or omitted (the sweep's options), per curve its wall time, points
+    and why it stopped (``curves``), the wall time of each stage (``walls``), the head to head
+    and the batch benchmark."""
 
     scene: str
     t_end: float
@@ -206,6 +320,9 @@ class SceneSweep:
     skipped: dict[str, str] = field(default_factory=dict)  # curve label -> why it does not run on this scene
     batch: dict | None = None
     head_to_head: list[dict] = field(default_factory=list)
+    omitted: dict[str, str] = field(default_factory=dict)  # curve label -> why this sweep left it out (options)
+    curves: dict[str, dict] = field(default_factory=dict)  # label -> {"wall_s", "points", "stop", "budget_s", "role"}
+    walls: dict[str, float] = field(default_factory=dict)  # "reference", "curves", "head_to_head", "batch", "total" (s)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -248,6 +365,23 @@ def _state_error(err: dict, scales: dict) -> float:
     return quantities.state_error(quantities.judged_max(err, scales))
 
 
+_REF_SIDE: list = []  # [(ref, model, quantities)]: the last reference's side of ``errors``
+
+
+def _reference_side(ref: Trajectory, model) -> dict:
+    """What ``errors`` needs of the reference (scales, energy, momenta), computed once per
+    reference: every point of a scene is judged against the same one."""
+    if _REF_SIDE and _REF_SIDE[0][0] is ref and _REF_SIDE[0][1] is model:
+        return _REF_SIDE[0][2]
+    n = len(ref.t)
+    side = {"scales": compare.motion_scales(ref, model), "last": _take(ref, [n - 1]),
+            "e_scale": compare.energy_scale(ref, model), "energy": invariants.energies(ref, model)["energy"],
+            "momentum_scales": compare.momentum_scales(ref, model), "p": invariants.linear_momentum(ref, model),
+            "L": invariants.angular_momentum(ref, model)}
+    _REF_SIDE[:] = [(ref, model, side)]
+    return side
+
+
 def errors(traj: Trajectory, ref: Trajectory, model) -> dict[str, float]:
     """The error measures of the module docstring (keys ``ERROR_KEYS``); NaN when ``traj``
     did not reach every saved sample of ``ref``."""
@@ -255,16 +389,16 @@ def errors(traj: Trajectory, ref: Trajectory, model) -> dict[str, float]:
     if not traj.ok or len(traj.t) < n:
         return {k: float("nan") for k in ERROR_KEYS}
     traj = _take(traj, slice(0, n))
-    scales = compare.motion_scales(ref, model)
+    side = _reference_side(ref, model)
+    scales = side["scales"]
     out = {
         "state_max": _state_error(compare.trajectory_error(traj, ref), scales),
-        "state_final": _state_error(compare.trajectory_error(_take(traj, [n - 1]), _take(ref, [n - 1])), scales),
+        "state_final": _state_error(compare.trajectory_error(_take(traj, [n - 1]), side["last"]), scales),
     }
-    e_scale = compare.energy_scale(ref, model)
-    de = np.abs(invariants.energies(traj, model)["energy"] - invariants.energies(ref, model)["energy"]) / e_scale
-    p_scale, l_scale = compare.momentum_scales(ref, model)
-    dp = np.linalg.norm(invariants.linear_momentum(traj, model) - invariants.linear_momentum(ref, model), axis=1) / p_scale
-    dl = np.linalg.norm(invariants.angular_momentum(traj, model) - invariants.angular_momentum(ref, model), axis=1) / l_scale
+    de = np.abs(invariants.energies(traj, model)["energy"] - side["energy"]) / side["e_scale"]
+    p_scale, l_scale = side["momentum_scales"]
+    dp = np.linalg.norm(invariants.linear_momentum(traj, model) - side["p"], axis=1) / p_scale
+    dl = np.linalg.norm(invariants.angular_momentum(traj, model) - side["L"], axis=1) / l_scale
     dm = np.maximum(dp, dl)
     out.update(energy_final=float(de[-1]), energy_max=float(np.max(de)), momentum_final=float(dm[-1]),
                momentum_max=float(np.max(dm)))
@@ -281,18 +415,74 @@ def horizon(scene: Scene, options: SweepOptions) -> tuple[float, float]:
     return t_end, t_end / options.saves
 
 
-def reference(scene: Scene, t_end: float, save: float) -> tuple[Trajectory, str]:
-    """The reference trajectory at the save times and a line saying how it was made."""
+REFERENCE_TOL = 1e-13  # rtol = atol of the reference run
+REFERENCE_SLICES = 25  # the compiled reference's steps are capped at save / REFERENCE_SLICES
+
+
+def compiled_reference(scene: Scene, t_end: float, save: float, slices: int = REFERENCE_SLICES) -> tuple[Trajectory, int, float]:
+    """The compiled in-house DOP853 (``compiled.solver.integrate_dop853``, rtol = atol =
+    ``REFERENCE_TOL``) from the scene's initial state to ``t_end``, in slices of ``save / slices``
+    s, each from the last one's end state (its first step the whole slice): the kernel has no
+    max-step option, and this caps the steps as the per-state reference's ``max_step`` does;
+    every saved state is a step's end, never dense output. Returns (trajectory at the saved
+    times, accepted steps, integration wall time s). NotImplementedError when the compiled form
+    does not model the scene; RuntimeError when a slice fails."""
+    from harness.engines.inhouse import projection_tolerance
+    from harness.engines.inhouse.compiled import solver as compiled
+    from harness.engines.inhouse.model import build, initial_state, to_trajectory
+
+    model = scene.multibody()
+    nem = build(model)
+    packed = compiled.pack(nem)
+    y = initial_state(model, nem)
+    proj_tol = projection_tolerance(nem)
+    n = int(round(t_end / save))
+    h = save / slices
+    saved, steps, wall = [np.array(y, dtype=float)], 0, 0.0
+    for k in range(n * slices):
+        res = compiled.integrate_dop853(packed, y, np.array([k * h, (k + 1) * h]), rtol=REFERENCE_TOL,
+                                        atol=REFERENCE_TOL, first_step=h, proj_tol=proj_tol)
+        if res.status != "ok" or len(res.t) < 2 or not np.all(np.isfinite(res.y[-1])):
+            raise RuntimeError(f"compiled reference {res.status} at t = {k * h:.6g} s: {res.message}")
+        y = res.y[-1]
+        steps += res.steps
+        wall += res.wall_s
+        if (k + 1) % slices == 0:
+            saved.append(np.array(y, dtype=float))
+    traj = to_trajectory(nem, np.arange(n + 1) * save, np.array(saved), "inhouse", "dop853_compiled")
+    return replace(traj, stats={"steps": steps, "wall_s": wall}), steps, wall
+
+
+def reference(scene: Scene, t_end: float, save: float, method: str | None = None) -> tuple[Trajectory, str]:
+    """The reference trajectory at the save times and a line saying how it was made.
+
+    ``method`` None: the compiled in-house DOP853 (``compiled_reference``: rtol = atol =
+    ``REFERENCE_TOL``, steps capped at save / ``REFERENCE_SLICES``) when the compiled form models
+    the scene, else (``pack`` raises NotImplementedError, or the compiled run fails) the
+    per-state DOP853 at the same tolerance with steps capped at save / 10; "dop853_compiled" or
+    "DOP853" forces one. RuntimeError when the reference run fails."""
     from harness.engines.inhouse import ENGINE
 
     fine = save / 10.0
-    settings = RunSettings(t_end, fine, fine, "DOP853", rtol=1e-13, atol=1e-13)
+    why = ""
+    if method in (None, "dop853_compiled"):
+        try:
+            traj, steps, wall = compiled_reference(scene, t_end, save)
+            how = (f"in-house compiled DOP853 (dop853_compiled's kernel), rtol = atol = {REFERENCE_TOL:g}, max step "
+                   f"{save / REFERENCE_SLICES:g} s ({steps} steps, {wall:.3g} s)")
+            return traj, how
+        except (NotImplementedError, RuntimeError) as err:
+            if method == "dop853_compiled":
+                raise RuntimeError(f"reference run: {err}") from err
+            why = (f"; the compiled form does not model this scene ({err})" if isinstance(err, NotImplementedError)
+                   else f"; the compiled reference failed ({err})")
+    settings = RunSettings(t_end, fine, fine, "DOP853", rtol=REFERENCE_TOL, atol=REFERENCE_TOL)
     traj = ENGINE.simulate(scene, settings)
     if not traj.ok:
         raise RuntimeError(f"reference run {traj.status}: {traj.message}")
     traj = _take(traj, slice(None, None, 10))
-    how = (f"in-house per-state engine, SciPy DOP853 rtol = atol = 1e-13, max step {fine:g} s "
-           f"({traj.stats.get('steps', '?')} steps)")
+    how = (f"in-house per-state engine, SciPy DOP853 rtol = atol = {REFERENCE_TOL:g}, max step {fine:g} s "
+           f"({traj.stats.get('steps', '?')} steps, {traj.stats.get('wall_s', float('nan')):.3g} s){why}")
     return traj, how
 
 
@@ -308,6 +498,21 @@ def reference_checks(scene: Scene, ref: Trajectory, t_end: float, save: float) -
     except Exception as err:  # pragma: no cover - reported, not raised
         return {f"exact ({type(err).__name__})": float("nan")}
     return {f"exact: {detail}": float(value)}
+
+
+def compiled_covers(scene: Scene) -> tuple[bool, str]:
+    """Whether the compiled in-house form models ``scene`` (``compiled.solver.pack`` accepts its
+    model) and, when not, why. A model that does not build counts as covered: its runs say why."""
+    from harness.engines.inhouse.compiled import solver as compiled
+    from harness.engines.inhouse.model import build
+
+    try:
+        compiled.pack(build(scene.multibody()))
+    except NotImplementedError as err:
+        return False, str(err)
+    except Exception:  # the runs report it, with either form
+        return True, ""
+    return True, ""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -423,74 +628,243 @@ def curves(engines) -> list[Curve]:
     return out
 
 
-def _ladder(curve: Curve, save: float, options: SweepOptions) -> list[float]:
+def _ladder(curve: Curve, save: float, options: SweepOptions, scene_dt: float | None = None) -> list[float]:
+    """The parameters a curve is swept over, coarse to fine: ``options.tolerances``, or the
+    timesteps ``save / 2^k`` from the first at or below ``coarsest_dt x scene_dt`` (the save
+    interval when either is None) down to ``save / 2^(dt_levels - 1)``, at least three of them."""
     if curve.adaptive:
         return list(options.tolerances)
-    return [save / 2**k for k in range(options.dt_levels)]
+    k0 = 0
+    if options.coarsest_dt is not None and scene_dt is not None and scene_dt > 0:
+        k0 = max(0, math.ceil(math.log2(save / (options.coarsest_dt * scene_dt)) - 1e-9))
+    return [save / 2**k for k in range(k0, max(options.dt_levels, k0 + 3))]
+
+
+KEY, LOOP, ORDINARY = "key", "loop", "ordinary"  # roles of a curve (its budget)
+
+
+def curve_role(curve: Curve, skipped: dict[str, str] | tuple = (), covered: bool = True) -> str:
+    """``KEY`` for the curves the targets are measured on: MuJoCo RK4 through ``mujoco.rollout``
+    (through the loop when ``skipped`` says rollout does not run the scene) and the in-house
+    DOP853 (``dop853_compiled``; the per-state DOP853 when the compiled form does not model the
+    scene, ``covered`` False); ``LOOP`` for MuJoCo's other ``loop`` variants; else ``ORDINARY``."""
+    if curve.engine == "mujoco" and curve.integrator == "RK4":
+        if curve.variant == "rollout" or "mujoco RK4 (rollout)" in skipped:
+            return KEY
+    if curve.engine == "inhouse" and curve.integrator == ("dop853_compiled" if covered else "DOP853"):
+        return KEY
+    if curve.engine == "mujoco" and curve.variant == "loop":
+        return LOOP
+    return ORDINARY
+
+
+def role_budget(role: str, options: SweepOptions) -> float:
+    """The wall-time budget (s) of a curve of ``role``; inf for none."""
+    value = {KEY: options.key_budget_s, LOOP: options.loop_budget_s}.get(role, options.curve_budget_s)
+    return math.inf if value is None else float(value)
+
+
+def next_cost(history: list[tuple[WorkPrecisionPoint, float]], adaptive: bool, options: SweepOptions) -> float:
+    """Predicted wall time (s) of a curve's next point from its points so far (``(point, wall
+    s)``, at least one): the per-run time (a point's wall over its runs, warm-up included) grows
+    by the ratio of the last two (clamped to 1..4; 2 for a fixed step, 1.5 for a tolerance
+    before there are two), times the runs the next point will take (1 + ``repeats`` below
+    ``slow_run_s``, else 2)."""
+    per_run = [w / (1 + p.repeats) for p, w in history]
+    growth = 1.5 if adaptive else 2.0
+    if len(per_run) >= 2 and per_run[-2] > 0:
+        growth = min(4.0, max(1.0, per_run[-1] / per_run[-2]))
+    run = growth * per_run[-1]
+    return run * (1 + (options.repeats if run <= options.slow_run_s else 1))
+
+
+def stop_reason(history: list[tuple[WorkPrecisionPoint, float]], options: SweepOptions) -> str:
+    """Why a curve stops after its last point (module docstring), or "" to go on: a run slower
+    than ``max_run_s``, a state error below ``stop_error``, a stalled error (fixed steps only:
+    an adaptive method's error may sit flat over tolerances its step control does not see, then
+    fall; its budget decides), failing runs."""
+    last = history[-1][0]
+    if math.isfinite(last.time_s) and last.time_s > options.max_run_s:
+        return f"a run took more than {options.max_run_s:g} s"
+    if last.ok and last.state_max < options.stop_error:
+        return f"state error below {options.stop_error:g}"
+    points = [p for p, _ in history]
+    adaptive = integrator(last.engine, last.integrator).adaptive
+    if not adaptive and len(points) >= 4 and all(p.ok for p in points[-3:]):
+        before = [p.state_max for p in points[:-3] if p.ok]
+        if before and min(before) < 1e-2 and min(p.state_max for p in points[-3:]) > 0.5 * min(before):
+            return "error stalled"
+    if len(points) >= 4 and not any(p.ok for p in points[-3:]) and any(p.ok for p in points[:-3]):
+        return "runs fail"
+    return ""
+
+
+def scene_curves(engines, options: SweepOptions, covered: bool) -> tuple[list[Curve], dict[str, str]]:
+    """The curves of a scene (``curves``) less the per-state in-house ones ``options.per_state``
+    leaves out (``covered``: the compiled form models the scene, ``compiled_covers``), and
+    ``{label: why}`` for those."""
+    out, omitted = [], {}
+    for curve in curves(engines):
+        if curve.variant == "per-state":
+            if options.per_state == "none":
+                omitted[curve.label] = "per-state curves not swept (per_state none)"
+                continue
+            if options.per_state == "uncovered" and covered:
+                omitted[curve.label] = ("the compiled form models this scene: the per-state oracle is swept only "
+                                        "where it does not (--per-state all sweeps it everywhere)")
+                continue
+        out.append(curve)
+    return out, omitted
+
+
+def converging(history: list[tuple[WorkPrecisionPoint, float]], curve: Curve) -> bool:
+    """Whether a curve's last two points are sound and its error fell as it should: a fixed step
+    at at least half its nominal order (slope of log error against log dt), a tolerance by at
+    least half."""
+    pts = [p for p, _ in history[-2:]]
+    if len(pts) < 2 or not all(p.ok and p.state_max > 0 for p in pts):
+        return False
+    (a, b) = pts
+    if curve.adaptive:
+        return b.state_max < 0.5 * a.state_max
+    slope = math.log(a.state_max / b.state_max) / math.log(a.param / b.param)
+    return slope >= 0.5 * curve.nominal_order
+
+
+def reach(curve: Curve, role: str, mujoco_best: float | None, targets=TARGETS) -> float | None:
+    """The state error a target curve (``role`` KEY) must reach for the head to head to judge
+    every target it can: MuJoCo RK4, the smallest target; the in-house solver, the smallest
+    target MuJoCo RK4 reached (``mujoco_best``: its best state error, None when it did not run).
+    None for every other curve, or when MuJoCo RK4 reached no target."""
+    if role != KEY:
+        return None
+    if curve.engine == "mujoco":
+        return min(targets)
+    reached = [t for t in targets if mujoco_best is not None and mujoco_best <= t]
+    return min(reached) if reached else None
 
 
 def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), progress: Progress | None = None,
                 curve_list: list[Curve] | None = None) -> SceneSweep:
-    """Sweep one scene (see the module docstring)."""
+    """Sweep one scene (see the module docstring): the reference, then each curve under its
+    budget (``curve_role``, ``role_budget``, ``next_cost``; ``reach_budget_s`` while a target
+    curve is still converging towards what it must reach, ``reach``) and stop rules
+    (``stop_reason``)."""
     t_end, save = horizon(scene, options)
     model = scene.multibody()
+    start = _clock()
     ref, how = reference(scene, t_end, save)
     result = SceneSweep(scene.name, t_end, save, how, reference_checks(scene, ref, t_end, save))
-    for curve in curve_list if curve_list is not None else curves(engines):
-        ladder = _ladder(curve, save, options)
+    result.walls["reference"] = _clock() - start
+    covered = compiled_covers(scene)[0] if "inhouse" in engines else True
+    if curve_list is None:
+        curve_list, result.omitted = scene_curves(engines, options, covered)
+    start = _clock()
+    mujoco_best = None  # best state error of MuJoCo RK4's target curve
+    for curve in curve_list:
+        role = curve_role(curve, result.skipped, covered)
+        budget = base = role_budget(role, options)
+        goal = reach(curve, role, mujoco_best)
+        longer = math.inf if options.reach_budget_s is None else max(base, float(options.reach_budget_s))
+        ladder = _ladder(curve, save, options, scene.dt)
+        history: list[tuple[WorkPrecisionPoint, float]] = []
+        spent, stop = 0.0, "end of the ladder"
         for i, param in enumerate(ladder):
+            best = min((p.state_max for p, _ in history if p.ok), default=math.inf)
+            budget = longer if goal is not None and best > goal and converging(history, curve) else base
+            if history and spent + next_cost(history, curve.adaptive, options) > budget:
+                stop = f"budget {budget:g} s" + (f" (longer to reach {goal:g})" if budget != base else "")
+                break
+            t0 = _clock()
             point = measure(scene, curve, _settings(curve, t_end, save, param), ref, model, options)
+            wall = _clock() - t0
+            spent += wall
             if point.status == UNSUPPORTED:  # not this method's scene: no points, say why
                 result.skipped[curve.label] = point.message
-                if progress is not None:
-                    progress.advance(len(ladder) - i, f"{scene.name}: {curve.label} not run")
+                stop = "unsupported"
                 break
             result.points.append(point)
+            history.append((point, wall))
             if progress is not None:
                 progress.advance(1, f"{scene.name}: {curve.label} {param:.1e}")
-            slow = math.isfinite(point.time_s) and point.time_s > options.max_run_s
-            converged = point.ok and point.state_max < options.error_floor
-            if slow or converged:
-                if progress is not None:
-                    progress.advance(len(ladder) - i - 1, f"{scene.name}: {curve.label} done")
+            stop = stop_reason(history, options) or stop
+            if stop != "end of the ladder":
                 break
+        if progress is not None:
+            progress.advance(len(ladder) - len(history), f"{scene.name}: {curve.label} done")
+        if role == KEY and curve.engine == "mujoco":
+            mujoco_best = min((p.state_max for p, _ in history if p.ok), default=None)
+        result.curves[curve.label] = {"wall_s": spent, "points": len(history), "stop": stop,
+                                      "budget_s": budget, "role": role}
+    result.walls["curves"] = _clock() - start
     return result
 
 
-def head_to_head(scene: Scene, sweep: SceneSweep, options: SweepOptions, targets=TARGETS, rounds: int = 5) -> list[dict]:
+def _alternate(runners: dict[str, Run], rounds: int, budget_s: float) -> dict[str, list[float]]:
+    """Engine times of ``runners`` timed in alternation (A, B, C, A, B, C, ...) after one warm-up
+    each: at least 3 rounds (or ``rounds`` if fewer), more up to ``rounds`` while the rounds so
+    far took less than ``budget_s`` (s)."""
+    for run in runners.values():
+        run()  # warm-up
+    times: dict[str, list[float]] = {k: [] for k in runners}
+    start = time.perf_counter()
+    for i in range(max(1, rounds)):
+        if i >= min(3, rounds) and time.perf_counter() - start >= budget_s:
+            break
+        for key, run in runners.items():
+            times[key].append(run()[1])
+    return times
+
+
+def head_to_head(scene: Scene, sweep: SceneSweep, options: SweepOptions, targets=TARGETS,
+                 rounds: int | None = None) -> list[dict]:
     """At each target state error, the cheapest recorded point of the in-house solver (any
-    curve) and of MuJoCo RK4 (rollout, and loop) that reach it, timed again in alternation
-    (A, B, C, A, B, C, ...) so that both see the same machine load; the medians and their ratio.
-    Uses recorded points, not interpolation: each run reaches at least the target."""
+    curve) and of MuJoCo RK4 that reach it (through ``mujoco.rollout``; through the harness's loop
+    where rollout does not run the scene), timed again in alternation so that both see the same
+    machine load (``_alternate``: ``rounds``, default ``options.h2h_rounds``), with MuJoCo's loop
+    at the rollout point's dt as a third; the medians and their ratios. Uses recorded points,
+    not interpolation: each run reaches at least the target. ``ratio`` is the in-house time over
+    MuJoCo's (``mujoco`` names the variant: "rollout" or "loop"); ``status`` "ok", or which side
+    did not reach the target, or why MuJoCo RK4 did not run."""
+    rounds = options.h2h_rounds if rounds is None else rounds
+    side = "loop" if "mujoco RK4 (rollout)" in sweep.skipped else "rollout"
     out = []
     for target in targets:
-        row: dict = {"target": target}
+        row: dict = {"target": target, "mujoco": side}
+        if f"mujoco RK4 ({side})" in sweep.skipped:
+            row["status"] = f"MuJoCo RK4 not run: {sweep.skipped[f'mujoco RK4 ({side})']}"
+            out.append(row)
+            continue
         picks = {}
         for key, pred in (("inhouse", lambda p: p.engine == "inhouse"),
-                          ("mujoco RK4 (rollout)", lambda p: p.label == "mujoco RK4 (rollout)"),
-                          ("mujoco RK4 (loop)", lambda p: p.label == "mujoco RK4 (loop)")):
+                          ("mujoco", lambda p: p.label == f"mujoco RK4 ({side})")):
             cands = [p for p in sweep.points if pred(p) and p.ok and p.state_max <= target]
             if cands:
                 picks[key] = min(cands, key=lambda p: p.time_s)
-        if "inhouse" not in picks or "mujoco RK4 (rollout)" not in picks:
-            row["status"] = "not reached by both"
+        if len(picks) < 2:
+            row["status"] = ("not reached by either" if not picks else
+                             "not reached by MuJoCo RK4" if "inhouse" in picks else "not reached by the in-house solver")
             out.append(row)
             continue
-        runners = {}
-        for key, p in picks.items():
-            curve = Curve(p.engine, p.integrator, p.variant)
-            runners[key] = _runner(scene, curve, _settings(curve, sweep.t_end, sweep.save_every, p.param))
-            runners[key]()  # warm-up
-        times: dict[str, list[float]] = {k: [] for k in runners}
-        for _ in range(rounds):
-            for key, run in runners.items():
-                times[key].append(run()[1])
-        for key, p in picks.items():
-            row[key] = {"label": p.label, "param": p.param, "state_max": p.state_max,
+        ih, mj = picks["inhouse"], picks["mujoco"]
+        runs = {"inhouse": (ih, Curve(ih.engine, ih.integrator, ih.variant)),
+                f"mujoco RK4 ({side})": (mj, Curve("mujoco", "RK4", side))}
+        if side == "rollout":  # the harness's loop at the same dt: its overhead at equal error
+            runs["mujoco RK4 (loop)"] = (mj, Curve("mujoco", "RK4", "loop"))
+        runners = {key: _runner(scene, c, _settings(c, sweep.t_end, sweep.save_every, p.param))
+                   for key, (p, c) in runs.items()}
+        times = _alternate(runners, rounds, options.h2h_budget_s)
+        for key, (p, c) in runs.items():
+            row[key] = {"label": c.label, "param": p.param, "state_max": p.state_max,
                         "time_s": float(np.median(times[key])), "time_min_s": float(np.min(times[key]))}
-        row["ratio_rollout"] = row["inhouse"]["time_s"] / row["mujoco RK4 (rollout)"]["time_s"]
-        if "mujoco RK4 (loop)" in row:
-            row["ratio_loop"] = row["inhouse"]["time_s"] / row["mujoco RK4 (loop)"]["time_s"]
+        row["rounds"] = len(times["inhouse"])
+        ih_t = row["inhouse"]["time_s"]
+        row["ratio"] = ih_t / row[f"mujoco RK4 ({side})"]["time_s"]
+        if side == "rollout":
+            row["ratio_rollout"] = row["ratio"]
+            row["ratio_loop"] = ih_t / row["mujoco RK4 (loop)"]["time_s"]
+        else:
+            row["ratio_loop"] = row["ratio"]
         row["status"] = "ok"
         out.append(row)
     return out
@@ -609,51 +983,88 @@ def batch_initial_states(scene: Scene, nbatch: int, seed: int = 0):
     return rm, np.array(S), np.array(Y)
 
 
-def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3) -> dict:
-    """Throughput (trajectory-steps per second) of RK4 over ``nbatch`` initial conditions for
-    ``nstep`` steps of the scene's dt: ``mujoco.rollout`` against the compiled in-house RK4
+def batch_size(per_trajectory_s: float, options: SweepOptions, threads: int, runs: int = 4, rounds: int = 3) -> int:
+    """Trajectories of the timed batch: about ``batch_budget_s / (runs x rounds)`` s for one run of
+    the slowest variant (``per_trajectory_s`` s per trajectory, measured), at most ``options.batch``,
+    at least one per thread (or ``options.batch`` if smaller); ``options.batch`` without a budget."""
+    if options.batch_budget_s is None or not (per_trajectory_s > 0 and math.isfinite(per_trajectory_s)):
+        return options.batch
+    n = int(options.batch_budget_s / (runs * rounds) / per_trajectory_s)
+    return max(min(options.batch, threads), min(options.batch, n))
+
+
+def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3, options: SweepOptions | None = None) -> dict:
+    """Throughput (trajectory-steps per second) of RK4 over at most ``nbatch`` initial conditions
+    for ``nstep`` steps of the scene's dt: ``mujoco.rollout`` against the compiled in-house RK4
     (``rk4_compiled``'s kernel, ``compiled.solver.run_batch``: one trajectory after another on
     each thread), each with the machine's cores as threads and with one thread. All timed in
-    alternation (one warm-up each, which also compiles the kernel, then ``repeats`` rounds;
-    medians). Also the largest state difference between the MuJoCo and the in-house batch at the
-    end (relative, as ``errors``), over a sample of the trajectories."""
+    alternation: one warm-up each on one trajectory per thread (which also compiles the kernel,
+    and sizes the batch, ``batch_size``, under ``options.batch_budget_s``), then ``repeats``
+    rounds (past the first only while the rounds took less than the budget; medians). Also the
+    largest state difference between the MuJoCo and the in-house batch at the end (relative, as
+    ``errors``), over a sample of the trajectories."""
     from harness.engines.mujoco import rollout as mujoco_rollout
     from harness.engines.inhouse import projection_tolerance
     from harness.engines.inhouse.compiled import solver as compiled
     from harness.engines.inhouse.integrators import FIXED_STEP
     from harness.engines.inhouse.model import build, to_trajectory
 
+    options = replace(options or SweepOptions(batch_budget_s=None), batch=nbatch)
+    budgeted = options.batch_budget_s is not None
     out: dict = {"scene": scene.name, "nbatch": nbatch, "nstep": nstep, "dt": scene.dt, "method": "RK4"}
     model = scene.multibody()
+    threads = mujoco_rollout.default_threads()
+    k = min(nbatch, threads)
     try:
-        rm, S0, Y0 = batch_initial_states(scene, nbatch)
+        rm, S0, Y0 = batch_initial_states(scene, k if budgeted else nbatch)  # row i is the same for any batch size
         nem = build(model)
         packed = compiled.pack(nem)
     except NotImplementedError as err:
         out["status"] = f"skipped: {err}"
         return out
-    threads = mujoco_rollout.default_threads()
     out["threads"] = threads
     proj_tol = projection_tolerance(nem)
     tableau = FIXED_STEP["rk4_compiled"]
     box: dict = {}
 
-    def mj(nthread):
-        box["mj"] = rm.run(S0, nstep, nthread)
+    def runs(S, Y):
+        def mj(nthread):
+            box["mj"] = rm.run(S, nstep, nthread)
 
-    def jit(nthread):
-        box["jit"] = compiled.run_batch(packed, Y0, nstep, scene.dt, tableau, threads=nthread, proj_tol=proj_tol)
+        def jit(nthread):
+            box["jit"] = compiled.run_batch(packed, Y, nstep, scene.dt, tableau, threads=nthread, proj_tol=proj_tol)
 
-    runs = {"mujoco": lambda: mj(threads), "mujoco_1thread": lambda: mj(1),
-            "compiled": lambda: jit(threads), "compiled_1thread": lambda: jit(1)}
-    times: dict[str, list[float]] = {k: [] for k in runs}
-    for fn in runs.values():
+        return {"mujoco": lambda: mj(threads), "mujoco_1thread": lambda: mj(1),
+                "compiled": lambda: jit(threads), "compiled_1thread": lambda: jit(1)}
+
+    def timed(fn) -> float:
+        start = time.perf_counter()
+        fn()
+        return time.perf_counter() - start
+
+    for fn in runs(S0[:k], Y0[:k]).values():
         fn()  # warm-up (and compilation of the kernel)
-    for _ in range(max(1, repeats)):
-        for key, fn in runs.items():
-            start = time.perf_counter()
-            fn()
-            times[key].append(time.perf_counter() - start)
+    if budgeted:  # calibration: the one-thread variants scale with the batch (threads add a per-call cost)
+        c = min(nbatch, 4 * threads)
+        if c > len(S0):
+            _, S0, Y0 = batch_initial_states(scene, c)
+        cal = runs(S0[:c], Y0[:c])
+        per_trajectory = max(timed(cal["mujoco_1thread"]), timed(cal["compiled_1thread"])) / c
+        out["calibration_s_per_trajectory"] = per_trajectory
+        nbatch = batch_size(per_trajectory, options, threads, rounds=max(1, repeats))
+        if nbatch > len(S0):
+            _, S0, Y0 = batch_initial_states(scene, nbatch)  # the first rows as before: the warm model stays
+    out["nbatch"] = nbatch
+    S0, Y0 = S0[:nbatch], Y0[:nbatch]
+    fns = runs(S0, Y0)
+    times: dict[str, list[float]] = {key: [] for key in fns}
+    start = time.perf_counter()
+    for i in range(max(1, repeats)):
+        if i and budgeted and time.perf_counter() - start > options.batch_budget_s:
+            break
+        for key, fn in fns.items():
+            times[key].append(timed(fn))
+    out["rounds"] = len(times["mujoco"])
     work = nbatch * nstep
     for key, ts in times.items():
         out[f"{key}_s"] = float(np.median(ts))
@@ -669,7 +1080,7 @@ def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3) -> 
         ih_traj = to_trajectory(nem, t, np.stack([Y0[i], Yend[i]]), "inhouse", "rk4_compiled")
         scales = compare.motion_scales(mj_traj, model)
         diffs.append(_state_error(compare.trajectory_error(_take(ih_traj, [1]), _take(mj_traj, [1])), scales))
-    out["max_state_difference"] = float(np.max(diffs))
+    out["max_state_difference"] = float(np.nanmax(diffs)) if np.any(np.isfinite(diffs)) else float("nan")
     return out
 
 
@@ -683,25 +1094,59 @@ SCENE_TIMEOUT = 3600.0  # s allowed to one scene's sweep on a Dask worker (a ful
 def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
                 progress: Progress | None = None) -> SceneSweep:
     """One scene's part of ``run_sweep``: its sweep, the head-to-head timing (with MuJoCo and
-    the in-house engine) and, unless ``options.batch`` is 0, the batched-throughput benchmark."""
+    the in-house engine) and, unless ``options.batch`` is 0, the batched-throughput benchmark;
+    the wall time of each stage in ``walls`` (``kernels``: loading the compiled kernels first,
+    ``warm_kernels``, outside ``total``)."""
+    kernels_s = warm_kernels([scene]) if "inhouse" in engines else 0.0
+    start = time.perf_counter()
     res = sweep_scene(scene, engines, options, progress)
+    res.walls["kernels"] = kernels_s
     if "mujoco" in engines and "inhouse" in engines:
         if progress is not None:
             progress.advance(0, f"{scene.name}: head to head")
+        t0 = time.perf_counter()
         try:
             res.head_to_head = head_to_head(scene, res, options)
         except Exception as err:  # recorded, not raised
             res.head_to_head = [{"status": f"failed: {type(err).__name__}: {err}"}]
+        res.walls["head_to_head"] = time.perf_counter() - t0
     if options.batch and "mujoco" in engines and "inhouse" in engines:
         if progress is not None:
-            progress.advance(0, f"{scene.name}: batch of {options.batch}")
+            progress.advance(0, f"{scene.name}: batch of up to {options.batch}")
+        t0 = time.perf_counter()
         try:
-            res.batch = batch_benchmark(scene, options.batch, options.batch_steps, min(3, options.repeats))
+            res.batch = batch_benchmark(scene, options.batch, options.batch_steps, min(3, options.repeats), options)
         except Exception as err:  # recorded, not raised
             res.batch = {"scene": scene.name, "status": f"failed: {type(err).__name__}: {err}"}
+        res.walls["batch"] = time.perf_counter() - t0
         if progress is not None:
             progress.advance(1, f"{scene.name}: batch done")
+    res.walls["total"] = time.perf_counter() - start
     return res
+
+
+def warm_kernels(scenes: list[Scene]) -> float:
+    """Compile (or load from Numba's cache) the compiled in-house kernels, on the first of
+    ``scenes`` the compiled form models, so that no curve's time budget pays for it (once per
+    process: later calls only build and pack the model); returns the time it took (s)."""
+    start = time.perf_counter()
+    try:
+        from harness.engines.inhouse.compiled import solver as compiled
+        from harness.engines.inhouse.model import build, initial_state
+    except ImportError:  # pragma: no cover - no Numba: the compiled runs say so
+        return 0.0
+    for scene in scenes:
+        try:
+            model = scene.multibody()
+            nem = build(model)
+            packed = compiled.pack(nem)
+            y0 = initial_state(model, nem)
+        except Exception:  # not modelled (NotImplementedError) or not built: the runs say why
+            continue
+        for kernel in compiled.KERNELS:
+            compiled.warm_up(packed, y0, kernel)
+        break
+    return time.perf_counter() - start
 
 
 def run_sweep(scenes: list[Scene], engines, options: SweepOptions = SweepOptions(), *,
