@@ -306,9 +306,7 @@ def fast_method(method: str, model: Multibody) -> str:
     try:
         nem = build(model)
         compiled.pack(nem)
-    except NotImplementedError:
-        return method
-    except Exception:  # a model the engine cannot build: its run says why, with either method
+    except Exception:  # outside the compiled form's scope, or a model that does not build (its run says why)
         return method
     if nem.redundant and not METHODS[method].adaptive:
         return method

@@ -306,18 +306,9 @@ def _pivoted_solve(L, b, x, n, rank, perm):
     zero. For a right-hand side in the range of A (the KKT and projection systems) every row
     holds and M^-1 J^T x, the accelerations or the correction, is the unique one. b is
     overwritten (scratch)."""
-    for i in range(rank):  # P^T b, then L z = P^T b
-        s = b[perm[i]]
-        for m in range(i):
-            s -= L[i, m] * x[m]
-        x[i] = s / L[i, i]
-    for i in range(rank - 1, -1, -1):  # L^T z = z
-        s = x[i]
-        for m in range(i + 1, rank):
-            s -= L[m, i] * x[m]
-        x[i] = s / L[i, i]
-    for i in range(rank):
-        b[i] = x[i]
+    for i in range(rank):  # P^T b, solved on the leading rank x rank block of the factor
+        x[i] = b[perm[i]]
+    _cholesky_solve(L, x, b, rank)
     for i in range(n):
         x[i] = 0.0
     for i in range(rank):
