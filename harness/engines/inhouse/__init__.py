@@ -12,7 +12,7 @@ integrator's name; ``integrators.METHODS`` lists every method):
 * compiled (``compiled``: the same equations as Numba kernels, ``rk4_compiled``, ``rkmk4_compiled``
   and ``dop853_compiled``; ``compiled.solver.run_batch`` for many initial states): every model the
   per-state form builds (loop joints and rolling contacts included; dependent rows by Cholesky with
-  diagonal pivoting), except a prescribed force whose time law is only a Python function, which
+  diagonal pivoting, least-squares multipliers as the per-state pseudo-inverse), except a prescribed force whose time law is only a Python function, which
   kernels cannot call (``harness.model.forces.HarmonicForce``, ``PointForce.harmonic``, gives one
   they can): a run of such a model is an "unsupported" trajectory saying so: not run, not failed.
   Tested against the per-state form on every scene (``tests/engines/inhouse/compiled``). Numba is
@@ -288,16 +288,7 @@ def fast_method(method: str, model: Multibody) -> str:
     ``DOP853`` -> ``dop853_compiled``) when the compiled form models ``model`` (``compiled.solver.pack``
     accepts it), else ``method`` itself (no twin, or a model outside the compiled form's scope: the
     per-state method runs, never an "unsupported" run). Numba is imported only for a method with a
-    twin; a model that does not build is left to the run to report.
-
-    Not yet for a fixed-step method on a model with dependent constraint rows
-    (``NEModel.redundant``: loop joints, a jointed rolling body): there the per-state method runs.
-    On bricard ``rk4_compiled`` follows ``rk4`` to 4e-14 for 0.44 s, then departs by 1e-9 within
-    a step and by 8e-8 over 5 s (energy drift 2.3e-8 against the scene's 1e-10; ``rk4`` 1e-12),
-    although the two right-hand sides agree to 4e-12 at the projected states and the two
-    projections to 6e-16; the cause is not found (suspected: at the off-manifold Runge-Kutta
-    stages the pivoted solve drops a different dependent row than the pseudo-inverse averages
-    over). ``dop853_compiled`` agrees with the per-state reference on every loop scene."""
+    twin; a model that does not build is left to the run to report."""
     twin = COMPILED_TWIN.get(method)
     if twin is None:
         return method
@@ -307,8 +298,6 @@ def fast_method(method: str, model: Multibody) -> str:
         nem = build(model)
         compiled.pack(nem)
     except Exception:  # outside the compiled form's scope, or a model that does not build (its run says why)
-        return method
-    if nem.redundant and not METHODS[method].adaptive:
         return method
     return twin
 
