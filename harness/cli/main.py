@@ -272,12 +272,14 @@ def cmd_validate(args) -> int:
     for scene in scenes:
         preflight(scene)
     if "inhouse" in engines:  # a compiled in-house default: its compilation announced once, here, not per worker
-        from harness.engines.inhouse import announce_compilation
+        from harness.engines.inhouse import announce_compilation, load_compiled
 
         from harness.validate.run import default_settings, reference_settings
 
-        announce_compilation([(m.integrator, s.multibody()) for s in scenes
-                              for m in (default_settings(s, "inhouse", not args.per_state), reference_settings(s, not args.per_state))])
+        runs = [(m.integrator, s.multibody()) for s in scenes
+                for m in (default_settings(s, "inhouse", not args.per_state), reference_settings(s, not args.per_state))]
+        announce_compilation(runs)
+        load_compiled(runs)  # here, once: the forked workers inherit the kernels
     with make_bar(len(scenes) * (1 + len(engines)), desc="validate", unit="case", quiet=args.quiet) as bar:
         results = validate(scenes, engines, jobs=args.jobs or None, timeout=args.timeout, tolerance_changes=changes,
                            progress=bar, dask=args.dask, fast=not args.per_state)

@@ -5,7 +5,7 @@
 * the reference (index-1 DAE in the absolute angles, DOP853 rtol 1e-12): energy, closure,
   convergence, and a second formulation written here -- 2-D Newton-Euler in maximal
   coordinates (x, z, angle of every bar's centre of mass, four pins as 8 constraints);
-* the reference against the in-house engine (DOP853, rtol 1e-11) on the scene and on seeded
+* the reference against the in-house engine (its compiled DOP853, rtol 1e-11) on the scene and on seeded
   random Grashof and non-Grashof linkages (the latter swing through toggle positions);
 * the near-singular case recommended in the module docstring.
 """
@@ -218,7 +218,7 @@ def test_reference_matches_maximal_coordinate_newton_euler(name, over):
 # ---------------------------------------------------------------------------------------------
 def _inhouse(over: dict, t_end: float = 2.0) -> tuple:
     scene = SCENE.with_params(**over) if over else SCENE
-    traj = get_engine("inhouse").simulate(scene, RunSettings(integrator="DOP853", dt=1e-3, t_end=t_end, save_every=0.01,
+    traj = get_engine("inhouse").simulate(scene, RunSettings(integrator="dop853_compiled", dt=1e-3, t_end=t_end, save_every=0.01,
                                                              rtol=1e-11, atol=1e-11))
     assert traj.ok, traj.message
     return scene, traj

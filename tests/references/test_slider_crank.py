@@ -5,7 +5,7 @@
 * the 1-DOF reference (DOP853 rtol 1e-12): the energy balance with the piston force's work,
   convergence, and a second formulation written here -- Lagrange in (θ, φ, x) with the two
   closure equations and multipliers (index-1, Baumgarte), no reduction to θ;
-* the reference against the in-house engine (DOP853, rtol 1e-11) on the scene and on seeded
+* the reference against the in-house engine (its compiled DOP853, rtol 1e-11) on the scene and on seeded
   random sets with an offset;
 * Problem 3.4's collars.
 """
@@ -195,7 +195,7 @@ def test_reference_matches_the_multiplier_form(name, over):
 # ---------------------------------------------------------------------------------------------
 def _inhouse(over: dict) -> tuple:
     scene = SCENE.with_params(**over) if over else SCENE
-    traj = get_engine("inhouse").simulate(scene, RunSettings(integrator="DOP853", dt=1e-3, t_end=2.0, save_every=0.01,
+    traj = get_engine("inhouse").simulate(scene, RunSettings(integrator="dop853_compiled", dt=1e-3, t_end=2.0, save_every=0.01,
                                                              rtol=1e-11, atol=1e-11))
     assert traj.ok, traj.message
     return scene, traj

@@ -7,7 +7,8 @@ Scenes: every scene whose multibody has cut joints (``Multibody.loops``), over i
 Variants (``VARIANTS``), each run at every step:
 
 * the ideal-constraint engines, at the scene's integrator: in-house (the cut joint's rows in
-  the KKT system, projection after each step), Pinocchio (``constraintDynamics``, projection),
+  the KKT system, projection after each step; its compiled twin, ``rk4_compiled``, as
+  ``harness validate`` runs it), Pinocchio (``constraintDynamics``, projection),
   Exudyn (index-3 DAE, generalized-alpha);
 * MuJoCo RK4, whose ``<connect>`` equalities are soft constraints, four ways: the MJCF's own
   ``solref``/``solimp`` (as written); ``solref`` = (2 dt, the file's damping ratio), the time
@@ -114,8 +115,17 @@ def loop_scenes(models_dir: Path | None = None) -> list[Scene]:
 
 def integrator_of(scene: Scene, variant: Variant) -> str | None:
     """The integrator a variant runs: RK4 for MuJoCo, else the scene's ``[integrators]`` entry
-    (None when the scene names none)."""
-    return MUJOCO_INTEGRATOR if variant.engine == "mujoco" else scene.integrators.get(variant.engine)
+    (None when the scene names none); for the in-house engine its compiled twin where the
+    compiled form models the scene (``harness.engines.inhouse.fast_method``: ``rk4`` ->
+    ``rk4_compiled``, the same method as Numba kernels, as ``harness validate`` runs it)."""
+    if variant.engine == "mujoco":
+        return MUJOCO_INTEGRATOR
+    method = scene.integrators.get(variant.engine)
+    if method is None or variant.engine != "inhouse":
+        return method
+    from harness.engines.inhouse import fast_method
+
+    return fast_method(method, scene.multibody())
 
 
 def full_label(variant: Variant, integrator: str | None) -> str:
@@ -348,6 +358,7 @@ def loop_study(*, quick: bool = False, models_dir: Path | None = None, jobs: int
         get_engine(v.engine)  # imported once here: forked workers start with it loaded
     studies: list[SceneStudy] = []
     cases, meta = [], {}
+    by_scene = {s.name: s for s in scenes}
     with tempfile.TemporaryDirectory(prefix="loop-study-") as tmp:
         for scene in scenes:
             t_end = horizon(scene, QUICK_T_END if quick else None)
@@ -376,6 +387,11 @@ def loop_study(*, quick: bool = False, models_dir: Path | None = None, jobs: int
                     cases.append((_cost(scene, v, dt, t_end),
                                   (key, run_case, (run_scene, v.engine, integrator, dt, t_end, save))))
         cases.sort(key=lambda c: -c[0])  # longest first: the last runs to end are short ones
+        from harness.engines.inhouse import announce_compilation, load_compiled  # once here, not per worker
+
+        compiled_runs = [(m["integrator"], by_scene[k[0]].multibody()) for k, m in meta.items() if m["engine"] == "inhouse"]
+        announce_compilation(compiled_runs)
+        load_compiled(compiled_runs)
         outcomes = run_cases([c for _, c in cases], jobs, timeout, on_done=on_done)
     bad = [(k, o) for k, o in outcomes.items() if o.status == "input_error"]
     if bad:

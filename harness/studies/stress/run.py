@@ -1035,11 +1035,14 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
     if progress is not None:
         progress.total = len(searches)
         progress.refresh()
-    from harness.engines.inhouse import COMPILED_KERNEL, announce_compilation
+    from harness.engines.inhouse import COMPILED_KERNEL, announce_compilation, load_compiled
 
-    # a compiled in-house method with a cold Numba cache: the parent says so once, not each worker
-    announce_compilation((s.integrator, scenes[s.variant.name].multibody()) for s in searches
-                         if s.engine == "inhouse" and s.integrator in COMPILED_KERNEL)
+    # a compiled in-house method with a cold Numba cache: the parent says so once, not each worker,
+    # and loads the kernels once for the workers it forks
+    compiled_runs = [(s.integrator, scenes[s.variant.name].multibody()) for s in searches
+                     if s.engine == "inhouse" and s.integrator in COMPILED_KERNEL]
+    announce_compilation(compiled_runs)
+    load_compiled(compiled_runs)
     in_flight = {id(s): 0 for s in searches}
     left = {v.name: sum(s.variant.name == v.name for s in searches) for v in runnable}
     counts = {"trials": 0}

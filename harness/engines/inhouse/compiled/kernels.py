@@ -113,6 +113,7 @@ from numba.extending import intrinsic
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
 _KERNEL = dict(_JIT, _nrt=False)  # the work below the drivers: no reference counting (below)
+_INNER = dict(_KERNEL, no_cpython_wrapper=True)  # called from compiled code only: no Python entry point
 
 OK, NONFINITE, SINGULAR, NO_PROJECTION, UNDERFLOW, TOO_MANY_STEPS, BAD_ERROR, FLAT_DISK = 0, 1, 2, 3, 4, 5, 6, 7
 FORCE, TORQUE, POINT_SPRING, ROLLING = 0, 1, 2, 3  # kinds of the model's elements (module docstring)
@@ -175,7 +176,7 @@ def _hold(buffers):
 # Small vector algebra (3-vectors as the rows of larger arrays)
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _rotation(q0, q1, q2, q3, R):
     """R (3x3) of the unit quaternion (w, x, y, z) = (q0, q1, q2, q3)."""
     R[0, 0] = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
@@ -189,7 +190,7 @@ def _rotation(q0, q1, q2, q3, R):
     R[2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _cross(a, b, out):
     """out = a x b (3-vectors; out may alias a or b)."""
     x = a[1] * b[2] - a[2] * b[1]
@@ -198,14 +199,14 @@ def _cross(a, b, out):
     out[0], out[1], out[2] = x, y, z
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _matvec(R, x, out):
     """out = R x (3x3 matrix, 3-vector)."""
     for i in range(3):
         out[i] = R[i, 0] * x[0] + R[i, 1] * x[1] + R[i, 2] * x[2]
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _quat_rate(q, w, out, scale):
     """out = scale * 1/2 q (x) (0, w) (q wxyz, w body frame)."""
     h = 0.5 * scale
@@ -215,7 +216,7 @@ def _quat_rate(q, w, out, scale):
     out[3] = h * (q[0] * w[2] + q[1] * w[1] - q[2] * w[0])
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _cholesky(A, n):
     """A = L L^T in place (n x n symmetric positive definite; the lower triangle becomes L).
     Returns OK, SINGULAR (a pivot <= 0: not positive definite) or NONFINITE (a NaN pivot)."""
@@ -235,7 +236,7 @@ def _cholesky(A, n):
     return OK
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _cholesky_solve(L, b, x, n):
     """x = (L L^T)^-1 b with the factor of ``_cholesky``."""
     for i in range(n):  # L z = b
@@ -250,7 +251,7 @@ def _cholesky_solve(L, b, x, n):
         x[i] = s / L[i, i]
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _pivoted_cholesky(A, n, perm, rtol, slip):
     """P^T A P = L L^T in place for a symmetric positive semi-definite A (n x n; its lower
     triangle becomes L, n x rank): Cholesky with diagonal pivoting (LAPACK's dpstf2), the
@@ -303,7 +304,7 @@ def _pivoted_cholesky(A, n, perm, rtol, slip):
     return OK, n
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _pivoted_solve(L, b, x, n, rank, perm):
     """x = a solution of A x = b from ``_pivoted_cholesky``'s factor (``rank``, ``perm``): the
     rows of the ``rank`` pivots solved exactly, the multipliers of the dropped (dependent) rows
@@ -319,7 +320,7 @@ def _pivoted_solve(L, b, x, n, rank, perm):
         x[perm[i]] = b[i]
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _least_squares_solve(L, b, x, n, rank, perm, S):
     """x = the minimum-norm least-squares solution of A x = b, A ~ G G^T with G = P L (n x rank,
     ``_pivoted_cholesky``'s factor): x = G (G^T G)^-2 G^T b, as the per-state pseudo-inverse
@@ -350,7 +351,7 @@ def _least_squares_solve(L, b, x, n, rank, perm, S):
         x[perm[k]] = b[k]
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _factor(A, n, perm, rtol, slip):
     """Factor A = J M^-1 J^T (n x n) in place: Cholesky when ``rtol`` is 0 (independent rows; a
     failure is SINGULAR), else Cholesky with diagonal pivoting (``_pivoted_cholesky``: rows that
@@ -362,7 +363,7 @@ def _factor(A, n, perm, rtol, slip):
     return _cholesky(A, n), n
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _solve(A, b, x, n, rank, perm, rtol):
     """x = (J M^-1 J^T)^-1 b with ``_factor``'s factor in A (b may be overwritten)."""
     if rtol > 0.0:
@@ -392,7 +393,7 @@ def workspace(model):
             np.zeros((16, 3)), np.zeros(max(nc, 1), dtype=np.int64), np.zeros((max(nc, 1), max(nc, 1))))
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _unit_quaternions(y, nb, Q):
     """Q (nb,4) = the quaternions of state y divided by their norms (Q may be y's own
     quaternion entries: each norm is taken before its quaternion is written)."""
@@ -403,28 +404,29 @@ def _unit_quaternions(y, nb, Q):
             Q[i, m] = y[k + m] / n
 
 
-@njit(**_KERNEL)
-def _frames(y, nb, R, omega, qn, with_velocity):
-    """Unit quaternions qn, rotations R and, when asked, world angular velocities
-    omega = R w_B of every body (ws qn, R, omega)."""
+@njit(**_INNER)
+def _frames(y, nb, R, omega, qn):
+    """Unit quaternions qn, rotations R and world angular velocities omega = R w_B of every body
+    (ws qn, R, omega)."""
     _unit_quaternions(y, nb, qn)
     for i in range(nb):
         _rotation(qn[i, 0], qn[i, 1], qn[i, 2], qn[i, 3], R[i])
-        if with_velocity:
-            _matvec(R[i], y[10 * nb + 3 * i: 10 * nb + 3 * i + 3], omega[i])
+        _matvec(R[i], y[10 * nb + 3 * i: 10 * nb + 3 * i + 3], omega[i])
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _position(y, nb, body, m):
     """Component m of a body's centre-of-mass position (m, world); 0 for the world (nb)."""
     return y[3 * body + m] if body < nb else 0.0
 
 
-@njit(**_KERNEL)
-def _constraints(model, y, ws, with_bias, with_error):
-    """Fill J (ws J, nc x 6nb, columns [v bodies | w_B bodies]), and when asked the bias gamma
-    (ws bias) and the position error C (ws C). Needs ``_frames`` first. Returns OK, or FLAT_DISK
-    from a rolling contact (``_rolling``)."""
+@njit(**_INNER)
+def _constraints(model, y, ws):
+    """Fill J (ws J, nc x 6nb, columns [v bodies | w_B bodies]), the bias gamma (ws bias) and the
+    position error C (ws C). Needs ``_frames`` first. Both are always computed: the right-hand
+    side needs gamma and the projection C, and a flag for each would compile this function (and
+    ``_slides``, ``_rolling``) twice, once per constant value, for a few flops. Returns OK, or
+    FLAT_DISK from a rolling contact (``_rolling``)."""
     mass, jc, jp, rc, rp, hinge, axis, b1, b2, row = (model[0], model[4], model[5], model[6], model[7], model[8],
                                                       model[9], model[10], model[11], model[12])
     nb = mass.shape[0]
@@ -447,19 +449,17 @@ def _constraints(model, y, ws, with_bias, with_error):
                 J[r0 + m, 3 * nb + 3 * c + col] = -(s[0, m1] * R[c, m2, col] - s[0, m2] * R[c, m1, col])
                 if p < nb:
                     J[r0 + m, 3 * nb + 3 * p + col] = s[1, m1] * R[p, m2, col] - s[1, m2] * R[p, m1, col]
-        if with_error:
+        for m in range(3):
+            C[r0 + m] = _position(y, nb, c, m) + s[0, m] - _position(y, nb, p, m) - s[1, m]
+        _cross(omega[c], s[0], u)
+        _cross(omega[c], u, v)
+        for m in range(3):
+            bias[r0 + m] = v[m]
+        if p < nb:
+            _cross(omega[p], s[1], u)
+            _cross(omega[p], u, v)
             for m in range(3):
-                C[r0 + m] = _position(y, nb, c, m) + s[0, m] - _position(y, nb, p, m) - s[1, m]
-        if with_bias:
-            _cross(omega[c], s[0], u)
-            _cross(omega[c], u, v)
-            for m in range(3):
-                bias[r0 + m] = v[m]
-            if p < nb:
-                _cross(omega[p], s[1], u)
-                _cross(omega[p], u, v)
-                for m in range(3):
-                    bias[r0 + m] -= v[m]
+                bias[r0 + m] -= v[m]
         if hinge[j]:
             _matvec(R[c], axis[j], a)
             for k in range(2):
@@ -473,49 +473,46 @@ def _constraints(model, y, ws, with_bias, with_error):
                     J[r, 3 * nb + 3 * c + col] = ck[0] * R[c, 0, col] + ck[1] * R[c, 1, col] + ck[2] * R[c, 2, col]
                     if p < nb:
                         J[r, 3 * nb + 3 * p + col] = -(ck[0] * R[p, 0, col] + ck[1] * R[p, 1, col] + ck[2] * R[p, 2, col])
-                if with_error:
-                    C[r] = a[0] * nk[0] + a[1] * nk[1] + a[2] * nk[2]
-                if with_bias:
-                    # d/dt (A x N_k) at constant velocities, dotted with omega_c - omega_p
-                    _cross(omega[c], a, u)
-                    _cross(u, nk, v)  # (omega_c x A) x N_k
-                    for m in range(3):
-                        tmp[m] = v[m]
-                        tmp[3 + m] = omega[c, m] - omega[p, m]
-                    _cross(omega[p], nk, u)
-                    _cross(a, u, v)  # A x (omega_p x N_k)
-                    bias[r] = ((tmp[0] + v[0]) * tmp[3] + (tmp[1] + v[1]) * tmp[4] + (tmp[2] + v[2]) * tmp[5])
+                C[r] = a[0] * nk[0] + a[1] * nk[1] + a[2] * nk[2]
+                # d/dt (A x N_k) at constant velocities, dotted with omega_c - omega_p
+                _cross(omega[c], a, u)
+                _cross(u, nk, v)  # (omega_c x A) x N_k
+                for m in range(3):
+                    tmp[m] = v[m]
+                    tmp[3 + m] = omega[c, m] - omega[p, m]
+                _cross(omega[p], nk, u)
+                _cross(a, u, v)  # A x (omega_p x N_k)
+                bias[r] = ((tmp[0] + v[0]) * tmp[3] + (tmp[1] + v[1]) * tmp[4] + (tmp[2] + v[2]) * tmp[5])
     _slides(y, nb, model[14], model[15], model[16], model[17], model[18], model[19], model[21], R, omega, J, bias, C,
-            ws[12], with_bias, with_error)
+            ws[12])
     if model[27].shape[0] > 0:
-        return _rolling(y, nb, R, omega, J, bias, C, ws[12], model[27], model[28], model[26], with_bias, with_error)
+        return _rolling(y, nb, R, omega, J, bias, C, ws[12], model[27], model[28], model[26])
     return OK
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _velocity(y, nb, body, m):
     """Component m of a body's centre-of-mass velocity (m/s, world); 0 for the world (nb)."""
     return y[7 * nb + 3 * body + m] if body < nb else 0.0
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _dot(a, b):
     """a . b of two 3-vectors."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _row_times_rotation(x, R, J, r, col0, sign):
     """J[r, col0:col0+3] = sign x^T R (a body-frame angular-velocity block)."""
     for col in range(3):
         J[r, col0 + col] = sign * (x[0] * R[0, col] + x[1] * R[1, col] + x[2] * R[2, col])
 
 
-@njit(**_KERNEL)
-def _slides(y, nb, sc, sp, src, srp, sb1, sb2, srow, R, omega, J, bias, C, vec, with_bias, with_error):
-    """The 5 rows of each slide joint (module docstring) into J, and when asked the bias and
-    the error (the arrays of ``model`` and ``ws`` it needs). Needs ``_frames`` (with velocities
-    when the bias is asked)."""
+@njit(**_INNER)
+def _slides(y, nb, sc, sp, src, srp, sb1, sb2, srow, R, omega, J, bias, C, vec):
+    """The 5 rows of each slide joint (module docstring) into J, with their bias and error (the
+    arrays of ``model`` and ``ws`` it needs). Needs ``_frames``."""
     n, x, t1, t2, wn = vec[0], vec[1], vec[2], vec[3], vec[4]
     s_c, s_p, d, wsc, wsp, dd = vec[8], vec[9], vec[10], vec[11], vec[12], vec[13]
     for j in range(sc.shape[0]):
@@ -524,11 +521,10 @@ def _slides(y, nb, sc, sp, src, srp, sb1, sb2, srow, R, omega, J, bias, C, vec, 
         _matvec(R[p], srp[j], s_p)
         for m in range(3):
             d[m] = _position(y, nb, c, m) + s_c[m] - _position(y, nb, p, m) - s_p[m]
-        if with_bias:
-            _cross(omega[c], s_c, wsc)
-            _cross(omega[p], s_p, wsp)
-            for m in range(3):
-                dd[m] = (_velocity(y, nb, c, m) + wsc[m]) - (_velocity(y, nb, p, m) + wsp[m])
+        _cross(omega[c], s_c, wsc)
+        _cross(omega[p], s_p, wsp)
+        for m in range(3):
+            dd[m] = (_velocity(y, nb, c, m) + wsc[m]) - (_velocity(y, nb, p, m) + wsp[m])
         for k in range(2):  # the joint point stays on the axis line
             r = r0 + k
             _matvec(R[p], sb1[j] if k == 0 else sb2[j], n)
@@ -543,15 +539,13 @@ def _slides(y, nb, sc, sp, src, srp, sb1, sb2, srow, R, omega, J, bias, C, vec, 
                     t1[m] = s_p[m] + d[m]
                 _cross(n, t1, x)
                 _row_times_rotation(x, R[p], J, r, 3 * nb + 3 * p, 1.0)
-            if with_error:
-                C[r] = _dot(d, n)
-            if with_bias:
-                _cross(omega[c], wsc, t1)
-                _cross(omega[p], wsp, t2)
-                g = (t1[0] - t2[0]) * n[0] + (t1[1] - t2[1]) * n[1] + (t1[2] - t2[2]) * n[2]
-                _cross(omega[p], n, wn)
-                _cross(omega[p], wn, t1)
-                bias[r] = g + 2.0 * _dot(dd, wn) + _dot(d, t1)
+            C[r] = _dot(d, n)
+            _cross(omega[c], wsc, t1)
+            _cross(omega[p], wsp, t2)
+            g = (t1[0] - t2[0]) * n[0] + (t1[1] - t2[1]) * n[1] + (t1[2] - t2[2]) * n[2]
+            _cross(omega[p], n, wn)
+            _cross(omega[p], wn, t1)
+            bias[r] = g + 2.0 * _dot(dd, wn) + _dot(d, t1)
         a, nr = vec[5], vec[6]
         for k in range(3):  # the frames stay parallel: (R_c e_(k+1)) . (R_p e_(k+2)) = 0
             r = r0 + 2 + k
@@ -562,18 +556,16 @@ def _slides(y, nb, sc, sp, src, srp, sb1, sb2, srow, R, omega, J, bias, C, vec, 
             _row_times_rotation(x, R[c], J, r, 3 * nb + 3 * c, 1.0)
             if p < nb:
                 _row_times_rotation(x, R[p], J, r, 3 * nb + 3 * p, -1.0)
-            if with_error:
-                C[r] = _dot(a, nr)
-            if with_bias:
-                _cross(omega[c], a, t1)
-                _cross(t1, nr, t2)  # (omega_c x a) x nr
-                _cross(omega[p], nr, t1)
-                _cross(a, t1, wn)  # a x (omega_p x nr)
-                bias[r] = ((t2[0] + wn[0]) * (omega[c, 0] - omega[p, 0]) + (t2[1] + wn[1]) * (omega[c, 1] - omega[p, 1])
-                           + (t2[2] + wn[2]) * (omega[c, 2] - omega[p, 2]))
+            C[r] = _dot(a, nr)
+            _cross(omega[c], a, t1)
+            _cross(t1, nr, t2)  # (omega_c x a) x nr
+            _cross(omega[p], nr, t1)
+            _cross(a, t1, wn)  # a x (omega_p x nr)
+            bias[r] = ((t2[0] + wn[0]) * (omega[c, 0] - omega[p, 0]) + (t2[1] + wn[1]) * (omega[c, 1] - omega[p, 1])
+                       + (t2[2] + wn[2]) * (omega[c, 2] - omega[p, 2]))
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _springs(y, mass, Iinv, sc, sp, src, srp, saxis, kslide, stiffness, qref, R, vec, u0):
     """Add the slide springs' accelerations to u0 ([dv_WCm_W | dw_WB_B], free part; the arrays
     of ``model`` and ``ws`` it needs). Needs ``_frames``."""
@@ -606,12 +598,11 @@ def _springs(y, mass, Iinv, sc, sp, src, srp, saxis, kslide, stiffness, qref, R,
                 u0[3 * nb + 3 * p + m] -= Iinv[p, m, 0] * mom[0] + Iinv[p, m, 1] * mom[1] + Iinv[p, m, 2] * mom[2]
 
 
-@njit(**_KERNEL)
-def _rolling(y, nb, R, omega, J, bias, C, vec, elem, edata, flat, with_bias, with_error):
-    """The 3 rows of each rolling contact (elements of kind ROLLING) into J, and when asked the
-    bias and the error; the contact offset r and its rate as
-    ``harness.model.rolling_contact.offset_and_rate``. Needs ``_frames`` (with velocities when
-    the bias is asked; the arrays of ``model`` and ``ws`` it needs). Returns OK, or FLAT_DISK
+@njit(**_INNER)
+def _rolling(y, nb, R, omega, J, bias, C, vec, elem, edata, flat):
+    """The 3 rows of each rolling contact (elements of kind ROLLING) into J, with their bias and
+    error; the contact offset r and its rate as ``harness.model.rolling_contact.offset_and_rate``.
+    Needs ``_frames`` (the arrays of ``model`` and ``ws`` it needs). Returns OK, or FLAT_DISK
     when a disk lies flat (s below ``flat``)."""
     r, d, rdot, g = vec[8], vec[9], vec[10], vec[11]
     for e in range(elem.shape[0]):
@@ -634,24 +625,24 @@ def _rolling(y, nb, R, omega, J, bias, C, vec, elem, edata, flat, with_bias, wit
             J[r0 + m, 3 * i + m] = 1.0
             for col in range(3):
                 J[r0 + m, 3 * nb + 3 * i + col] = -(r[m1] * R[i, m2, col] - r[m2] * R[i, m1, col])
-        if with_error:  # no slip has no position error; the height row's is z_C
-            C[r0] = 0.0
-            C[r0 + 1] = 0.0
-            C[r0 + 2] = y[3 * i + 2] + r[2]
-        if with_bias:  # gamma = w x r', r' the rate of the contact offset
-            w = omega[i]
-            d[0], d[1], d[2] = w[1] * nz - w[2] * n1, w[2] * n0 - w[0] * nz, w[0] * n1 - w[1] * n0  # n' = w x n
-            kk = nz * d[2] * si
-            rdot[0] = -radius * ((-d[2] * n0 - nz * d[0] + u0 * kk) * si) - hs * d[0]
-            rdot[1] = -radius * ((-d[2] * n1 - nz * d[1] + u1 * kk) * si) - hs * d[1]
-            rdot[2] = -radius * ((-d[2] * nz - nz * d[2] + u2 * kk) * si) - hs * d[2]
-            _cross(w, rdot, g)
-            for m in range(3):
-                bias[r0 + m] = g[m]
+        # no slip has no position error; the height row's is z_C
+        C[r0] = 0.0
+        C[r0 + 1] = 0.0
+        C[r0 + 2] = y[3 * i + 2] + r[2]
+        # gamma = w x r', r' the rate of the contact offset
+        w = omega[i]
+        d[0], d[1], d[2] = w[1] * nz - w[2] * n1, w[2] * n0 - w[0] * nz, w[0] * n1 - w[1] * n0  # n' = w x n
+        kk = nz * d[2] * si
+        rdot[0] = -radius * ((-d[2] * n0 - nz * d[0] + u0 * kk) * si) - hs * d[0]
+        rdot[1] = -radius * ((-d[2] * n1 - nz * d[1] + u1 * kk) * si) - hs * d[1]
+        rdot[2] = -radius * ((-d[2] * nz - nz * d[2] + u2 * kk) * si) - hs * d[2]
+        _cross(w, rdot, g)
+        for m in range(3):
+            bias[r0 + m] = g[m]
     return OK
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _push(mass, Iinv, R, i, r_B, f, sign, fB, mom, u0):
     """Add to u0 the accelerations of body i under ``sign`` f (N, world) at r_B from its centre
     of mass (body frame, m): ``f / m`` and ``I^-1 (r_B x R^T f)`` (fB, mom: scratch 3-vectors)."""
@@ -664,7 +655,7 @@ def _push(mass, Iinv, R, i, r_B, f, sign, fB, mom, u0):
         u0[3 * nb + 3 * i + m] += sign * (Iinv[i, m, 0] * mom[0] + Iinv[i, m, 1] * mom[1] + Iinv[i, m, 2] * mom[2])
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _applied(t, y, mass, Iinv, R, vec, elem, edata, u0):
     """Add the accelerations of the prescribed point forces (their time laws at t, s), hinge
     torques and point springs (elements of kinds FORCE, TORQUE, POINT_SPRING; module docstring)
@@ -706,7 +697,7 @@ def _applied(t, y, mass, Iinv, R, vec, elem, edata, u0):
             _push(mass, Iinv, R, b, edata[e, 3:6], f, -1.0, vec[14], vec[15], u0)
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _minv_jt(mass, Iinv, nc, J, A, B):
     """B = M^-1 J^T (6nb x nc) and A = J B (nc x nc), from J (ws J, A, B)."""
     nb = mass.shape[0]
@@ -734,7 +725,7 @@ def rhs(t, y, dy, model, ws):
     FLAT_DISK)."""
     mass, I_B, Iinv, grav, nc = model[0], model[1], model[2], model[3], model[13]
     nb = mass.shape[0]
-    _frames(y, nb, ws[0], ws[1], ws[11], nc > 0)
+    _frames(y, nb, ws[0], ws[1], ws[11])
     qn, u0, vec = ws[11], ws[6], ws[12]
     Iw, tau = vec[5], vec[6]
     for i in range(nb):
@@ -753,7 +744,7 @@ def rhs(t, y, dy, model, ws):
         _applied(t, y, mass, Iinv, ws[0], ws[12], model[27], model[28], u0)
     if nc > 0:
         J, A, B, lam, bias, perm, rtol = ws[3], ws[4], ws[5], ws[7], ws[8], ws[13], model[25]
-        st = _constraints(model, y, ws, True, False)
+        st = _constraints(model, y, ws)
         if st != OK:
             return st
         _minv_jt(mass, model[2], nc, ws[3], ws[4], ws[5])
@@ -794,8 +785,8 @@ def project(y, model, ws, tol):
     converged = False
     rank = nc
     for _ in range(_PROJECTION_ITERATIONS):
-        _frames(y, nb, ws[0], ws[1], ws[11], False)
-        st = _constraints(model, y, ws, False, True)
+        _frames(y, nb, ws[0], ws[1], ws[11])
+        st = _constraints(model, y, ws)
         if st != OK:
             return st
         _minv_jt(mass, model[2], nc, ws[3], ws[4], ws[5])
@@ -857,7 +848,7 @@ def project(y, model, ws, tol):
     return OK
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _copy(src, dst):
     """dst[:] = src (1-d arrays of the same length; as a loop: NumPy's array assignment needs
     reference counting, which the work below the drivers is compiled without)."""
@@ -865,7 +856,7 @@ def _copy(src, dst):
         dst[k] = src[k]
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _finite(y):
     """Whether every entry of y is finite."""
     for k in range(y.shape[0]):
@@ -878,7 +869,7 @@ def _finite(y):
 # Explicit Runge-Kutta methods, fixed step, driven by a Butcher table
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _exp_right(qw, qx, qy, qz, tx, ty, tz, out, o):
     """out[o:o+4] = q (x) exp_q(Theta) (wxyz) for q = (qw, qx, qy, qz) and Theta = (tx, ty, tz)
     (rad, body frame): ``lie_group.exp_right``. q's entries come by value: out may hold q."""
@@ -892,7 +883,7 @@ def _exp_right(qw, qx, qy, qz, tx, ty, tz, out, o):
     out[o + 3] = qw * ez + c * qz + (qx * ey - qy * ex)
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _lie_stage(y, nb, i, h, A, series, KT, tmp):
     """The orientations of RKMK stage i (``lie_group.rkmk_step``): per body
     ``Theta_i = h sum_{m < i} A[i, m] KT[m]``, the stage quaternion ``q0 (x) exp_q(Theta_i)``
@@ -920,7 +911,7 @@ def _lie_stage(y, nb, i, h, A, series, KT, tmp):
         KT[i, body, 2] = oz
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _erk_steps(model, ws, y, t0, h, nsteps, proj_tol, A, b, c, series, K, KT, tmp):
     """``nsteps`` steps of ``h`` s from time ``t0`` s of the explicit Runge-Kutta method with
     Butcher table ``A`` (s x s, strictly lower triangular), ``b`` (s,), ``c`` (s,), y in place,
@@ -967,7 +958,7 @@ def _erk_steps(model, ws, y, t0, h, nsteps, proj_tol, A, b, c, series, K, KT, tm
     return OK, nsteps
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _erk(model, ws, y, K, KT, tmp, t_save, steps_per_save, proj_tol, out, A, b, c, series):
     """``erk`` on its (borrowed) buffers; y holds the initial state."""
     st = project(y, model, ws, proj_tol)
@@ -1003,7 +994,7 @@ def erk(model, y0, t_save, steps_per_save, proj_tol, out, A, b, c, series):
     return result
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _erk_rows(model, ws, y, K, KT, tmp, Y0, nstep, h, proj_tol, A, b, c, series, Yend, status, first, last):
     """``erk_rows`` on its (borrowed) buffers."""
     for r in range(first, last):
@@ -1039,7 +1030,7 @@ def erk_rows(model, Y0, nstep, h, proj_tol, A, b, c, series, Yend, status, first
 # DOP853, adaptive, with 7th-order dense output at the save times
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _stage_state(y, K, A, s, h, out):
     """out = y + h sum_{m < s} A[s, m] K[m]: the state at which stage s is evaluated."""
     for i in range(y.shape[0]):
@@ -1067,7 +1058,7 @@ def dop853(model, y0, t_save, rtol, atol, first_step, max_step, proj_tol, max_st
     return result
 
 
-@njit(**_KERNEL)
+@njit(**_INNER)
 def _dop853(model, ws, y, K, ynew, tmp, F, samp, t_save, rtol, atol, first_step, max_step, proj_tol, max_steps, out,
             coef):
     """``dop853`` on its (borrowed) buffers; y holds the initial state."""

@@ -42,6 +42,7 @@ once for the whole run and its forked workers inherit the mark, so none of them 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import time
@@ -59,7 +60,7 @@ from harness.model.forces import HarmonicForce
 from harness.model.rolling_contact import FLAT
 
 __all__ = ["KERNELS", "MAX_ADAPTIVE_STEPS", "STATUS", "announce_cold", "default_threads", "integrate_dop853",
-           "integrate_fixed", "pack", "run_batch", "tableau_arrays", "warm_up"]
+           "integrate_fixed", "pack", "run_batch", "tableau_arrays", "warm_kernels", "warm_up"]
 
 MAX_ADAPTIVE_STEPS = 200_000  # accepted + rejected steps before an adaptive run is declared failed
 
@@ -345,15 +346,54 @@ def _announce(kernel: str) -> None:
     note(f"compiling the in-house kernels (once; {how_long}, then cached)")
 
 
+def warm_kernels() -> frozenset[str]:
+    """The kernels this process has compiled or loaded (``warm_up``)."""
+    return frozenset(_warm)
+
+
 def warm_up(model: tuple, y0: np.ndarray, kernel: str) -> None:
     """Compile (or load from the cache) ``kernel`` ("erk", "dop853" or "erk_rows") by running it
     for one step of ``model`` from ``y0``, so that timed runs never include compilation (once
     per kernel and process: every packed model and table has the same types). A compilation
     (``is_cached`` false) is announced on stderr first (``_announce``) and its duration (s,
-    wall clock) recorded for the next announcement's estimate."""
+    wall clock) recorded for the next announcement's estimate. Processes compiling at the same
+    time take turns (``_compile_lock``): the others load the first one's result."""
     if kernel in _warm:
         return
-    compiling = is_cached(kernel) is False
+    with _compile_lock(kernel):
+        _warm_up(model, y0, kernel)
+    _warm.add(kernel)
+
+
+@contextlib.contextmanager
+def _compile_lock(kernel: str):
+    """Held while a process compiles or loads a kernel when the cache lacks it: a second process
+    that needs the same kernel at the same time (workers of one ``validate``, two test workers)
+    waits, then loads what the first compiled instead of compiling it again (an exclusive
+    ``flock`` on a file in Numba's cache folder, released by the kernel when a process dies).
+    No lock where the cache folder cannot be written or ``fcntl`` is missing."""
+    if is_cached(kernel) is not False:
+        yield
+        return
+    try:
+        import fcntl
+
+        folder = getattr(kernels, kernel)._cache._cache_path
+        os.makedirs(folder, exist_ok=True)
+        handle = open(os.path.join(folder, "compile.lock"), "a")
+    except Exception:  # no fcntl (Windows), Numba internals moved, or a read-only cache folder
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _warm_up(model: tuple, y0: np.ndarray, kernel: str) -> None:
+    compiling = is_cached(kernel) is False  # again: another process may have compiled it meanwhile
     if compiling:
         _announce(kernel)
     start = time.perf_counter()
@@ -372,4 +412,3 @@ def warm_up(model: tuple, y0: np.ndarray, kernel: str) -> None:
         raise ValueError(f"unknown kernel {kernel!r}")
     if compiling:
         _record_time(kernel, time.perf_counter() - start)
-    _warm.add(kernel)

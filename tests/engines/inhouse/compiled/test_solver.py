@@ -255,3 +255,33 @@ def test_simulate_command_runs_a_compiled_method(tmp_path, capsys):
                  "--save-every", "0.5", "--out", str(out)])
     assert code == 0 and out.exists()
     assert "inhouse/dop853_compiled, status ok" in capsys.readouterr().out
+
+
+def test_a_cold_compile_holds_a_lock_other_processes_wait_on(monkeypatch, tmp_path):
+    """While one process compiles a kernel the cache lacks, the lock file in the cache folder is
+    held (``flock``): a second process blocks on it, then loads the first one's result."""
+    import fcntl
+
+    monkeypatch.setattr(compiled, "is_cached", lambda kernel: False)
+    monkeypatch.setattr(kernels.erk._cache, "_cache_path", str(tmp_path / "cache"))
+    with compiled._compile_lock("erk"):
+        with open(tmp_path / "cache" / "compile.lock") as other:  # another open file: another process's view
+            with pytest.raises(BlockingIOError):
+                fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    with open(tmp_path / "cache" / "compile.lock") as other:  # released at the end
+        fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    monkeypatch.setattr(compiled, "is_cached", lambda kernel: True)  # a warm cache takes no lock
+    with compiled._compile_lock("erk"):
+        with open(tmp_path / "cache" / "compile.lock") as other:
+            fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
+
+
+def test_load_compiled_warms_the_kernels_of_compiled_runs_only(monkeypatch):
+    from harness.engines.inhouse import load_compiled
+
+    monkeypatch.setattr(compiled, "_warm", set())
+    top = load_scene("heavy_top").multibody()
+    load_compiled([("rk4", top), ("DOP853", top)])  # per-state methods: nothing to load
+    assert compiled.warm_kernels() == frozenset()
+    load_compiled([("rk4_compiled", top), ("dop853_compiled", top)])
+    assert compiled.warm_kernels() == {"erk", "dop853"}
