@@ -405,12 +405,17 @@ def _unit_quaternions(y, nb, Q):
 
 
 @njit(**_INNER)
-def _frames(y, nb, R, omega, qn):
-    """Unit quaternions qn, rotations R and world angular velocities omega = R w_B of every body
-    (ws qn, R, omega)."""
+def _frames(y, nb, R, qn):
+    """Unit quaternions qn and rotations R of every body (ws qn, R)."""
     _unit_quaternions(y, nb, qn)
     for i in range(nb):
         _rotation(qn[i, 0], qn[i, 1], qn[i, 2], qn[i, 3], R[i])
+
+
+@njit(**_INNER)
+def _angular_velocities(y, nb, R, omega):
+    """World angular velocities omega = R w_B of every body (ws omega; after ``_frames``)."""
+    for i in range(nb):
         _matvec(R[i], y[10 * nb + 3 * i: 10 * nb + 3 * i + 3], omega[i])
 
 
@@ -423,10 +428,10 @@ def _position(y, nb, body, m):
 @njit(**_INNER)
 def _constraints(model, y, ws):
     """Fill J (ws J, nc x 6nb, columns [v bodies | w_B bodies]), the bias gamma (ws bias) and the
-    position error C (ws C). Needs ``_frames`` first. Both are always computed: the right-hand
-    side needs gamma and the projection C, and a flag for each would compile this function (and
-    ``_slides``, ``_rolling``) twice, once per constant value, for a few flops. Returns OK, or
-    FLAT_DISK from a rolling contact (``_rolling``)."""
+    position error C (ws C). Needs ``_frames`` and ``_angular_velocities`` first. Both are always
+    computed: the right-hand side needs gamma and the projection C, and a flag for each would
+    compile this function (and ``_slides``, ``_rolling``) twice, once per constant value, for a
+    few flops. Returns OK, or FLAT_DISK from a rolling contact (``_rolling``)."""
     mass, jc, jp, rc, rp, hinge, axis, b1, b2, row = (model[0], model[4], model[5], model[6], model[7], model[8],
                                                       model[9], model[10], model[11], model[12])
     nb = mass.shape[0]
@@ -725,7 +730,9 @@ def rhs(t, y, dy, model, ws):
     FLAT_DISK)."""
     mass, I_B, Iinv, grav, nc = model[0], model[1], model[2], model[3], model[13]
     nb = mass.shape[0]
-    _frames(y, nb, ws[0], ws[1], ws[11])
+    _frames(y, nb, ws[0], ws[11])
+    if nc > 0:  # the constraints' bias needs them
+        _angular_velocities(y, nb, ws[0], ws[1])
     qn, u0, vec = ws[11], ws[6], ws[12]
     Iw, tau = vec[5], vec[6]
     for i in range(nb):
@@ -785,7 +792,8 @@ def project(y, model, ws, tol):
     converged = False
     rank = nc
     for _ in range(_PROJECTION_ITERATIONS):
-        _frames(y, nb, ws[0], ws[1], ws[11])
+        _frames(y, nb, ws[0], ws[11])
+        _angular_velocities(y, nb, ws[0], ws[1])  # for the bias _constraints fills
         st = _constraints(model, y, ws)
         if st != OK:
             return st
