@@ -232,6 +232,9 @@ def preflight(scene) -> None:
 
 
 def cmd_validate(args) -> int:
+    import time
+
+    start = time.perf_counter()
     from harness.engines import ENGINE_NAMES, get_engine
     from harness.io.provenance import provenance
     from harness.validate.report import write_reports
@@ -294,7 +297,8 @@ def cmd_validate(args) -> int:
         for c in result.checks:
             if not c.passed:
                 print(f"  FAIL {c.engine} {c.check}: {c.value:.3e} > {c.tolerance:.1e} {c.unit} {c.detail}")
-    paths = write_reports(results, provenance(), folder)
+    prov = provenance() | {"wall_s": f"{time.perf_counter() - start:.0f}"}  # the whole command, model checks included
+    paths = write_reports(results, prov, folder)
     print("wrote " + ", ".join(str(p) for p in paths))
     return EXIT_OK if all(r.passed for r in results) else EXIT_FAIL
 

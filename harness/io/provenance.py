@@ -62,7 +62,9 @@ def command_line(argv: list[str] | None = None) -> str:
 
 def provenance() -> dict[str, str]:
     """Versions of the engines and numerical libraries, the machine (OS, architecture, CPU
-    model), the CPUs this process may use, and the UTC time now."""
+    model), the CPUs this process may use, the UTC time now and the machine's load now (``load``:
+    the 1-minute load average, at the end of the run that writes the report; "?" where the OS
+    does not tell): timings are comparable only between runs at similar load."""
     import exudyn
     import mujoco
     import numba
@@ -83,7 +85,15 @@ def provenance() -> dict[str, str]:
         "python": platform.python_version(),
         "machine": f"{platform.system()} {platform.machine()} ({cpu_model()})",
         "cpus": cores(),
+        "load": _load(),
     }
+
+
+def _load() -> str:
+    try:
+        return f"{os.getloadavg()[0]:.2f}"
+    except (AttributeError, OSError):  # no load average on this OS
+        return "?"
 
 
 #: How the reports name the libraries of ``provenance()`` (in this order).
@@ -108,7 +118,9 @@ def drake_version() -> str:
 
 
 def made_with(prov: dict[str, str]) -> str:
-    """``"MuJoCo 4.0.0, Pinocchio 4.1.0, Exudyn ..., NumPy ..., SciPy ..., Python ... on <machine>"``:
+    """``"MuJoCo 4.0.0, Pinocchio 4.1.0, Exudyn ..., NumPy ..., SciPy ..., Python ... on <machine>, load
+    average 1.93 (1 min, at the end of the run)"``:
     the versions of ``provenance()`` every report's header states (missing keys are left out)."""
     parts = [f"{label} {prov[key]}" for key, label in LIBRARY_NAMES.items() if key in prov]
-    return ", ".join(parts) + (f" on {prov['machine']}" if "machine" in prov else "")
+    return (", ".join(parts) + (f" on {prov['machine']}" if "machine" in prov else "")
+            + (f", load average {prov['load']} (1 min, at the end of the run)" if "load" in prov else ""))

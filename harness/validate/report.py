@@ -242,7 +242,8 @@ def markdown(results: list[SceneValidation], prov: dict) -> str:
     lines = [
         "# Validation report",
         "",
-        f"Made {prov['date_utc']} with {made_with(prov)}.",
+        f"Made {prov['date_utc']} with {made_with(prov)}."
+        + (f" The run took {prov['wall_s']} s wall on {prov.get('cpus', '?')} CPUs." if "wall_s" in prov else ""),
         "",
         f"**{total - failed} of {total} checks hold; {failed} fail.** Reproduce with `{command_line()}`.",
         "",

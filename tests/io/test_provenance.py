@@ -52,3 +52,11 @@ def test_cores_counts_usable_and_all():
     usable, word1, word2, total = prov.cores().split()
     assert (word1, word2) == ("usable", "of") and int(total) == os.cpu_count()
     assert 1 <= int(usable) <= len(os.sched_getaffinity(0))
+
+
+def test_reports_are_stamped_with_the_load_at_the_end_of_the_run():
+    from harness.io.provenance import made_with, provenance
+
+    prov = provenance()
+    assert float(prov["load"]) >= 0.0  # the 1-minute load average, as the OS gives it
+    assert made_with(prov).endswith(f", load average {prov['load']} (1 min, at the end of the run)")

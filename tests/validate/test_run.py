@@ -3,6 +3,7 @@ engine, reports, JUnit, tolerance file."""
 
 import json
 import os
+import re
 import shutil
 import signal
 import time
@@ -91,7 +92,10 @@ def test_cli_writes_reports_junit_and_exit_codes(tmp_path, capsys):
     assert suite.get("name") == "heavy_top" and int(suite.get("failures")) == 0
     cases = suite.findall("testcase")
     assert {c.get("classname") for c in cases} == {"heavy_top.reference", "heavy_top.mujoco"}
-    assert "MuJoCo" in (out / "validation.md").read_text()
+    text = (out / "validation.md").read_text()
+    assert "MuJoCo" in text
+    # stamped with the load and the command's wall time (the snapshot's timings are read against them)
+    assert re.search(r"load average [0-9.]+ \(1 min, at the end of the run\)\. The run took [0-9]+ s wall on", text)
 
     tol = tmp_path / "tol.toml"
     tol.write_text("[heavy_top.energy_drift]\nmujoco = 1e-16\n")
