@@ -101,3 +101,17 @@ def test_a_scene_without_a_reference_module():
     with pytest.raises(ValueError, match="no exact check"):
         exact.exact_error_series(scene, traj)
     assert exact.exact_reaction(scene, traj) is None
+
+
+def test_prepare_computes_the_closed_form_for_the_workers_a_parent_forks():
+    """``exact.prepare`` leaves the closed form at the trajectory's times in the reference
+    module's cache: a run saved at the same times is judged without integrating it again."""
+    from harness.references import four_bar as reference
+
+    scene = load_scene("four_bar")
+    traj = get_engine("mujoco").simulate(scene, RunSettings(t_end=0.2, dt=scene.dt, save_every=0.01, integrator="RK4"))
+    reference._solve.cache_clear()
+    exact.prepare(scene, traj)
+    assert reference._solve.cache_info().misses == 1
+    exact.exact_error_series(scene, traj)
+    assert reference._solve.cache_info().misses == 1 and reference._solve.cache_info().hits >= 1

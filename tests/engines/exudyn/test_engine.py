@@ -162,3 +162,14 @@ def test_undamped_index3_multipliers_wander(monkeypatch):
     assert err[0.9, 2.5e-4] < err[0.9, 1e-3] / 10, err
     assert err[1.0, 1e-4] > 100 * err[1.0, 1e-3], err
     assert err[0.9, 1e-4] < err[1.0, 1e-4] / 50, err
+
+
+def test_samples_are_given_on_the_save_grid_as_every_engine_gives_them():
+    """Exudyn's stored times carry ~1e-17 s of round-off; the trajectory gives the grid
+    k * save_every itself, to the bit, as the other engines do (the closed forms cache their
+    solutions by the times, so the runs of one scene share them)."""
+    scene = load_scene("four_bar")
+    settings = RunSettings(t_end=0.3, dt=scene.dt, save_every=0.01, integrator=scene.integrators["exudyn"])
+    traj = get_engine("exudyn").simulate(scene, settings)
+    assert traj.ok, traj.message
+    np.testing.assert_array_equal(traj.t, np.arange(31) * 0.01)
