@@ -517,7 +517,7 @@ def _row_times_rotation(x, R, J, r, col0, sign):
 @njit(**_INNER)
 def _slides(y, nb, sc, sp, src, srp, sb1, sb2, srow, R, omega, J, bias, C, vec):
     """The 5 rows of each slide joint (module docstring) into J, with their bias and error (the
-    arrays of ``model`` and ``ws`` it needs). Needs ``_frames``."""
+    arrays of ``model`` and ``ws`` it needs). Needs ``_frames`` and ``_angular_velocities``."""
     n, x, t1, t2, wn = vec[0], vec[1], vec[2], vec[3], vec[4]
     s_c, s_p, d, wsc, wsp, dd = vec[8], vec[9], vec[10], vec[11], vec[12], vec[13]
     for j in range(sc.shape[0]):
@@ -607,8 +607,8 @@ def _springs(y, mass, Iinv, sc, sp, src, srp, saxis, kslide, stiffness, qref, R,
 def _rolling(y, nb, R, omega, J, bias, C, vec, elem, edata, flat):
     """The 3 rows of each rolling contact (elements of kind ROLLING) into J, with their bias and
     error; the contact offset r and its rate as ``harness.model.rolling_contact.offset_and_rate``.
-    Needs ``_frames`` (the arrays of ``model`` and ``ws`` it needs). Returns OK, or FLAT_DISK
-    when a disk lies flat (s below ``flat``)."""
+    Needs ``_frames`` and ``_angular_velocities`` (the arrays of ``model`` and ``ws`` it needs).
+    Returns OK, or FLAT_DISK when a disk lies flat (s below ``flat``)."""
     r, d, rdot, g = vec[8], vec[9], vec[10], vec[11]
     for e in range(elem.shape[0]):
         if elem[e, 0] != ROLLING:
