@@ -22,6 +22,7 @@ from harness.studies.stress.run import (
     classify_drift,
     engine_mode,
     load_catalogue,
+    run_settings,
     run_stress,
     select,
     skip_reason,
@@ -200,6 +201,48 @@ def test_step_search_censored_and_budget_floor():
     row = search.summary()
     assert row.stable_dt is None and row.unstable_dt >= v.t_end / cat.bounds.max_steps["inhouse"] * (1 - 1e-9)
     assert any("no stable step" in n for n in row.notes)
+
+
+@pytest.mark.parametrize("engine, method, adaptive", [
+    ("drake", "RK5", True), ("drake", "Radau3", True), ("drake", "RK3_fixed", False),
+    ("inhouse", "DOP853", True), ("inhouse", "rk4", False), ("mujoco", "RK4", False)])
+def test_every_error_controlled_integrator_runs_once_at_rtol(engine, method, adaptive):
+    """An error-controlled method takes the steps its accuracy asks for whatever dt is: a step
+    search over dt would repeat the same run (Drake's RK5 was searched, and timed out, as if it
+    stepped at dt)."""
+    cat = load_catalogue()
+    v = cat.variant("heavy_top_spin_1e3")
+    search = StepSearch(v, engine, method, cat.bounds)
+    assert search.adaptive is adaptive
+    specs = search.next_specs()
+    if adaptive:
+        assert [s.role for s in specs] == ["adaptive"] and specs[0].rtol == v.rtol
+        search.record(fake_result(specs[0], True))
+        assert search.next_specs() == [] and search.summary().kind == "adaptive"
+    else:
+        assert {s.role for s in specs} <= {"search", "nominal"}
+
+
+def test_a_horizon_per_engine_or_per_integrator(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text(SMALL.replace("t_end = 0.01", 't_end = 0.01\nt_end_by_engine = { mujoco = 0.005, "mujoco/Euler" = 0.002 }'))
+    v = load_catalogue(path).variants[0]
+    assert v.horizon("mujoco", "Euler") == 0.002 and v.horizon("mujoco", "RK4") == 0.005
+    assert v.horizon("mujoco") == 0.005 and v.horizon("inhouse", "rk4") == 0.01
+    assert StepSearch(v, "mujoco", "Euler", load_catalogue(path).bounds).t_end == 0.002
+    path.write_text(SMALL.replace("t_end = 0.01", 't_end = 0.01\nt_end_by_engine = { "mujoco/RK5" = 0.002 }'))
+    with pytest.raises(InputError, match="unknown integrator 'RK5' for mujoco"):
+        load_catalogue(path)
+
+
+def test_inhouse_trials_run_the_compiled_twin_where_it_models_the_scene(tmp_path):
+    v = load_catalogue().variant("heavy_top_spin_1e3")
+    scene = variant_scene(v)
+    for method, runs in [("rk4", "rk4_compiled"), ("DOP853", "dop853_compiled"), ("euler", "euler")]:
+        spec = TrialSpec(v.name, "inhouse", method, 1e-3, 0.01, 1e-3, 1e-8, "nominal")
+        assert run_settings(scene, spec).integrator == runs
+    spec = TrialSpec(v.name, "mujoco", "RK4", 1e-3, 0.01, 1e-3, 1e-8, "nominal")
+    assert run_settings(scene, spec).integrator == "RK4"
 
 
 def test_step_search_stops_on_a_failure_no_step_size_cures():
@@ -427,6 +470,22 @@ def test_the_engine_mode_family_follows_the_status_not_the_text():
     assert mode("blowup", "non-finite DOP853 error estimate (a stage overflowed)") == "nan"
     assert mode("unsupported", "rk4_compiled: the compiled in-house solver does not model rolling contacts") == "unsupported"
     assert "unsupported" not in FAILURE_MODES
+
+
+def test_the_compiled_runs_fail_in_the_same_modes_as_the_per_state_ones():
+    """The stress rows of rk4 and DOP853 run the compiled twins: their failures must land in the
+    modes the per-state engine's do (a disk landing flat was a solver failure, not a singular
+    constraint, before the compiled message was read)."""
+    from harness.engines.inhouse.compiled import kernels
+    from harness.engines.inhouse.compiled.solver import STATUS
+
+    def mode(code):
+        status, message = STATUS[code]
+        return engine_mode(failed("inhouse", "rk4_compiled", ["body"], status, message + " (t = 0.1 s)"))
+
+    assert mode(kernels.FLAT_DISK) == "singular constraint"
+    assert mode(kernels.SINGULAR) == "singular constraint"
+    assert mode(kernels.TOO_MANY_STEPS) == "solver failure"
 
 
 def test_a_non_finite_compiled_error_estimate_is_a_blowup():

@@ -84,8 +84,7 @@ class MujocoEngine:
         try:
             for k in range(n):
                 if k > 0:
-                    for _ in range(settings.steps_per_save):
-                        mujoco.mj_step(m, d)
+                    mujoco.mj_step(m, d, settings.steps_per_save)  # MuJoCo's own loop: one call per saved sample
                 mujoco.mj_forward(m, d)
                 bad = [w for w in _BAD_WARNINGS if d.warning[getattr(mujoco.mjtWarning, w)].number]
                 if bad or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):

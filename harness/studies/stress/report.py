@@ -179,8 +179,11 @@ def markdown(run: StressRun, prov: dict, plots: dict[str, str], command: str | N
         f"{cat.bounds.quick_bisect_iters if run.quick else cat.bounds.bisect_iters} bisections, stop at a ratio "
         f"<= {1 + cat.bounds.precision:g}); each trial in its own worker. `≥x`: stable at the largest step tried; "
         "`<x`: no stable step found down to x (step budget or search limit); `x E`: stable at x, failure mode E "
-        "at the next larger step tried. Adaptive SciPy methods run once (rtol in the catalogue): `~h` is their "
-        "mean step, `✓` accurate, `✗acc` stable but outside the band.",
+        "at the next larger step tried. Error-controlled methods (the in-house SciPy methods, Drake's RK3, RK5 and "
+        "Radau3) run once (rtol in the catalogue, largest step the save interval): `~h` is their "
+        "mean step, `✓` accurate, `✗acc` stable but outside the band. The in-house `rk4` and `DOP853` rows and "
+        "the DOP853 references run their compiled twins (`rk4_compiled`: rk4's trajectory to round-off; "
+        "`dop853_compiled`: the same method with its own step-size control).",
         f"* **Error**: `exact` ({_exact_measures(run)}), else the "
         "largest relative trajectory error against the in-house DOP853 reference (rtol 1e-12), else the energy "
         "error. **First divergence**: the first saved time a quantity leaves its band, at the nominal step.",

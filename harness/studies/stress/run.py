@@ -5,8 +5,15 @@ the scenes: a scene, parameter overrides, optional body mass scalings, a horizon
 step, the largest step to try, the integrators per engine, the references and tolerance bands.
 For each variant and each engine/integrator, ``run_stress`` finds the largest stable fixed step
 by bisection and reports the error there; at the nominal step it reports the time each quantity
-first leaves its tolerance band and the class of the energy drift. Adaptive (SciPy) methods are
-run once at the catalogue's ``rtol`` instead. Every trial runs in its own worker process with a
+first leaves its tolerance band and the class of the energy drift. Error-controlled methods (every
+integrator its engine's table marks adaptive: the in-house SciPy methods, Drake's RK3, RK5 and
+Radau3) are run once at the catalogue's ``rtol`` instead, their largest step the save interval.
+The in-house ``rk4`` and ``DOP853`` runs, and the DOP853 references, run their compiled twins
+wherever the compiled form models the scene (``harness.engines.inhouse.fast_method``; the rows
+keep the catalogue's names): ``rk4_compiled`` gives rk4's trajectory to round-off and fails in
+the same modes; ``dop853_compiled`` is the same method with its own step-size control, so its
+steps and errors differ from SciPy's within the tolerance (mean steps 0-10 % apart on the
+catalogue). Every trial runs in its own worker process with a
 timeout (``harness.validate.workers.run_cases``): a crash or hang is that trial's failure mode.
 
 Stability (``evaluate``)
@@ -103,6 +110,7 @@ from harness.measure import exact
 from harness.measure import invariants
 from harness.measure import quantities
 from harness.engines import ENGINE_NAMES, get_engine
+from harness.engines import integrator as integrator_record
 from harness.engines.base import RunSettings
 from harness.model.errors import InputError
 from harness.model.multibody import Multibody
@@ -115,7 +123,6 @@ DEFAULT_CATALOGUE = Path(__file__).resolve().with_name("catalogue.toml")
 QUANTITIES = ("exact", "position", "orientation", "velocity", "angular_velocity", "energy")
 TRAJECTORY_QUANTITIES = quantities.NAMES  # position, orientation, velocity, angular_velocity
 REFERENCE_KINDS = ("exact", "dop853")
-ADAPTIVE = ("RK45", "DOP853", "Radau", "BDF", "LSODA")  # the in-house engine's SciPy methods
 REFERENCE_TOL = 1e-12
 FAILURE_MODES = {  # mode -> one-letter code of the map
     "nan": "N", "badqacc": "Q", "solver failure": "S", "magnitude growth": "M", "energy growth": "E",
@@ -154,7 +161,8 @@ class Variant:
 
     ``integrators`` maps engine -> integrator names; ``band`` maps quantity -> tolerance;
     ``scale`` maps body name -> factor on its mass and inertia; ``t_end_by_engine`` shortens
-    the horizon per engine.
+    the horizon per engine (key ``"drake"``) or per engine and integrator (``"drake/RK5"``,
+    which wins over the engine's key).
     """
 
     name: str
@@ -177,9 +185,10 @@ class Variant:
     integrators: Mapping[str, tuple[str, ...]]
     rtol: float
 
-    def horizon(self, engine: str) -> float:
-        """The horizon (s) of ``engine``'s runs."""
-        return float(self.t_end_by_engine.get(engine, self.t_end))
+    def horizon(self, engine: str, integrator: str | None = None) -> float:
+        """The horizon (s) of ``engine``'s runs (of its ``integrator``'s, when given)."""
+        by = self.t_end_by_engine
+        return float(by.get(f"{engine}/{integrator}", by.get(engine, self.t_end)))
 
 
 @dataclass(frozen=True)
@@ -279,9 +288,12 @@ def _variant(name: str, spec: Mapping, defaults: Mapping, path: Path, quick: boo
         for integ in names:
             if integ not in known:
                 raise InputError(f"{where}: unknown integrator {integ!r} for {engine} (known: {', '.join(known)})")
-    for engine in by_engine:
+    for key in by_engine:
+        engine, _, integ = key.partition("/")
         if engine not in ENGINE_NAMES:
             raise InputError(f"{where}: t_end_by_engine: unknown engine {engine!r}")
+        if integ and integ not in get_engine(engine).integrators:
+            raise InputError(f"{where}: t_end_by_engine: unknown integrator {integ!r} for {engine}")
     refs = tuple(spec.get("references", defaults.get("references", ["dop853"])))
     for r in refs:
         if r not in REFERENCE_KINDS:
@@ -455,11 +467,22 @@ def _quiet_mujoco() -> None:
         pass
 
 
+def run_settings(scene: Scene, spec: TrialSpec) -> RunSettings:
+    """The settings a trial runs with: an in-house run takes the compiled twin of the trial's
+    method where the compiled form models the scene (``harness.engines.inhouse.fast_method``)."""
+    settings = settings_of(spec)
+    if spec.engine == "inhouse":
+        from harness.engines.inhouse import fast_method
+
+        settings = replace(settings, integrator=fast_method(settings.integrator, scene.multibody()))
+    return settings
+
+
 def trial_case(scene: Scene, spec: TrialSpec, ref: Reference, bounds: Bounds) -> TrialResult:
     """Worker body: make one run and evaluate it."""
     _quiet_mujoco()
     t0 = time.perf_counter()
-    traj = get_engine(spec.engine).simulate(scene, settings_of(spec))
+    traj = get_engine(spec.engine).simulate(scene, run_settings(scene, spec))
     return evaluate(traj, scene, spec, ref, bounds, time.perf_counter() - t0)
 
 
@@ -467,7 +490,7 @@ def reference_case(scene: Scene, spec: TrialSpec, judge: Reference, bounds: Boun
     """Worker body: the DOP853 reference run, and its own evaluation against the closed form
     (``judge`` without a trajectory)."""
     t0 = time.perf_counter()
-    traj = get_engine("inhouse").simulate(scene, settings_of(spec))
+    traj = get_engine("inhouse").simulate(scene, run_settings(scene, spec))
     result = evaluate(traj, scene, spec, judge, bounds, time.perf_counter() - t0)
     return traj, result
 
@@ -506,7 +529,7 @@ def engine_mode(traj: Trajectory) -> str:
         if "beyond" in msg:  # every engine's speed guard: "<speed> ... beyond <BLOWUP_SPEED>"
             return "magnitude growth"
         return "nan"
-    if "Flat" in msg or "singular" in msg:
+    if "flat" in msg.lower() or "singular" in msg:  # FlatDiskError (per-state), "the disk lies flat" (compiled)
         return "singular constraint"
     if "projection" in msg:
         return "constraint drift"
@@ -698,10 +721,10 @@ class StepSearch:
 
     def __init__(self, variant: Variant, engine: str, integrator: str, bounds: Bounds, *, quick: bool = False):
         self.variant, self.engine, self.integrator = variant, engine, integrator
-        self.t_end = variant.horizon(engine)
+        self.t_end = variant.horizon(engine, integrator)
         self.save = variant.save_every
         self.n_saves = int(round(self.t_end / self.save))
-        self.adaptive = integrator in ADAPTIVE
+        self.adaptive = integrator_record(engine, integrator).adaptive  # error-controlled: run once at rtol
         self.bounds = bounds
         self.max_iters = bounds.quick_bisect_iters if quick else bounds.bisect_iters
         budget = bounds.max_steps.get(engine)
@@ -961,8 +984,8 @@ def select(catalogue: Catalogue, names: list[str] | None, engines: list[str] | N
 
 
 def _cost(spec: TrialSpec) -> float:
-    if spec.integrator in ADAPTIVE:
-        return 20.0 * spec.t_end / spec.save_every * _COST_PER_STEP[spec.engine]
+    if spec.role in ("adaptive", "reference"):  # error-controlled: ~20 steps per saved interval, a guess
+        return 20.0 * spec.t_end / spec.save_every * _COST_PER_STEP.get(spec.engine, 1e-4)
     return spec.t_end / spec.dt * _COST_PER_STEP.get(spec.engine, 1e-4)
 
 
@@ -1023,7 +1046,7 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
     ref_rows: dict[str, TrialResult] = {}
     ref_todo: dict[str, TrialSpec] = {}
     for v in runnable:
-        used = [v.horizon(e) for e in engines if v.integrators.get(e)]
+        used = [v.horizon(e, i) for e in engines for i in v.integrators.get(e, ())]
         if "dop853" in v.references and used:  # over the longest horizon any engine runs
             ref_todo[v.name] = TrialSpec(v.name, "reference", f"DOP853 rtol {REFERENCE_TOL:g}", v.save_every,
                                          max(used), v.save_every, REFERENCE_TOL, "reference")
@@ -1035,12 +1058,17 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
     if progress is not None:
         progress.total = len(searches)
         progress.refresh()
-    from harness.engines.inhouse import COMPILED_KERNEL, announce_compilation, load_compiled
+    from harness.engines.inhouse import COMPILED_KERNEL, announce_compilation, fast_method, load_compiled
 
     # a compiled in-house method with a cold Numba cache: the parent says so once, not each worker,
     # and loads the kernels once for the workers it forks
-    compiled_runs = [(s.integrator, scenes[s.variant.name].multibody()) for s in searches
-                     if s.engine == "inhouse" and s.integrator in COMPILED_KERNEL]
+    compiled_runs = []
+    inhouse_runs = {(s.integrator, s.variant.name) for s in searches if s.engine == "inhouse"}
+    for method, name in sorted(inhouse_runs | {("DOP853", name) for name in ref_todo}):
+        model = scenes[name].multibody()
+        twin = fast_method(method, model)
+        if twin in COMPILED_KERNEL:
+            compiled_runs.append((twin, model))
     announce_compilation(compiled_runs)
     load_compiled(compiled_runs)
     in_flight = {id(s): 0 for s in searches}
