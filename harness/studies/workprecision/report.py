@@ -41,7 +41,8 @@ def _style(label: str, index: int) -> dict:
         color = {"RK4": "tab:blue", "Euler": "tab:cyan", "implicit": "tab:purple", "implicitfast": "tab:olive"}[integ]
     elif engine == "inhouse":
         color = {"rk4": "salmon", "euler": "rosybrown", "RK45": "tab:pink", "DOP853": "tab:orange",
-                 "rk4_compiled": "magenta", "dop853_compiled": "tab:brown"}.get(label.split()[1], "black")
+                 "rk4_compiled": "magenta", "rkmk4_compiled": "darkred", "dop853_compiled": "tab:brown"}.get(
+                    label.split()[1], "black")
     elif engine == "pinocchio":
         color = {"rkmk4": "tab:green", "euler": "yellowgreen"}[label.split()[1]]
     elif engine == "drake":

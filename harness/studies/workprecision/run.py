@@ -22,8 +22,9 @@ What is swept, per scene (``curves``):
   whole run: building the Exudyn system, solving, reading the sensors).
 * In-house, all through ``InhouseEngine.simulate``: the compiled methods (variant ``compiled``;
   the integration alone, the kernel compiled before the clock starts; ``time_total_s`` adds
-  building the model and converting the result): rk4_compiled over timesteps, dop853_compiled
-  over tolerances; and the per-state methods (variant ``per-state``, the slow readable oracle;
+  building the model and converting the result): rk4_compiled and rkmk4_compiled (RK4 in
+  Runge-Kutta-Munthe-Kaas form on SO(3): exact for a constant-rate rotation) over timesteps,
+  dop853_compiled over tolerances; and the per-state methods (variant ``per-state``, the slow readable oracle;
   the engine's whole run): rk4, euler over timesteps and SciPy's RK45, DOP853 over tolerances,
   by default only on a scene the compiled form does not model (``per_state``, below).
 
@@ -624,7 +625,7 @@ def curves(engines) -> list[Curve]:
         from harness.engines.inhouse.integrators import COMPILED
 
         out += [Curve("inhouse", m, "compiled" if m in COMPILED else "per-state")
-                for m in ("rk4", "euler", "RK45", "DOP853", "rk4_compiled", "dop853_compiled")]
+                for m in ("rk4", "euler", "RK45", "DOP853", "rk4_compiled", "rkmk4_compiled", "dop853_compiled")]
     return out
 
 
