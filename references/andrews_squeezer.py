@@ -72,6 +72,7 @@ __all__ = [
     "angle_vectors",
     "points",
     "point_kinematics",
+    "all_point_kinematics",
     "dynamics_terms",
     "accelerations",
     "energy",
@@ -158,29 +159,52 @@ def point_kinematics(chain, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, n
     return P, J, b
 
 
+_POINT_ORDER = ("c1", "c2", "c3", "c4", "c5", "c6", "c7", "D", "E2", "E3", "E4", "E6")
+
+
+@lru_cache(maxsize=16)
+def _point_table(items: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every chain of ``points`` in ``_POINT_ORDER`` as arrays, for ``point_kinematics`` of all of
+    them at once: P_0 (12, 2), each term's body index (T,) and vector r (T, 2), and the incidence
+    S (12, T) (S[p, t] = 1 when term t belongs to point p). Cached per parameter set."""
+    pts = points(dict(items))
+    P0 = np.array([pts[name][0] for name in _POINT_ORDER], dtype=float)
+    terms = [(i, k, r) for i, name in enumerate(_POINT_ORDER) for k, r in pts[name][1]]
+    S = np.zeros((len(_POINT_ORDER), len(terms)))
+    for t, (i, _, _) in enumerate(terms):
+        S[i, t] = 1.0
+    return P0, np.array([k for _, k, _ in terms]), np.array([r for _, _, r in terms], dtype=float), S
+
+
+def all_point_kinematics(p: dict, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``point_kinematics`` of every point of ``points`` at once, in ``_POINT_ORDER`` (the centres
+    c1..c7, D, E2, E3, E4, E6): P (12, 2) m, J_P (12, 2, 7) m/rad, b_P (12, 2) m/s^2 (step 1)."""
+    P0, body, r, S = _point_table(tuple(sorted(p.items())))
+    a, w = (_N @ q)[body], (_N @ v)[body]
+    c, s = np.cos(a), np.sin(a)
+    Rr = np.stack([c * r[:, 0] - s * r[:, 1], s * r[:, 0] + c * r[:, 1]], axis=1)  # R(a_j) r_j, (T, 2)
+    dRr = np.stack([-Rr[:, 1], Rr[:, 0]], axis=1)  # R(a_j + pi/2) r_j
+    J = (S @ (dRr[:, :, None] * _N[body][:, None, :]).reshape(len(body), 14)).reshape(-1, 2, 7)
+    return P0 + S @ Rr, J, -(S @ (Rr * (w * w)[:, None]))
+
+
 def dynamics_terms(p: dict, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(M, f, g, G, b_g)`` at (q, q'): mass matrix (7, 7) kg m^2, generalised forces f (7,)
     (velocity products, motor, spring, gravity; N m), closure g (6,) m, G = dg/dq (6, 7) m/rad and
-    the velocity-product part of g'' (6,) m/s^2 (steps 1-4)."""
-    pts = points(p)
-    M = np.zeros((7, 7))
-    f = np.zeros(7)
-    for k in range(7):
-        m, i = p[f"m{k + 1}"], p[f"i{k + 1}"]
-        _, J, b = point_kinematics(pts[f"c{k + 1}"], q, v)
-        M += m * J.T @ J + i * np.outer(_N[k], _N[k])
-        f -= m * J.T @ b
-        f[:] -= p["g"] * m * J[1]
+    the velocity-product part of g'' (6,) m/s^2 (steps 1-4), from ``all_point_kinematics``."""
+    P, J, b = all_point_kinematics(p, q, v)
+    m = np.array([p[f"m{k + 1}"] for k in range(7)])
+    inertia = np.array([p[f"i{k + 1}"] for k in range(7)])
+    Jc, bc = J[:7], b[:7]  # the centres of mass
+    M = np.einsum("k,kci,kcj->ij", m, Jc, Jc) + (_N.T * inertia) @ _N
+    f = -np.einsum("k,kci,kc->i", m, Jc, bc) - p["g"] * (m @ Jc[:, 1, :])
     f[0] += p["mom"]
-    D, JD, _ = point_kinematics(pts["D"], q, v)
-    d = D - np.array([p["xc"], p["yc"]])
+    d = P[7] - np.array([p["xc"], p["yc"]])  # the spring, from D to C
     L = float(np.hypot(*d))
-    f += JD.T @ (-p["c0"] * (L - p["l0"]) / L * d)
-    E2, J2, b2 = point_kinematics(pts["E2"], q, v)
-    g, G, bg = np.zeros(6), np.zeros((6, 7)), np.zeros(6)
-    for j, other in enumerate(("E3", "E4", "E6")):
-        Ek, Jk, bk = point_kinematics(pts[other], q, v)
-        g[2 * j:2 * j + 2], G[2 * j:2 * j + 2], bg[2 * j:2 * j + 2] = E2 - Ek, J2 - Jk, b2 - bk
+    f += J[7].T @ (-p["c0"] * (L - p["l0"]) / L * d)
+    g = (P[8] - P[9:]).ravel()  # E through body 2 minus E through bodies 3, 4, 6
+    G = (J[8] - J[9:]).reshape(6, 7)
+    bg = (b[8] - b[9:]).ravel()
     return M, f, g, G, bg
 
 

@@ -76,6 +76,21 @@ def test_the_derived_equations_are_the_test_sets_printed_ones(params):
         assert np.allclose(G, builder.closure(params, q)[1], rtol=1e-12, atol=1e-16)
 
 
+def test_all_points_at_once_are_each_points_chain(params):
+    """``all_point_kinematics`` (what the dynamics use) is ``point_kinematics`` of each chain."""
+    rng = np.random.default_rng(11)
+    chains = ref.points(params)
+    names = ("c1", "c2", "c3", "c4", "c5", "c6", "c7", "D", "E2", "E3", "E4", "E6")
+    assert set(chains) == set(names)
+    for _ in range(10):
+        q, v = rng.uniform(-np.pi, np.pi, 7), rng.uniform(-100.0, 100.0, 7)
+        P, J, b = ref.all_point_kinematics(params, q, v)
+        for k, name in enumerate(names):
+            Pk, Jk, bk = ref.point_kinematics(chains[name], q, v)
+            assert np.allclose(P[k], Pk, rtol=0, atol=1e-15) and np.allclose(J[k], Jk, rtol=0, atol=1e-15)
+            assert np.allclose(b[k], bk, rtol=1e-14, atol=1e-12)
+
+
 def test_the_velocity_product_term_of_the_closure_is_its_second_derivative(params):
     """b_g = d(G q')/dt at constant q'': a finite difference of G(q + h q') q' along the motion."""
     rng = np.random.default_rng(3)
