@@ -298,9 +298,10 @@ def closing_note(run: StressRun) -> list[str]:
         n = m.nominal
         if n is None or m.unsupported:
             return ""
+        where = "of its run" if m.kind == "adaptive" else f"at the nominal step {_fmt(n.spec.dt)} s"
         if not n.stable:
-            return f"; at the nominal step {_fmt(n.spec.dt)} s: {n.mode}"
-        return f"; energy drift at the nominal step {_fmt(n.spec.dt)} s: **{n.drift_class}** (p = {n.drift_p:.2f}, max {_fmt(n.energy_error)})"
+            return f"; {where}: {n.mode}"
+        return f"; energy drift {where}: **{n.drift_class}** (p = {n.drift_p:.2f}, max {_fmt(n.energy_error)})"
 
     block("Fastest spin", _extreme(run, "fast_spin"))
     block("Stiffest spring", _extreme(run, "stiff"))
