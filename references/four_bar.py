@@ -109,6 +109,7 @@ may branch; the reference is not meant for it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING, Mapping
@@ -310,26 +311,26 @@ def accelerations(params, y: np.ndarray, alpha: float = 0.0) -> tuple[np.ndarray
     """(q̈ (rad/s²), λ (N)) at the state y = (θ, β, γ, θ̇, β̇, γ̇) from the index-1 system with
     Baumgarte gain α (module docstring)."""
     p = _params(params)
-    th, be, ga, dth, dbe, dga = y
+    th, be, ga, dth, dbe, dga = (float(v) for v in y)  # scalar math: this is the reference's inner loop
     J_a, J_b, J_c, k = _moments(p)
-    s, cth = np.sin(th - be), np.cos(th - be)
-    sth, cth_, sbe, cbe, sga, cga = np.sin(th), np.cos(th), np.sin(be), np.cos(be), np.sin(ga), np.cos(ga)
+    s, cth = math.sin(th - be), math.cos(th - be)
+    sth, cth_, sbe, cbe, sga, cga = math.sin(th), math.cos(th), math.sin(be), math.cos(be), math.sin(ga), math.cos(ga)
     a, b, c, d = p.a, p.b, p.c, p.d
-    A = np.zeros((5, 5))
-    A[0, 0], A[0, 1], A[1, 0], A[1, 1], A[2, 2] = J_a + p.m_coupler * a * a, k * cth, k * cth, J_b, J_c
-    Jq = np.array([[-a * sth, -b * sbe, c * sga], [a * cth_, b * cbe, -c * cga]])
-    A[:3, 3:] = -Jq.T
-    A[3:, :3] = Jq
-    rhs = np.empty(5)
-    rhs[0] = -k * s * dbe * dbe - p.g * (0.5 * p.m_crank + p.m_coupler) * a * cth_
-    rhs[1] = k * s * dth * dth - p.g * 0.5 * p.m_coupler * b * cbe
-    rhs[2] = -p.g * 0.5 * p.m_rocker * c * cga
-    gam = np.array([a * cth_ * dth * dth + b * cbe * dbe * dbe - c * cga * dga * dga,
-                    a * sth * dth * dth + b * sbe * dbe * dbe - c * sga * dga * dga])
+    Jq = [[-a * sth, -b * sbe, c * sga], [a * cth_, b * cbe, -c * cga]]
+    gam = [a * cth_ * dth * dth + b * cbe * dbe * dbe - c * cga * dga * dga,
+           a * sth * dth * dth + b * sbe * dbe * dbe - c * sga * dga * dga]
     if alpha:
-        phi = np.array([a * cth_ + b * cbe - d - c * cga, a * sth + b * sbe - c * sga])
-        gam -= 2.0 * alpha * (Jq @ y[3:]) + alpha * alpha * phi
-    rhs[3:] = gam
+        phi = (a * cth_ + b * cbe - d - c * cga, a * sth + b * sbe - c * sga)
+        for i in range(2):
+            gam[i] -= 2.0 * alpha * (Jq[i][0] * dth + Jq[i][1] * dbe + Jq[i][2] * dga) + alpha * alpha * phi[i]
+    A = np.array([[J_a + p.m_coupler * a * a, k * cth, 0.0, -Jq[0][0], -Jq[1][0]],
+                  [k * cth, J_b, 0.0, -Jq[0][1], -Jq[1][1]],
+                  [0.0, 0.0, J_c, -Jq[0][2], -Jq[1][2]],
+                  Jq[0] + [0.0, 0.0],
+                  Jq[1] + [0.0, 0.0]])
+    rhs = np.array([-k * s * dbe * dbe - p.g * (0.5 * p.m_crank + p.m_coupler) * a * cth_,
+                    k * s * dth * dth - p.g * 0.5 * p.m_coupler * b * cbe,
+                    -p.g * 0.5 * p.m_rocker * c * cga, gam[0], gam[1]])
     sol = np.linalg.solve(A, rhs)
     return sol[:3], sol[3:]
 
