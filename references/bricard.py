@@ -298,13 +298,15 @@ def _body_inertia(p: BricardParams) -> np.ndarray:
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b of two 3-vectors (faster than np.cross on single vectors)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    """a × b of two 3-vectors (faster than np.cross on single vectors: Python floats)."""
+    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()
+    return np.array((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0))
 
 
 def _kinetics(p: BricardParams, q, qd, qdd):
     """Per link (arrays (5, 3)): centre of mass x, its velocity v and acceleration a, angular
-    velocity w and acceleration al (world frame), and I^W (5, 3, 3); the tree recursion with hinge
+    velocity w and acceleration al (world frame), I^W (5, 3, 3), and each link's hinge axis u
+    and hinge point o (world, (5, 3), m); the tree recursion with hinge
     rates ``qd`` and accelerations ``qdd``:
         ω_i = ω_{i−1} + u_i q̇_i,  α_i = α_{i−1} + u_i q̈_i + ω_{i−1} × u_i q̇_i,  u_i = R_{i−1} a_i,
     the hinge point o_i = o_{i−1} + r (r along link i−1) moving with link i−1, the centre of mass
@@ -312,7 +314,7 @@ def _kinetics(p: BricardParams, q, qd, qdd):
     I_b = _body_inertia(p)
     Rp, o, h_prev = np.eye(3), np.zeros(3), np.zeros(3)
     w_p, al_p, vo, ao = np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3)
-    X, V, A, W, AL = (np.empty((5, 3)) for _ in range(5))
+    X, V, A, W, AL, U, O = (np.empty((5, 3)) for _ in range(7))
     IW = np.empty((5, 3, 3))
     for i in range(5):
         r = Rp @ (p.L * (_HINGES[i] - h_prev))
@@ -328,9 +330,9 @@ def _kinetics(p: BricardParams, q, qd, qdd):
         wd = _cross(w, d)
         X[i], V[i] = o + d, vo + wd
         A[i] = ao + _cross(al, d) + _cross(w, wd)
-        W[i], AL[i], IW[i] = w, al, R @ I_b[i] @ R.T
+        W[i], AL[i], IW[i], U[i], O[i] = w, al, R @ I_b[i] @ R.T, u, o
         Rp, h_prev, w_p, al_p = R, _HINGES[i], w, al
-    return X, V, A, W, AL, IW
+    return X, V, A, W, AL, IW, U, O
 
 
 def mass_function(params, theta: float) -> tuple[float, float, float]:
@@ -339,7 +341,7 @@ def mass_function(params, theta: float) -> tuple[float, float, float]:
     p = _params(params)
     phi, d1, d2 = closure_phi(theta), dphi_dtheta(theta), d2phi_dtheta2(theta)
     q = joint_angles(theta, phi)
-    _, Vc, Ac, Om, B, IW = _kinetics(p, q, joint_angles(1.0, d1), joint_angles(0.0, d2))
+    _, Vc, Ac, Om, B, IW, _, _ = _kinetics(p, q, joint_angles(1.0, d1), joint_angles(0.0, d2))
     IOm = np.einsum("kij,kj->ki", IW, Om)
     M = p.m * np.sum(Vc * Vc) + np.sum(Om * IOm)
     half_dM = p.m * np.sum(Vc * Ac) + np.sum(Om * np.einsum("kij,kj->ki", IW, B))
@@ -359,6 +361,7 @@ def potential(params, theta, phi) -> np.ndarray:
 
 _S = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 0.0], [0.0, -1.0], [-1.0, 0.0]])  # q̇ = _S (θ̇, φ̇)
 _TREE = np.tril(np.ones((5, 5)))  # link i moves with hinges j ≤ i
+_G = _TREE[None, :, :] * _S.T[:, None, :]  # (2, 5, 5): G_k[i, j] = [j ≤ i] S[j, k]
 
 
 def _reduced(p: BricardParams, x, xd):
@@ -366,17 +369,17 @@ def _reduced(p: BricardParams, x, xd):
     geometric Jacobians (ω_i = Σ_{j≤i} u_j q̇_j, v_i = Σ_{j≤i} u_j × (x_i − o_j) q̇_j) times _S,
     and the velocity-product accelerations from ``_kinetics`` at q̈ = 0."""
     q = joint_angles(x[0], x[1])
-    X, _, A0, w, B0, IW = _kinetics(p, q, _S @ xd, np.zeros(5))
-    Rs, O, _ = forward_kinematics(p.L, q)
-    U = np.array([np.eye(3)[_AXES[0]]] + [Rs[j - 1][:, _AXES[j]] for j in range(1, 5)])
-    Jv = np.cross(U[None, :, :], X[:, None, :] - O[None, :, :]) * _TREE[:, :, None]  # (body, hinge, 3)
-    Jw = U[None, :, :] * _TREE[:, :, None]
-    Jv2, Jw2 = np.einsum("ijc,jk->ikc", Jv, _S), np.einsum("ijc,jk->ikc", Jw, _S)  # (body, 2, 3)
-    IJw = np.einsum("icd,ikd->ikc", IW, Jw2)
-    M2 = p.m * np.einsum("iac,ibc->ab", Jv2, Jv2) + np.einsum("iac,ibc->ab", Jw2, IJw)
-    torque = np.einsum("icd,id->ic", IW, B0) + np.cross(w, np.einsum("icd,id->ic", IW, w))
-    h = p.m * np.einsum("iac,ic->a", Jv2, A0) + np.einsum("iac,ic->a", Jw2, torque)
-    return M2, h, p.m * p.g * np.sum(Jv2[:, :, 2], axis=0)
+    X, _, A0, w, B0, IW, U, O = _kinetics(p, q, _S @ xd, np.zeros(5))
+    # with G_k[i, j] = [j <= i] S[j, k]: ω-Jacobian of body i along x_k  Σ_j G_k[i, j] u_j, and
+    # v-Jacobian  Σ_j G_k[i, j] u_j × (x_i − o_j) = (Σ_j G_k[i, j] u_j) × x_i − Σ_j G_k[i, j] u_j × o_j
+    Jw2 = _G @ U  # (2, body, 3)
+    Jv2 = np.cross(Jw2, X) - _G @ np.cross(U, O)
+    Jv2f, Jw2f = Jv2.reshape(2, 15), Jw2.reshape(2, 15)
+    IJw = (IW @ Jw2.transpose(1, 2, 0))  # (body, 3, 2): I_i^W times body i's ω-Jacobian
+    M2 = p.m * Jv2f @ Jv2f.T + np.einsum("kic,ica->ka", Jw2, IJw)
+    torque = (IW @ B0[:, :, None])[:, :, 0] + np.cross(w, (IW @ w[:, :, None])[:, :, 0])
+    h = p.m * Jv2f @ A0.ravel() + Jw2f @ torque.ravel()
+    return M2, h, p.m * p.g * np.sum(Jv2[:, :, 2], axis=1)
 
 
 def energy(params, theta, phi, dtheta, dphi) -> np.ndarray:
@@ -385,7 +388,7 @@ def energy(params, theta, phi, dtheta, dphi) -> np.ndarray:
     th, ph, dth, dph = np.broadcast_arrays(*(np.asarray(v, float) for v in (theta, phi, dtheta, dphi)))
     out = np.empty(th.shape)
     for k in np.ndindex(th.shape):
-        _, Vc, _, Om, _, IW = _kinetics(p, joint_angles(th[k], ph[k]), joint_angles(dth[k], dph[k]), np.zeros(5))
+        _, Vc, _, Om, _, IW, _, _ = _kinetics(p, joint_angles(th[k], ph[k]), joint_angles(dth[k], dph[k]), np.zeros(5))
         out[k] = 0.5 * (p.m * np.sum(Vc * Vc) + np.sum(Om * np.einsum("kij,kj->ki", IW, Om)))
     return out + potential(p, th, ph)
 
