@@ -20,6 +20,7 @@ from harness.cli import stress as cli_stress
 from harness.cli import sweep as cli_sweep
 from harness.cli import tools as cli_tools
 from harness.cli import workprecision as cli_workprecision
+from harness.engines import preload
 from harness.io.progress import set_quiet
 from harness.io.provenance import set_argv
 from harness.model.errors import InputError
@@ -283,6 +284,8 @@ def cmd_validate(args) -> int:
                 for m in (default_settings(s, "inhouse", not args.per_state), reference_settings(s, not args.per_state))]
         announce_compilation(runs)
         load_compiled(runs)  # here, once: the forked workers inherit the kernels
+    if not args.dask:
+        preload(engines)  # the engines' own lazy imports, once for the forked workers
     with make_bar(len(scenes) * (1 + len(engines)), desc="validate", unit="case", quiet=args.quiet) as bar:
         results = validate(scenes, engines, jobs=args.jobs or None, timeout=args.timeout, tolerance_changes=changes,
                            progress=bar, dask=args.dask, fast=not args.per_state)

@@ -14,6 +14,7 @@ import sys
 
 from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_dask, add_engines, check_selection, connect_dask,
                                    float_arg as _float, int_arg as _int, models_dir_arg as _models_dir)
+from harness.engines import preload
 
 EXIT_OK = 0
 
@@ -111,6 +112,8 @@ def run(args) -> int:
         announce_compilation(runs)
         load_compiled(runs)  # here, once: the forked workers inherit the kernels
     runnable = [e for e in engines if e not in scene.not_run]
+    if not args.dask:
+        preload(runnable)  # the engines' own lazy imports, once for the forked workers
     lines = not (args.quiet or bar_enabled())
     with make_bar(len(points) * (1 + len(runnable)), desc=f"sweep {scene.name}", unit="run", quiet=args.quiet) as bar:
         result = run_sweep(scene, axes, points, engines, mode="grid" if grid else "random",

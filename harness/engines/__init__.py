@@ -29,3 +29,17 @@ def integrator(engine: str, method: str):
     if method not in table:
         raise InputError(f"unknown integrator {method!r} for engine {engine} (known: {', '.join(table)})")
     return table[method]
+
+
+def preload(engines) -> None:
+    """Import, in a parent about to fork one worker per run, what each of ``engines`` would
+    import at its first run (an engine's optional ``preload()``: Drake's pydrake modules), so
+    that the forked workers start with it. An engine that is not installed is left to its runs
+    to report (its ImportError here is ignored)."""
+    for name in engines:
+        hook = getattr(get_engine(name), "preload", None)
+        if hook is not None:
+            try:
+                hook()
+            except ImportError:
+                pass

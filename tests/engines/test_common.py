@@ -71,3 +71,20 @@ def test_blowup_is_recorded_not_raised(engine):
 def test_unknown_engine():
     with pytest.raises(InputError, match="unknown engine 'bullet'"):
         get_engine("bullet")
+
+
+def test_preload_leaves_an_engine_that_is_not_installed_to_its_runs(monkeypatch):
+    """``preload`` runs each engine's optional ``preload()``; one that raises ImportError (an
+    engine not installed) does not stop the others or the command: its runs report it."""
+    from harness.engines import preload
+
+    calls = []
+
+    def missing():
+        calls.append("drake")
+        raise ImportError("No module named 'pydrake'")
+
+    monkeypatch.setattr(get_engine("drake"), "preload", missing, raising=False)
+    monkeypatch.setattr(get_engine("mujoco"), "preload", lambda: calls.append("mujoco"), raising=False)
+    preload(["drake", "mujoco", "inhouse"])
+    assert calls == ["drake", "mujoco"]

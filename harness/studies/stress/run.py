@@ -109,7 +109,7 @@ from harness.measure import compare
 from harness.measure import exact
 from harness.measure import invariants
 from harness.measure import quantities
-from harness.engines import ENGINE_NAMES, get_engine
+from harness.engines import ENGINE_NAMES, get_engine, preload
 from harness.engines import integrator as integrator_record
 from harness.engines.base import RunSettings
 from harness.model.errors import InputError
@@ -1071,6 +1071,8 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
             compiled_runs.append((twin, model))
     announce_compilation(compiled_runs)
     load_compiled(compiled_runs)
+    if not dask:
+        preload(engines)  # the engines' own lazy imports (Drake's), once for the forked workers
     in_flight = {id(s): 0 for s in searches}
     left = {v.name: sum(s.variant.name == v.name for s in searches) for v in runnable}
     counts = {"trials": 0}

@@ -128,3 +128,26 @@ def test_the_rolling_disk_is_not_run_and_says_why():
     assert "drake" in scene.not_run and "rolling constraint" in scene.not_run["drake"]
     tr = ENGINE.simulate(scene, RunSettings(0.1, scene.dt, scene.save_every, "RK5"))
     assert tr.unsupported and "rolling" in tr.message and len(tr.t) == 0
+
+
+def test_preload_imports_every_pydrake_module_a_run_imports():
+    """``preload`` (called by the parents of validate, stress and sweep before they fork) leaves
+    a run nothing of pydrake to import: in a fresh interpreter, a run after it imports no
+    further pydrake module."""
+    code = (
+        "import sys\n"
+        "from harness.engines import get_engine, preload\n"
+        "from harness.engines.base import RunSettings\n"
+        "from harness.model.scene import load_scene\n"
+        "preload(['drake'])\n"
+        "before = {m for m in sys.modules if m.startswith('pydrake')}\n"
+        "scenes = [load_scene(n) for n in ('heavy_top', 'spring_pendulum', 'cart_pendulum', 'torque_free')]\n"
+        "scenes.append(load_scene('double_pendulum').with_params(F0=2.0, omega_f=3.0))  # a prescribed force\n"
+        "for scene in scenes:\n"
+        "    tr = get_engine('drake').simulate(scene, RunSettings(0.01, 0.001, 0.01, 'RK5'))\n"
+        "    assert tr.ok, tr.message\n"
+        "print(sorted({m for m in sys.modules if m.startswith('pydrake')} - before))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]", out.stdout
