@@ -345,6 +345,27 @@ def test_cli_stress_bad_input(tmp_path, capsys, args, fragment):
     assert not (tmp_path / "r").exists()
 
 
+def test_plots_are_drawn_in_workers_and_a_crash_is_named(monkeypatch):
+    """Each figure is drawn in its own worker: the PNGs come back in order, and a worker that
+    dies is an error naming the figure, not a report with a hole."""
+    import os
+    from types import SimpleNamespace
+
+    from harness.studies.stress import report
+
+    variants = [SimpleNamespace(name=n, sweep=None, group=n) for n in ("a", "b")]
+    fake = SimpleNamespace(variants=variants, skipped={})
+    monkeypatch.setattr(report, "map_png", lambda run: b"map")
+    monkeypatch.setattr(report, "variant_png", lambda run, v: f"png {v.name} {os.getpid()}".encode())
+    refs, files = report.plot_files(fake)
+    assert refs == {"map": "stress/map.png", "a": "stress/a.png", "b": "stress/b.png"}
+    assert files["stress/a.png"].startswith(b"png a ") and files["stress/map.png"] == b"map"
+    assert int(files["stress/a.png"].split()[-1]) != os.getpid()  # drawn in a worker
+    monkeypatch.setattr(report, "variant_png", lambda run, v: os._exit(3) if v.name == "b" else b"ok")
+    with pytest.raises(RuntimeError, match="stress plot b.png: crashed"):
+        report.plot_files(fake)
+
+
 def test_map_tells_none_stable_from_not_run():
     """A searched cell with no stable step, an engine/integrator the variant does not list, a
     skipped variant and a stable cell get their own state and colour."""
