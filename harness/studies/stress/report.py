@@ -17,7 +17,7 @@ import pandas as pd
 from harness.io import atomic
 from harness.io.figures import new_figure, png_bytes
 from harness.studies.stress.run import FAILURE_MODES, QUANTITIES, MapRow, StressRun, TrialResult, Variant
-from harness.validate.workers import run_cases
+from harness.validate.workers import effective_jobs, run_cases
 
 PLOT_DIR = "stress"
 DIVERGENCE_COLUMNS = ("exact", "position", "orientation", "velocity", "energy")
@@ -589,14 +589,20 @@ def write_plots(run: StressRun, out_dir: Path) -> dict[str, str]:
     return refs
 
 
-PLOT_TIMEOUT = 300.0  # s allowed to draw one figure
+PLOT_TIMEOUT = 600.0  # s allowed to one worker's share of the figures
+
+
+def _draw(todo: list[tuple[str, Callable, tuple]]) -> list[tuple[str, bytes | None]]:
+    """Worker body: draw a share of the figures, ``[(key, PNG bytes or None)]``."""
+    return [(key, fn(*args)) for key, fn, args in todo]
 
 
 def plot_files(run: StressRun) -> tuple[dict[str, str], dict[str, bytes]]:
     """The plots: (name -> path relative to the report folder, for the markdown; that relative
-    path -> PNG bytes). Each figure is drawn in its own worker process, one per core at a time
-    (``harness.validate.workers.run_cases``: the workers inherit ``run``; drawing the 31
-    figures of the full catalogue took 30-35 s on one core)."""
+    path -> PNG bytes). The figures are shared among worker processes, one per core
+    (``harness.validate.workers.run_cases``: the workers inherit ``run``; one worker per share,
+    not per figure, as each new process pays Matplotlib's first-figure setup, ~1 s; drawing the
+    31 figures of the full catalogue took 30-35 s on one core)."""
     todo: list[tuple[str, str, Callable, tuple]] = [("map", "map.png", map_png, (run,))]
     groups: dict[str, list[Variant]] = {}
     for v in run.variants:
@@ -608,16 +614,20 @@ def plot_files(run: StressRun) -> tuple[dict[str, str], dict[str, bytes]]:
     for v in run.variants:
         if v.name not in run.skipped:
             todo.append((v.name, f"{v.name}.png", variant_png, (run, v)))
-    drawn = run_cases([(key, fn, args) for key, _, fn, args in todo], None, PLOT_TIMEOUT)
+    shares = max(1, min(effective_jobs(None), len(todo)))
+    cases = [(i, _draw, ([(key, fn, args) for key, _, fn, args in todo[i::shares]],)) for i in range(shares)]
+    drawn: dict[str, bytes | None] = {}
+    for i, outcome in run_cases(cases, shares, PLOT_TIMEOUT).items():
+        if outcome.status != "ok":
+            names = ", ".join(name for _, name, _, _ in todo[i::shares])
+            raise RuntimeError(f"stress plots ({names}): {outcome.status}: {outcome.message}")
+        drawn.update(outcome.value)
     out: dict[str, str] = {}
     files: dict[str, bytes] = {}
     for key, name, _, _ in todo:
-        outcome = drawn[key]
-        if outcome.status != "ok":
-            raise RuntimeError(f"stress plot {name}: {outcome.status}: {outcome.message}")
-        if outcome.value:
+        if drawn[key]:
             out[key] = f"{PLOT_DIR}/{name}"
-            files[out[key]] = outcome.value
+            files[out[key]] = drawn[key]
     return out, files
 
 
