@@ -276,13 +276,12 @@ def cmd_validate(args) -> int:
     for scene in scenes:
         preflight(scene)
     if "inhouse" in engines:  # a compiled in-house default: its compilation announced once, here, not per worker
-        from harness.engines.inhouse import announce_compilation, load_compiled
+        from harness.engines.inhouse import load_compiled
 
         from harness.validate.run import default_settings, reference_settings
 
         runs = [(m.integrator, s.multibody()) for s in scenes
                 for m in (default_settings(s, "inhouse", not args.per_state), reference_settings(s, not args.per_state))]
-        announce_compilation(runs)
         load_compiled(runs)  # here, once: the forked workers inherit the kernels
     if not args.dask:
         preload(engines)  # the engines' own lazy imports, once for the forked workers

@@ -106,10 +106,9 @@ def run(args) -> int:
     folder = args.out_dir or default_out_dir("sweep", full_run=False) / scene.name
     check_writable(folder)
     if "inhouse" in engines:  # a compiled in-house default: its compilation announced once, here
-        from harness.engines.inhouse import announce_compilation, load_compiled
+        from harness.engines.inhouse import load_compiled
 
         runs = [(scene.integrators.get("inhouse", ""), scene.multibody())]
-        announce_compilation(runs)
         load_compiled(runs)  # here, once: the forked workers inherit the kernels
     runnable = [e for e in engines if e not in scene.not_run]
     if not args.dask:

@@ -288,11 +288,13 @@ def load_compiled(runs) -> None:
     Multibody)`` pairs, as ``announce_compilation`` takes them): load (or, with a cold cache,
     compile) the kernels their compiled methods need here, in the parent, so that every forked
     worker starts with them (loading them from Numba's cache costs 0.3-0.4 s per process, paid
-    by each case otherwise). Nothing is imported or loaded when no compiled method is among the
-    runs; a model outside the compiled form's scope is skipped."""
+    by each case otherwise). A cold compilation is announced first, once for all the kernels
+    (``announce_compilation``). Nothing is imported or loaded when no compiled method is among
+    the runs; a model outside the compiled form's scope is skipped."""
     runs = [(m, model) for m, model in runs if m in COMPILED_KERNEL]
     if not runs:
         return
+    announce_compilation(runs)
     from harness.engines.inhouse.compiled import solver as compiled
 
     for method, model in runs:

@@ -387,10 +387,9 @@ def loop_study(*, quick: bool = False, models_dir: Path | None = None, jobs: int
                     cases.append((_cost(scene, v, dt, t_end),
                                   (key, run_case, (run_scene, v.engine, integrator, dt, t_end, save))))
         cases.sort(key=lambda c: -c[0])  # longest first: the last runs to end are short ones
-        from harness.engines.inhouse import announce_compilation, load_compiled  # once here, not per worker
+        from harness.engines.inhouse import load_compiled  # once here, not per worker
 
         compiled_runs = [(m["integrator"], by_scene[k[0]].multibody()) for k, m in meta.items() if m["engine"] == "inhouse"]
-        announce_compilation(compiled_runs)
         load_compiled(compiled_runs)
         outcomes = run_cases([c for _, c in cases], jobs, timeout, on_done=on_done)
     bad = [(k, o) for k, o in outcomes.items() if o.status == "input_error"]

@@ -1058,19 +1058,16 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
     if progress is not None:
         progress.total = len(searches)
         progress.refresh()
-    from harness.engines.inhouse import COMPILED_KERNEL, announce_compilation, fast_method, load_compiled
+    from harness.engines.inhouse import fast_method, load_compiled
 
     # a compiled in-house method with a cold Numba cache: the parent says so once, not each worker,
-    # and loads the kernels once for the workers it forks
-    compiled_runs = []
+    # and loads the kernels once for the workers it forks (the runs' methods as run_settings picks them)
+    runs = []
     inhouse_runs = {(s.integrator, s.variant.name) for s in searches if s.engine == "inhouse"}
     for method, name in sorted(inhouse_runs | {("DOP853", name) for name in ref_todo}):
         model = scenes[name].multibody()
-        twin = fast_method(method, model)
-        if twin in COMPILED_KERNEL:
-            compiled_runs.append((twin, model))
-    announce_compilation(compiled_runs)
-    load_compiled(compiled_runs)
+        runs.append((fast_method(method, model), model))
+    load_compiled(runs)
     if not dask:
         preload(engines)  # the engines' own lazy imports (Drake's), once for the forked workers
     in_flight = {id(s): 0 for s in searches}
