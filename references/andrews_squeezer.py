@@ -58,6 +58,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from harness.measure.solution_cache import solution_cache
 from harness.model import rotations
 from harness.model.builders.andrews_squeezer import BODIES, assemble, assemble_rates
 
@@ -272,7 +273,7 @@ def reference_solution(params, t, rtol: float = RTOL, atol: float = ATOL) -> Mot
     return _solve(tuple(sorted(p.items())), np.asarray(t, float).tobytes(), rtol, atol)
 
 
-@lru_cache(maxsize=16)
+@solution_cache()
 def _solve(items: tuple, t_bytes: bytes, rtol: float, atol: float) -> Motion:
     p = dict(items)
     t = np.frombuffer(t_bytes, dtype=float)

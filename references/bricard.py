@@ -142,6 +142,7 @@ from typing import TYPE_CHECKING, Mapping
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from harness.measure.solution_cache import solution_cache
 from harness.model import rotations
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -475,7 +476,7 @@ def reference_solution(params, t, rtol: float | None = None, atol: float | None 
     return _solve(p, np.asarray(t, float).tobytes(), float(rtol), float(atol), method)
 
 
-@lru_cache(maxsize=16)
+@solution_cache()
 def _solve(p: BricardParams, t_bytes: bytes, rtol: float, atol: float, method: str) -> Motion:
     t = np.frombuffer(t_bytes, dtype=float).copy()
     t_end = float(t[-1]) if len(t) else 0.0

@@ -111,12 +111,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from harness.measure.solution_cache import solution_cache
 from harness.model import rotations
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -375,7 +375,7 @@ def reference_solution(params, t, rtol: float = RTOL, atol: float = ATOL, y0: np
     return _solve(*key)
 
 
-@lru_cache(maxsize=16)
+@solution_cache()
 def _solve(p: FourBarParams, t_bytes: bytes, rtol: float, atol: float, y0_bytes: bytes | None) -> Motion:
     t = np.frombuffer(t_bytes, dtype=float)
     y0 = initial_state(p) if y0_bytes is None else np.frombuffer(y0_bytes, dtype=float).copy()

@@ -50,12 +50,12 @@ frequency against the engines' runs.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from harness.measure.solution_cache import solution_cache
 from harness.model import rotations
 from harness.model.builders.rocking_semicylinder import centroid_depth  # c = 4R/(3π) (m)
 
@@ -184,7 +184,7 @@ def reference_solution(params, t, rtol: float = RTOL, atol: float = ATOL, printe
     return _solve(p, np.asarray(t, float).tobytes(), rtol, atol, printed)
 
 
-@lru_cache(maxsize=16)
+@solution_cache()
 def _solve(p: SemicylinderParams, t_bytes: bytes, rtol: float, atol: float, printed: bool) -> Motion:
     t = np.frombuffer(t_bytes, dtype=float)
     acc = printed_accelerations if printed else accelerations

@@ -68,12 +68,12 @@ slider position error (m). No extra runs.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from harness.measure.solution_cache import solution_cache
 from harness.model import rotations
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -272,7 +272,7 @@ def reference_solution(params, t, rtol: float = RTOL, atol: float = ATOL) -> Mot
     return _solve(_params(params), np.asarray(t, float).tobytes(), rtol, atol)
 
 
-@lru_cache(maxsize=16)
+@solution_cache()
 def _solve(p: SliderCrankParams, t_bytes: bytes, rtol: float, atol: float) -> Motion:
     t = np.frombuffer(t_bytes, dtype=float)
     y0 = np.array([p.theta0, p.dtheta0])

@@ -144,11 +144,12 @@ def exact_error_series(scene: "Scene", traj: "Trajectory"):
 
 def prepare(scene: "Scene", traj: "Trajectory") -> None:
     """Compute the scene's closed form at the times of ``traj`` in this process (its
-    ``exact_error_series``, whose reference modules keep their solutions in ``lru_cache``s keyed
-    by the times), so that worker processes forked afterwards to judge runs saved at the same
-    times inherit it instead of each integrating it again (the Andrews squeezer's reference DAE:
-    ~8 s a time). Nothing for a scene without a per-sample exact error; a failure is left to the
-    checks, which report it."""
+    ``exact_error_series``, whose reference modules keep their solutions with
+    ``harness.measure.solution_cache``, keyed by the times), so that a run saved at the same
+    times is judged without integrating the system again: in this process, in a worker forked
+    afterwards, or in one that adopts what ``solution_cache.recording`` collected here (the
+    Andrews squeezer's reference DAE: ~7 s a time). Nothing for a scene without a per-sample
+    exact error; a failure is left to the checks, which report it."""
     if not has_error_series(scene):
         return
     try:

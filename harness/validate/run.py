@@ -41,6 +41,10 @@ The reference run is itself checked (engine ``reference``) for conservation and 
 exact solution before it judges anything. Every run (reference, and each scene x engine) is
 made in its own worker process (``harness.validate.workers``): cases run in parallel, and a crash, hang
 or blow-up is recorded as that case's failed ``run`` check while every other result is kept.
+Where the exact solution is itself integrated (the loop scenes' reference DAEs), the reference
+run's worker, which judges its own run with it at the times every run is saved at, returns it
+and the engine runs' workers adopt it (``harness.measure.solution_cache``): each scene's exact
+solution is computed once, in parallel with the other scenes' reference runs.
 """
 
 from __future__ import annotations
@@ -54,7 +58,7 @@ import numpy as np
 
 from harness.engines import get_engine, integrator
 from harness.engines.base import RunSettings
-from harness.measure import compare, contact_metrics, exact
+from harness.measure import compare, contact_metrics, exact, solution_cache
 from harness.measure.invariants import mark_non_finite
 from harness.measure.trajectory import Trajectory
 from harness.model import forces
@@ -164,19 +168,27 @@ def default_settings(scene: Scene, engine: str, fast: bool = True) -> RunSetting
     return RunSettings(scene.t_end, scene.dt, save_interval(scene), method)
 
 
-def reference_case(scene: Scene, fast: bool = True) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
-    """Worker body: the reference run and its own checks."""
+def reference_case(scene: Scene, fast: bool = True) -> tuple[Trajectory, RunRecord, list[CheckResult], dict]:
+    """Worker body: the reference run and its own checks, and the exact solutions computed to
+    judge it at its saved times (``solution_cache.recording``: for ``engine_case``'s
+    ``solutions``; a scene whose closed form is not integrated has none)."""
     settings = reference_settings(scene, fast)
     t0 = time.perf_counter()
     traj = mark_non_finite(get_engine(REFERENCE_ENGINE).simulate(scene, settings), scene.multibody())
     record = _record(scene, "reference", settings, traj, time.perf_counter() - t0)
-    checks = check_run(scene, "reference", REFERENCE_ENGINE, traj, None, settings)
-    return traj, record, checks
+    with solution_cache.recording() as solutions:
+        checks = check_run(scene, "reference", REFERENCE_ENGINE, traj, None, settings)
+        if traj.ok and "exact" in scene.checks:
+            exact.prepare(scene, traj)  # what the engines' exact checks need, if the reference's did not compute it
+    return traj, record, checks, solutions
 
 
-def engine_case(scene: Scene, engine: str, ref: Trajectory | None,
-                fast: bool = True) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
-    """Worker body: one engine's run at the scene's defaults and its checks."""
+def engine_case(scene: Scene, engine: str, ref: Trajectory | None, fast: bool = True,
+                solutions: dict | None = None) -> tuple[Trajectory, RunRecord, list[CheckResult]]:
+    """Worker body: one engine's run at the scene's defaults and its checks. ``solutions``:
+    the reference case's exact solutions, adopted before the checks (None: the checks compute
+    what they need)."""
+    solution_cache.adopt(solutions)
     settings = default_settings(scene, engine, fast)
     t0 = time.perf_counter()
     traj = mark_non_finite(get_engine(engine).simulate(scene, settings), scene.multibody())  # NaN "ok" -> blowup
@@ -202,15 +214,11 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
     tick = None if progress is None else (lambda key, outcome: progress.update(1))
     refs = run_cases([(s.name, reference_case, (s, fast)) for s in scenes], jobs, timeout, on_done=tick, dask=dask)
     _raise_input_errors(refs)
-    if dask is None:  # forked local workers inherit what the parent computed: each closed form once per scene
-        for s in scenes:
-            if refs[s.name].status == "ok" and refs[s.name].value[0].ok and "exact" in s.checks:
-                exact.prepare(s, refs[s.name].value[0])
     cases = []
     for s in scenes:
         ref_outcome = refs[s.name]
-        ref = ref_outcome.value[0] if ref_outcome.status == "ok" else None
-        cases += [((s.name, e), engine_case, (s, e, ref, fast)) for e in engines if e not in s.not_run]
+        ref, solutions = (ref_outcome.value[0], ref_outcome.value[3]) if ref_outcome.status == "ok" else (None, None)
+        cases += [((s.name, e), engine_case, (s, e, ref, fast, solutions)) for e in engines if e not in s.not_run]
     outcomes = run_cases(cases, jobs, timeout, on_done=tick, dask=dask)
     _raise_input_errors(outcomes)
 
@@ -319,7 +327,7 @@ def _raise_input_errors(outcomes: dict[Any, Outcome]) -> None:
 def _collect(v: SceneValidation, scene: Scene, label: str, outcome: Outcome, settings: RunSettings) -> None:
     """Add one case's run record and checks; a case that died becomes a failed ``run`` check."""
     if outcome.status == "ok":
-        _, record, checks = outcome.value
+        record, checks = outcome.value[1], outcome.value[2]
         v.runs.append(record)
         v.checks.extend(checks)
         return

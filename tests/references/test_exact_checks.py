@@ -5,6 +5,7 @@ trajectories and make extra runs only through the ``run`` callable they are give
 from __future__ import annotations
 
 import math
+import pickle
 import re
 from dataclasses import replace
 from pathlib import Path
@@ -14,7 +15,7 @@ import pytest
 
 from harness.engines import get_engine
 from harness.engines.base import RunSettings
-from harness.measure import exact
+from harness.measure import exact, solution_cache
 from harness.model.scene import available_scenes, load_scene
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -105,13 +106,33 @@ def test_a_scene_without_a_reference_module():
 
 def test_prepare_computes_the_closed_form_for_the_workers_a_parent_forks():
     """``exact.prepare`` leaves the closed form at the trajectory's times in the reference
-    module's cache: a run saved at the same times is judged without integrating it again."""
+    module's memo: a run saved at the same times is judged without integrating it again."""
     from harness.references import four_bar as reference
 
     scene = load_scene("four_bar")
     traj = get_engine("mujoco").simulate(scene, RunSettings(t_end=0.2, dt=scene.dt, save_every=0.01, integrator="RK4"))
     reference._solve.cache_clear()
-    exact.prepare(scene, traj)
-    assert reference._solve.cache_info().misses == 1
-    exact.exact_error_series(scene, traj)
-    assert reference._solve.cache_info().misses == 1 and reference._solve.cache_info().hits >= 1
+    with solution_cache.recording() as computed:
+        exact.prepare(scene, traj)
+    assert len(computed) == 1
+    with solution_cache.recording() as again:
+        exact.exact_error_series(scene, traj)
+    assert again == {}
+
+
+def test_a_closed_form_computed_in_one_process_is_adopted_by_another():
+    """What a worker computed (``solution_cache.recording``) crosses a process boundary (here
+    a pickle, as through a worker's pipe) and is adopted: the same series, nothing integrated."""
+    from harness.references import four_bar as reference
+
+    scene = load_scene("four_bar")
+    traj = get_engine("mujoco").simulate(scene, RunSettings(t_end=0.2, dt=scene.dt, save_every=0.01, integrator="RK4"))
+    reference._solve.cache_clear()
+    with solution_cache.recording() as computed:
+        series = exact.exact_error_series(scene, traj)
+    shipped = pickle.loads(pickle.dumps(computed))
+    reference._solve.cache_clear()
+    solution_cache.adopt(shipped)
+    with solution_cache.recording() as again:
+        adopted = exact.exact_error_series(scene, traj)
+    assert again == {} and np.array_equal(adopted, series)

@@ -17,7 +17,8 @@ reference run (``reference_case``), then each engine at the scene's default inte
 checks of the files as written are not repeated (they do not depend on the parameters). Every
 run is made in its own worker process with a timeout (``harness.validate.workers.open_workers``:
 the local pool, or the workers of a Dask scheduler), so a crash or a timeout is that point's
-result. An engine's runs of a point start as soon as that point's reference ends.
+result. An engine's runs of a point start as soon as that point's reference ends, with the
+exact solution its reference case computed (``harness.measure.solution_cache``).
 
 A point's result, per engine (``PointResult``):
 
@@ -335,8 +336,8 @@ def run_sweep(scene: Scene, axes: list[Axis], points: list[tuple[float, ...]], e
                     workers.start(key, reference_case, (scenes[i],), timeout)
                 else:
                     ref = refs[i]
-                    traj = ref.value[0] if ref.status == "ok" else None
-                    workers.start(key, engine_case, (scenes[i], kind, traj), timeout)
+                    traj, solutions = (ref.value[0], ref.value[3]) if ref.status == "ok" else (None, None)
+                    workers.start(key, engine_case, (scenes[i], kind, traj, True, solutions), timeout)
             for key, outcome in workers.wait():
                 kind, i = key
                 tick()
