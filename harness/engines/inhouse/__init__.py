@@ -211,14 +211,15 @@ class InhouseEngine:
             packed = compiled.pack(nem)
             y0 = initial_state(model, nem)
             t_save = np.arange(settings.n_saves + 1) * settings.save_every
+            multipliers = bool(reactions or nem.contacts)  # the reactions' source, computed in the kernel
             if METHODS[method].adaptive:
                 res = compiled.integrate_dop853(packed, y0, t_save, rtol=settings.rtol, atol=settings.atol,
                                                 first_step=settings.dt, max_step=settings.save_every,
-                                                proj_tol=projection_tolerance(nem))
+                                                proj_tol=projection_tolerance(nem), multipliers=multipliers)
             else:
                 res = compiled.integrate_fixed(packed, y0, t_save, FIXED_STEP[method],
                                                steps_per_save=settings.steps_per_save, proj_tol=projection_tolerance(nem),
-                                               lie_group=method in LIE_GROUP)
+                                               lie_group=method in LIE_GROUP, multipliers=multipliers)
             res = stop_at_blowup(nem, res)
         except NotImplementedError as err:  # outside the compiled form's scope: not run, not failed
             return unsupported(self.name, method, names, f"{method}: {err} (the per-state methods do)")
@@ -227,12 +228,13 @@ class InhouseEngine:
         traj = to_trajectory(nem, res.t, res.y, self.name, method)
         if reactions and len(res.t):
             try:
-                traj = replace(traj, reactions=reaction_series(nem, res.t, res.y, gains))
+                traj = replace(traj, reactions=reaction_series(nem, res.t, res.y, gains, res.lam))
             except Exception as err:  # a numerical failure must come back as a trajectory
                 return failed(self.name, method, names, "failed", f"reactions: {type(err).__name__}: {err}")
         if nem.contacts and len(res.t):  # rolling contacts: the force at the contact, always (as simulate_model)
             try:
-                traj = replace(traj, reactions={**traj.reactions, **contact_force_series(nem, res.t, res.y, gains)})
+                traj = replace(traj, reactions={**traj.reactions,
+                                                **contact_force_series(nem, res.t, res.y, gains, res.lam)})
             except Exception as err:  # a numerical failure must come back as a trajectory
                 return failed(self.name, method, names, "failed", f"contact force: {type(err).__name__}: {err}")
         stats = {"steps": res.steps, "rhs_evals": res.rhs_evals, "wall_s": res.wall_s,
@@ -375,7 +377,8 @@ def stop_at_blowup(nem: NEModel, res: Result) -> Result:
         what = f"speed {speed[k]:.3g} m/s beyond {BLOWUP_SPEED:g} at t = {t:.6g} s"
     else:
         what = f"angular speed {spin[k]:.3g} rad/s beyond {BLOWUP_SPEED:g} at t = {t:.6g} s"
-    return replace(res, t=res.t[:k].copy(), y=y[:k].copy(), status="blowup", message=what)
+    lam = None if res.lam is None else res.lam[:k].copy()
+    return replace(res, t=res.t[:k].copy(), y=y[:k].copy(), status="blowup", message=what, lam=lam)
 
 
 def projection_tolerance(nem: NEModel) -> float:

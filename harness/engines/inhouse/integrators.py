@@ -118,6 +118,8 @@ class Result:
         steps: accepted steps; rhs_evals: right-hand-side evaluations (including those of
             finite-difference Jacobians of implicit methods); wall_s: wall time (s).
         status: "ok", "failed" or "blowup"; message: why, when not ok.
+        lam: (n, nc) constraint multipliers at those samples, where the integrator gives them
+            (the compiled ones when asked), else None.
     """
 
     t: np.ndarray
@@ -127,6 +129,7 @@ class Result:
     wall_s: float
     status: str = "ok"
     message: str = ""
+    lam: np.ndarray | None = None
 
 
 class _Counted:

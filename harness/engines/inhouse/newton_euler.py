@@ -192,19 +192,30 @@ def reactions(
     return _reactions_from_multipliers(nem, y, lam)
 
 
-def reaction_series(nem: NEModel, t: np.ndarray, ys: np.ndarray, gains: Baumgarte = Baumgarte()) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def reaction_series(nem: NEModel, t: np.ndarray, ys: np.ndarray, gains: Baumgarte = Baumgarte(),
+                    lam: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """``reactions`` at every sample of a run: times ``t`` (n,) s and state vectors ``ys``
     (n, 13 nb). Returns per joint ``(force_W (n, 3) N, moment_W (n, 3) N m)``, the moment
-    about the joint point (the force acts there, so it is the joint's couple)."""
-    dynamics = make_dynamics(nem, gains)
+    about the joint point (the force acts there, so it is the joint's couple). ``lam``: the
+    run's multipliers at the samples (n, nc), where its integrator gave them (the compiled
+    ones: ``Result.lam``, the same KKT system at the same states), else None: solved here."""
+    multipliers = _sample_multipliers(nem, t, ys, gains, lam)
     names = list(nem.joint_names) + [sl.name for sl in nem.slides]
     out = {name: (np.zeros((len(t), 3)), np.zeros((len(t), 3))) for name in names}
-    for k, (tk, y) in enumerate(zip(t, np.asarray(ys, dtype=float))):
-        _, lam = dynamics(float(tk), y)
-        for name, (f, m) in _reactions_from_multipliers(nem, y, lam).items():
+    for k, (y, lam_k) in enumerate(zip(np.asarray(ys, dtype=float), multipliers)):
+        for name, (f, m) in _reactions_from_multipliers(nem, y, lam_k).items():
             out[name][0][k] = f
             out[name][1][k] = m
     return out
+
+
+def _sample_multipliers(nem: NEModel, t: np.ndarray, ys: np.ndarray, gains: Baumgarte, lam: np.ndarray | None):
+    """The multipliers (nc,) at each sample: the rows of ``lam`` when given, else each solved
+    by ``make_dynamics`` (one at a time)."""
+    if lam is not None:
+        return np.asarray(lam, dtype=float)[:, : nem.nc]
+    dynamics = make_dynamics(nem, gains)
+    return (dynamics(float(tk), y)[1] for tk, y in zip(t, np.asarray(ys, dtype=float)))
 
 
 def _reactions_from_multipliers(nem: NEModel, y: np.ndarray, lam: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -231,14 +242,14 @@ def _reactions_from_multipliers(nem: NEModel, y: np.ndarray, lam: np.ndarray) ->
     return out
 
 
-def contact_force_series(nem, t: np.ndarray, ys: np.ndarray, gains) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def contact_force_series(nem, t: np.ndarray, ys: np.ndarray, gains,
+                         lam: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """``contact_forces`` at every sample of a run (times ``t`` (n,) s, states ``ys``
-    (n, 13 nb)): per contact ``(force_W (n, 3) N, moment_W (n, 3) N m)``."""
-    dynamics = make_dynamics(nem, gains)
+    (n, 13 nb)): per contact ``(force_W (n, 3) N, moment_W (n, 3) N m)``. ``lam`` as
+    ``reaction_series``."""
     k = len(nem.contacts)
     out = {c.name: (np.zeros((len(t), 3)), np.zeros((len(t), 3))) for c in nem.contacts}
-    for n, (tk, y) in enumerate(zip(t, np.asarray(ys, dtype=float))):
-        _, lam = dynamics(float(tk), y)
-        for name, (f, _) in rolling.contact_forces(nem.contacts, lam[len(lam) - 3 * k :]).items():
+    for n, lam_n in enumerate(_sample_multipliers(nem, t, ys, gains, lam)):
+        for name, (f, _) in rolling.contact_forces(nem.contacts, lam_n[len(lam_n) - 3 * k :]).items():
             out[name][0][n] = f
     return out

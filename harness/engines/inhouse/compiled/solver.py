@@ -190,50 +190,61 @@ def _state(y0: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(y0)
 
 
-def _result(status: int, t_save: np.ndarray, out: np.ndarray, n: int, steps: int, evals: int, wall: float) -> Result:
+def _result(status: int, t_save: np.ndarray, out: np.ndarray, n: int, steps: int, evals: int, wall: float,
+            lam: np.ndarray) -> Result:
     word, why = STATUS.get(int(status), ("failed", f"status {status}"))
     n = int(n)
     message = "" if word == "ok" else f"{why} (t = {t_save[min(n, len(t_save) - 1)]:.6g} s, after {steps} steps)"
-    return Result(t_save[:n].copy(), out[:n].copy(), int(steps), int(evals), wall, word, message)
+    return Result(t_save[:n].copy(), out[:n].copy(), int(steps), int(evals), wall, word, message,
+                  lam[:n].copy() if len(lam) else None)
+
+
+def _multiplier_rows(model: tuple, n_save: int, multipliers: bool) -> np.ndarray:
+    """The kernels' ``lam_out``: (n_save, nc) to fill with ``multipliers``, else no rows."""
+    return np.full((n_save if multipliers else 0, max(int(model[13]), 1)), np.nan)
 
 
 def integrate_fixed(model: tuple, y0: np.ndarray, t_save: np.ndarray, tableau: ButcherTableau = RK4, *,
-                    steps_per_save: int = 1, proj_tol: float = 1e-13, lie_group: bool = False) -> Result:
+                    steps_per_save: int = 1, proj_tol: float = 1e-13, lie_group: bool = False,
+                    multipliers: bool = False) -> Result:
     """Integrate one state ``y0`` (ny,) of the packed ``model`` with the explicit Runge-Kutta
     method ``tableau``: ``steps_per_save`` equal steps between consecutive save times
     ``t_save`` (s), projection (to ``proj_tol``, m) after each step; with ``lie_group`` in
-    Runge-Kutta-Munthe-Kaas form (orientations on SO(3)). ``wall_s`` covers the integration
-    alone; ``rhs_evals`` = stages x steps."""
+    Runge-Kutta-Munthe-Kaas form (orientations on SO(3)). With ``multipliers``, ``Result.lam``
+    holds the constraint multipliers at each sample (the reactions' source). ``wall_s`` covers
+    the integration alone (and the multipliers); ``rhs_evals`` = stages x steps."""
     y0 = _state(y0)
     A, b, c = tableau_arrays(tableau)
     series = dexpinv_series(tableau if lie_group else None)
     t_save = np.ascontiguousarray(t_save, dtype=float)
     out = np.full((len(t_save), len(y0)), np.nan)
+    lam = _multiplier_rows(model, len(t_save), multipliers)
     warm_up(model, y0, "erk")
     start = time.perf_counter()
-    status, n, steps = kernels.erk(model, y0, t_save, int(steps_per_save), float(proj_tol), out, A, b, c, series)
+    status, n, steps = kernels.erk(model, y0, t_save, int(steps_per_save), float(proj_tol), out, A, b, c, series, lam)
     wall = time.perf_counter() - start
-    return _result(status, t_save, out, n, steps, len(b) * steps, wall)
+    return _result(status, t_save, out, n, steps, len(b) * steps, wall, lam)
 
 
 def integrate_dop853(model: tuple, y0: np.ndarray, t_save: np.ndarray, *, rtol: float = 1e-10, atol: float = 1e-12,
                      first_step: float | None = None, max_step: float | None = None,
-                     proj_tol: float = 1e-13) -> Result:
+                     proj_tol: float = 1e-13, multipliers: bool = False) -> Result:
     """Integrate one state ``y0`` (ny,) of the packed ``model`` with DOP853 at ``rtol``/``atol``
     from ``t_save[0]``, sampling at ``t_save`` (s); ``first_step`` (s) is the first step tried
-    (None: SciPy's choice); ``max_step`` (s) caps every step (None: no cap). ``wall_s`` covers
-    the integration alone."""
+    (None: SciPy's choice); ``max_step`` (s) caps every step (None: no cap); ``multipliers`` as
+    ``integrate_fixed``. ``wall_s`` covers the integration alone (and the multipliers)."""
     y0 = _state(y0)
     t_save = np.ascontiguousarray(t_save, dtype=float)
     out = np.full((len(t_save), len(y0)), np.nan)
+    lam = _multiplier_rows(model, len(t_save), multipliers)
     h0 = float(first_step) if first_step else 0.0
     warm_up(model, y0, "dop853")
     start = time.perf_counter()
     h_max = float(max_step) if max_step else 0.0
     status, n, steps, _rejected, evals = kernels.dop853(model, y0, t_save, float(rtol), float(atol), h0, h_max,
-                                                        float(proj_tol), MAX_ADAPTIVE_STEPS, out, _DOP853)
+                                                        float(proj_tol), MAX_ADAPTIVE_STEPS, out, _DOP853, lam)
     wall = time.perf_counter() - start
-    return _result(status, t_save, out, n, steps, evals, wall)
+    return _result(status, t_save, out, n, steps, evals, wall, lam)
 
 
 def default_threads() -> int:
@@ -402,9 +413,9 @@ def _warm_up(model: tuple, y0: np.ndarray, kernel: str) -> None:
     out = np.empty((2, len(y0)))
     A, b, c = tableau_arrays(RK4)
     if kernel == "erk":
-        kernels.erk(model, y0, t, 1, 1e-13, out, A, b, c, dexpinv_series(None))
+        kernels.erk(model, y0, t, 1, 1e-13, out, A, b, c, dexpinv_series(None), _multiplier_rows(model, 2, True))
     elif kernel == "dop853":
-        kernels.dop853(model, y0, t, 1e-6, 1e-6, 1e-3, 0.0, 1e-13, 1, out, _DOP853)
+        kernels.dop853(model, y0, t, 1e-6, 1e-6, 1e-3, 0.0, 1e-13, 1, out, _DOP853, _multiplier_rows(model, 2, True))
     elif kernel == "erk_rows":
         kernels.erk_rows(model, y0[None], 1, 1e-3, 1e-13, A, b, c, dexpinv_series(None), out[:1],
                          np.zeros(1, dtype=np.int64), 0, 1)

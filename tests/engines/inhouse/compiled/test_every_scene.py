@@ -212,3 +212,32 @@ def test_a_disk_lying_flat_has_its_own_status():
     assert kernels.rhs(0.0, y, np.empty_like(y), model, ws) == kernels.FLAT_DISK
     res = compiled.integrate_dop853(model, y, np.array([0.0, 0.01]))
     assert res.status == "failed" and "lies flat" in res.message
+
+
+@pytest.mark.parametrize("name", ["three_link_chain", "cart_pendulum", "spring_pendulum", "bricard", "slider_crank",
+                                  "andrews_squeezer", "rolling_disk"])
+def test_the_kernels_multipliers_are_the_per_state_ones(name):
+    """``multipliers=True``: the KKT multipliers at each sample (the reactions' source) from the
+    kernel, equal to the per-state solve at the same states. Where rows are dependent (the loop
+    scenes) both are the minimum-norm multipliers; the per-state pseudo-inverse leaks ~1e-9 of
+    the largest into the dependent rows, the kernel's least squares does not."""
+    from harness.engines.inhouse import Baumgarte
+    from harness.engines.inhouse.newton_euler import make_dynamics, reaction_series
+
+    scene = load_scene(name)
+    mb = scene.multibody()
+    nem = build(mb)
+    model = compiled.pack(nem)
+    t_save = np.arange(6) * 5 * scene.dt
+    res = compiled.integrate_fixed(model, initial_state(mb, nem), t_save, steps_per_save=5, multipliers=True)
+    assert res.status == "ok" and res.lam.shape == (6, nem.nc)
+    gains = Baumgarte(omega=0.0)  # the compiled runs project: no Baumgarte terms
+    dynamics = make_dynamics(nem, gains)
+    expected = np.array([dynamics(t, y)[1] for t, y in zip(res.t, res.y)])
+    scale = np.max(np.abs(expected))
+    np.testing.assert_allclose(res.lam, expected, rtol=0, atol=1e-8 * scale)
+    from_kernel, solved = reaction_series(nem, res.t, res.y, gains, res.lam), reaction_series(nem, res.t, res.y, gains)
+    for joint, (force, moment) in solved.items():
+        np.testing.assert_allclose(from_kernel[joint][0], force, rtol=0, atol=1e-8 * scale)
+        np.testing.assert_allclose(from_kernel[joint][1], moment, rtol=0, atol=1e-8 * scale)
+    assert compiled.integrate_fixed(model, initial_state(mb, nem), t_save, steps_per_save=5).lam is None
