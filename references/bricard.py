@@ -135,6 +135,7 @@ formulation. No extra runs (EXACT_NEEDS_RUNS = False).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING, Mapping
@@ -261,11 +262,13 @@ def joint_angles(theta, phi) -> np.ndarray:
 
 
 def _rot(k: int, q: float) -> np.ndarray:
-    c, s = np.cos(q), np.sin(q)
-    i, j = (k + 1) % 3, (k + 2) % 3
-    R = np.eye(3)
-    R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
-    return R
+    """The rotation by ``q`` (rad) about axis ``k`` (0, 1, 2: x, y, z)."""
+    c, s = math.cos(q), math.sin(q)
+    if k == 0:
+        return np.array(((1.0, 0.0, 0.0), (0.0, c, -s), (0.0, s, c)))
+    if k == 1:
+        return np.array(((c, 0.0, s), (0.0, 1.0, 0.0), (-s, 0.0, c)))
+    return np.array(((c, -s, 0.0), (s, c, 0.0), (0.0, 0.0, 1.0)))
 
 
 def forward_kinematics(L: float, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -302,6 +305,15 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b of two 3-vectors (faster than np.cross on single vectors: Python floats)."""
     (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()
     return np.array((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0))
+
+
+_NEXT, _AFTER = [1, 2, 0], [2, 0, 1]
+
+
+def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b along the last axis of two stacks of 3-vectors (np.cross without its axis handling,
+    which costs more than the product at these sizes)."""
+    return a[..., _NEXT] * b[..., _AFTER] - a[..., _AFTER] * b[..., _NEXT]
 
 
 def _kinetics(p: BricardParams, q, qd, qdd):
@@ -374,11 +386,11 @@ def _reduced(p: BricardParams, x, xd):
     # with G_k[i, j] = [j <= i] S[j, k]: ω-Jacobian of body i along x_k  Σ_j G_k[i, j] u_j, and
     # v-Jacobian  Σ_j G_k[i, j] u_j × (x_i − o_j) = (Σ_j G_k[i, j] u_j) × x_i − Σ_j G_k[i, j] u_j × o_j
     Jw2 = _G @ U  # (2, body, 3)
-    Jv2 = np.cross(Jw2, X) - _G @ np.cross(U, O)
+    Jv2 = _cross_rows(Jw2, X) - _G @ _cross_rows(U, O)
     Jv2f, Jw2f = Jv2.reshape(2, 15), Jw2.reshape(2, 15)
     IJw = (IW @ Jw2.transpose(1, 2, 0))  # (body, 3, 2): I_i^W times body i's ω-Jacobian
     M2 = p.m * Jv2f @ Jv2f.T + np.einsum("kic,ica->ka", Jw2, IJw)
-    torque = (IW @ B0[:, :, None])[:, :, 0] + np.cross(w, (IW @ w[:, :, None])[:, :, 0])
+    torque = (IW @ B0[:, :, None])[:, :, 0] + _cross_rows(w, (IW @ w[:, :, None])[:, :, 0])
     h = p.m * Jv2f @ A0.ravel() + Jw2f @ torque.ravel()
     return M2, h, p.m * p.g * np.sum(Jv2[:, :, 2], axis=1)
 
