@@ -323,16 +323,25 @@ def accelerations(params, y: np.ndarray, alpha: float = 0.0) -> tuple[np.ndarray
         phi = (a * cth_ + b * cbe - d - c * cga, a * sth + b * sbe - c * sga)
         for i in range(2):
             gam[i] -= 2.0 * alpha * (Jq[i][0] * dth + Jq[i][1] * dbe + Jq[i][2] * dga) + alpha * alpha * phi[i]
-    A = np.array([[J_a + p.m_coupler * a * a, k * cth, 0.0, -Jq[0][0], -Jq[1][0]],
-                  [k * cth, J_b, 0.0, -Jq[0][1], -Jq[1][1]],
-                  [0.0, 0.0, J_c, -Jq[0][2], -Jq[1][2]],
-                  Jq[0] + [0.0, 0.0],
-                  Jq[1] + [0.0, 0.0]])
-    rhs = np.array([-k * s * dbe * dbe - p.g * (0.5 * p.m_crank + p.m_coupler) * a * cth_,
-                    k * s * dth * dth - p.g * 0.5 * p.m_coupler * b * cbe,
-                    -p.g * 0.5 * p.m_rocker * c * cga, gam[0], gam[1]])
-    sol = np.linalg.solve(A, rhs)
-    return sol[:3], sol[3:]
+    f = (-k * s * dbe * dbe - p.g * (0.5 * p.m_crank + p.m_coupler) * a * cth_,
+         k * s * dth * dth - p.g * 0.5 * p.m_coupler * b * cbe,
+         -p.g * 0.5 * p.m_rocker * c * cga)
+    # [M  -J^T; J  0] (q'', lam) = (f, gam), by its Schur complement: M is a 2x2 block (crank,
+    # coupler) and the rocker's J_c, so q'' = M^-1 (f + J^T lam), (J M^-1 J^T) lam = gam - J M^-1 f
+    m11, m12 = J_a + p.m_coupler * a * a, k * cth
+    det = m11 * J_b - m12 * m12
+
+    def m_inv(v):
+        return ((J_b * v[0] - m12 * v[1]) / det, (m11 * v[1] - m12 * v[0]) / det, v[2] / J_c)
+
+    z, B0, B1 = m_inv(f), m_inv(Jq[0]), m_inv(Jq[1])
+    dot = lambda u, v: u[0] * v[0] + u[1] * v[1] + u[2] * v[2]  # noqa: E731
+    S00, S01, S11 = dot(Jq[0], B0), dot(Jq[0], B1), dot(Jq[1], B1)
+    r0, r1 = gam[0] - dot(Jq[0], z), gam[1] - dot(Jq[1], z)
+    dS = S00 * S11 - S01 * S01
+    lam0, lam1 = (S11 * r0 - S01 * r1) / dS, (S00 * r1 - S01 * r0) / dS
+    qdd = np.array([z[m] + B0[m] * lam0 + B1[m] * lam1 for m in range(3)])
+    return qdd, np.array([lam0, lam1])
 
 
 def initial_state(params) -> np.ndarray:
