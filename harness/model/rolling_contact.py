@@ -41,15 +41,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from harness.model.rotations import cross
+
 FLAT = 1e-9  # sqrt(1 - n_z^2) below this: the disk lies flat and the contact point is undefined
 
 
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a x b`` for 3-vectors or stacks ``[..., 3]`` (``np.cross`` costs ~20 us per call on
-    single vectors; the engines call this in every right-hand side)."""
-    if a.ndim == 1 and b.ndim == 1:
-        return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-    return np.cross(a, b)
 
 
 def axis_and_up(R_WB: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

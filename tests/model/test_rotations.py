@@ -49,3 +49,13 @@ def test_wrap_angle_gives_the_shortest_turn():
 
     assert np.allclose(wrap_angle(np.array([0.1, 2 * np.pi + 0.1, -2 * np.pi - 0.1, 3.0 * np.pi / 2])),
                        [0.1, 0.1, -0.1, -np.pi / 2], atol=1e-12)
+
+
+def test_cross_is_np_cross_to_the_last_bit():
+    rng = np.random.default_rng(7)
+    for _ in range(50):
+        a, b = rng.standard_normal(3) * 10.0 ** rng.integers(-8, 8), rng.standard_normal(3)
+        assert np.array_equal(rotations.cross(a, b), np.cross(a, b))
+    A, B = rng.standard_normal((4, 3)), rng.standard_normal((4, 3))
+    assert np.array_equal(rotations.cross(A, B), np.cross(A, B))
+    assert np.array_equal(rotations.cross(A, B[0]), np.cross(A, B[0]))

@@ -167,7 +167,7 @@ def _read(dm, model, k: int, buf: SampleBuffer) -> str:
         r = R @ b.CalcCenterOfMassInBodyFrame(ctx)
         buf.p_WCm_W[k, i] = X.translation() + r
         buf.quat_WB[k, i] = rotations.from_matrix(R)
-        buf.v_WCm_W[k, i] = V.translational() + np.cross(w, r)
+        buf.v_WCm_W[k, i] = V.translational() + rotations.cross(w, r)
         buf.w_WB_W[k, i] = w
     buf.kinetic[k] = plant.CalcKineticEnergy(ctx)
     buf.potential[k] = plant.CalcPotentialEnergy(ctx)

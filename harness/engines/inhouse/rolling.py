@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.model import rolling_contact
+from harness.model import rolling_contact, rotations
 from harness.engines.inhouse import algebra
 
 
@@ -91,7 +91,7 @@ def rolling_rows(contacts: tuple[RollingRows, ...], nb: int, P_ext: np.ndarray, 
         J[rows, 3 * i : 3 * i + 3] = np.eye(3)
         J[rows, 3 * nb + 3 * i : 3 * nb + 3 * i + 3] = -algebra.skew(r) @ R
         if gamma is not None:
-            gamma[rows] = rolling_contact.cross(w_ext[i], r_dot)
+            gamma[rows] = rotations.cross(w_ext[i], r_dot)
     return C, J, gamma
 
 

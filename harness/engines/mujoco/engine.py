@@ -42,6 +42,7 @@ from harness.engines.mujoco.loops import settings_text as loop_settings
 from harness.engines.mujoco.model import joint_type, load_mjcf, set_initial_state
 from harness.engines.mujoco.rolling import ContactForceReader, describe_contact
 from harness.engines.mujoco.warning_capture import captured_warnings
+from harness.model import rotations
 from harness.model.errors import InputError
 from harness.model.forces import POINT_FORCES
 from harness.model.joints import JOINTS, ROTATIONAL, TRANSLATIONAL
@@ -141,7 +142,7 @@ def joint_reaction(m: mujoco.MjModel, d: mujoco.MjData, bid: int, force_sites=()
     c = d.subtree_com[m.body_rootid[bid]]
     force = d.cfrc_int[bid][3:].copy()
     p_joint = d.xpos[bid]
-    moment = d.cfrc_int[bid][:3] + np.cross(c - p_joint, force)
+    moment = d.cfrc_int[bid][:3] + rotations.cross(c - p_joint, force)
     jid = m.body_jntadr[bid]
     own = _joint_own_force(m, d, jid)
     jt = joint_type(m, jid)
@@ -154,7 +155,7 @@ def joint_reaction(m: mujoco.MjModel, d: mujoco.MjData, bid: int, force_sites=()
         if _in_subtree(m, body, bid):
             f = f_of(d)
             force -= f
-            moment -= np.cross(d.site_xpos[site] - p_joint, f)
+            moment -= rotations.cross(d.site_xpos[site] - p_joint, f)
     return force, moment
 
 

@@ -27,6 +27,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from harness.model import rotations
 from harness.model.errors import InputError
 from harness.model.joints import keeps_axis
 from harness.model.multibody import LoopJoint, Multibody
@@ -121,6 +122,6 @@ def cut_reactions(m: mujoco.MjModel, d: mujoco.MjData, model: Multibody) -> dict
             point = np.array(d.site_xpos[sid])
             origin = point if origin is None else origin
             force = force + f
-            moment = moment + np.cross(point - origin, f)
+            moment = moment + rotations.cross(point - origin, f)
         out[loop.name] = (force, moment)
     return out

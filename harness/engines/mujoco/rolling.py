@@ -22,6 +22,7 @@ import mujoco
 import numpy as np
 
 from harness.engines.mujoco.integrators import INTEGRATORS
+from harness.model import rotations
 from harness.model.errors import InputError
 from harness.model.rolling_contact import contact_offset
 
@@ -111,7 +112,7 @@ class ContactForceReader:
                 if con.geom1 == gid:
                     f = -f
                 f_tot += f
-                m_tot += np.cross(con.pos - c_W, f)
+                m_tot += rotations.cross(con.pos - c_W, f)
             self.force[contact.name][k] = f_tot
             self.moment[contact.name][k] = m_tot
 

@@ -98,10 +98,11 @@ import pinocchio as pin
 from harness.engines.base import RunSettings
 from harness.engines.pinocchio import linalg
 from harness.engines.pinocchio.lie_group_integrators import stepper
-from harness.engines.pinocchio.model import MaximalReader, blowup_reason, cross, initial_configuration, load_urdf
+from harness.engines.pinocchio.model import MaximalReader, blowup_reason, initial_configuration, load_urdf
 from harness.measure.trajectory import SampleBuffer, Trajectory
 from harness.model.joints import JOINTS, keeps_axis, loop_kinds
 from harness.model.multibody import Multibody
+from harness.model.rotations import cross
 
 MU_RELATIVE = 1e-6  # proximal regularisation mu, relative to the largest diagonal entry of the Delassus matrix
 ACCURACY_RELATIVE = 1e-9  # stop when the multipliers change by less than this times the force scale

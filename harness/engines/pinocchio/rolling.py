@@ -60,8 +60,9 @@ import pinocchio as pin
 from harness.engines.base import RunSettings
 from harness.engines.pinocchio import linalg
 from harness.engines.pinocchio.lie_group_integrators import stepper
-from harness.engines.pinocchio.model import MaximalReader, blowup_reason, cross, initial_configuration, load_urdf
+from harness.engines.pinocchio.model import MaximalReader, blowup_reason, initial_configuration, load_urdf
 from harness.model.joints import JOINTS
+from harness.model.rotations import cross
 from harness.model.rolling_contact import FLAT, offset_and_rate
 from harness.measure.trajectory import SampleBuffer, Trajectory
 
