@@ -208,9 +208,11 @@ def _read(system, model, settings: RunSettings, engine: str, method: str) -> Tra
     for i, b in enumerate(names):
         pos, rot, vel, omega = (x[:n, 1:] for x in series[b])
         p[:, i], v[:, i], w[:, i] = pos, vel, omega
-        for k in range(n):
-            R = rot[k].reshape(3, 3)
-            quat[k, i] = rotations.from_matrix(R) if np.all(np.isfinite(R)) else np.nan
+        R = rot.reshape(n, 3, 3)
+        finite = np.all(np.isfinite(R), axis=(1, 2))
+        quat[:, i] = np.nan
+        if finite.any():  # every sample at once (SciPy's per-call overhead is most of a single one)
+            quat[finite, i] = rotations.from_matrix(R[finite])
     return Trajectory(engine, method, names, t, p, quat, v, w, stats={})
 
 
