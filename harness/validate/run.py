@@ -11,7 +11,7 @@ files with the scene's parameters written over them (``load_mjcf``, ``load_urdf`
 
 Then, for each scene: an in-house reference run (DOP853, rtol = atol = 1e-12) is made first; then
 each engine runs at the scene's default integrator and step. The in-house runs (the reference
-included) use the compiled twin of their method (``harness.engines.inhouse.fast_method``:
+included) use the compiled twin of their method (``harness.engines.inhouse.run_method``:
 ``rk4_compiled`` for ``rk4``, ``dop853_compiled`` for ``DOP853``) wherever the compiled form models
 the scene, unless ``fast=False`` (``harness validate --per-state``: the readable per-state oracle
 everywhere); each run's record names the method that ran. Checks (those the scene declares
@@ -58,6 +58,7 @@ import numpy as np
 
 from harness.engines import get_engine, integrator
 from harness.engines.base import RunSettings
+from harness.engines.inhouse import run_method
 from harness.measure import compare, contact_metrics, exact, solution_cache
 from harness.measure.invariants import mark_non_finite
 from harness.measure.trajectory import Trajectory
@@ -143,28 +144,18 @@ def save_interval(scene: Scene) -> float:
     return scene.dt if forces.does_work(scene.multibody()) else scene.save_every
 
 
-def _method(scene: Scene, engine: str, method: str, fast: bool) -> str:
-    """``method`` of ``engine``, or for the in-house engine with ``fast`` its compiled twin where
-    the compiled form models the scene (``harness.engines.inhouse.fast_method``)."""
-    if not fast or engine != "inhouse":
-        return method
-    from harness.engines.inhouse import fast_method
-
-    return fast_method(method, scene.multibody())
-
-
 def reference_settings(scene: Scene, fast: bool = True) -> RunSettings:
     """The in-house high-accuracy run that judges the engines' trajectories (with ``fast``, the
     compiled DOP853 where the compiled form models the scene)."""
     save = save_interval(scene)
-    method = _method(scene, REFERENCE_ENGINE, REFERENCE_METHOD, fast)
+    method = run_method(REFERENCE_ENGINE, REFERENCE_METHOD, scene, fast)
     return RunSettings(scene.t_end, save, save, method, rtol=REFERENCE_TOL, atol=REFERENCE_TOL)
 
 
 def default_settings(scene: Scene, engine: str, fast: bool = True) -> RunSettings:
     """The engine's default integrator (for the in-house engine with ``fast``, its compiled twin
     where the compiled form models the scene) and the scene's step, horizon and save interval."""
-    method = _method(scene, engine, scene.integrators[engine], fast)
+    method = run_method(engine, scene.integrators[engine], scene, fast)
     return RunSettings(scene.t_end, scene.dt, save_interval(scene), method)
 
 

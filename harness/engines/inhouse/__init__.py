@@ -83,6 +83,7 @@ __all__ = [
     "characteristic_rate",
     "fast_method",
     "load_compiled",
+    "run_method",
     "from_trajectory",
     "initial_state",
     "make_rhs",
@@ -329,6 +330,17 @@ def fast_method(method: str, model: Multibody) -> str:
     except Exception:  # outside the compiled form's scope, or a model that does not build (its run says why)
         return method
     return twin
+
+
+def run_method(engine: str, method: str | None, scene: Scene, fast: bool = True) -> str | None:
+    """The method a run of ``engine`` takes for ``method`` on ``scene``: for the in-house engine
+    with ``fast``, its compiled twin where the compiled form models the scene (``fast_method``),
+    as validate, the stress map and the loop study run it; otherwise ``method`` itself (None, a
+    scene that names no method, stays None). The scene's model is built only for the in-house
+    engine."""
+    if method is None or not fast or engine != InhouseEngine.name:
+        return method
+    return fast_method(method, scene.multibody())
 
 
 def characteristic_rate(nem: NEModel, y0: np.ndarray, gravity_W: np.ndarray, t_end: float) -> float:

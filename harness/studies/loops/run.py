@@ -116,16 +116,13 @@ def loop_scenes(models_dir: Path | None = None) -> list[Scene]:
 def integrator_of(scene: Scene, variant: Variant) -> str | None:
     """The integrator a variant runs: RK4 for MuJoCo, else the scene's ``[integrators]`` entry
     (None when the scene names none); for the in-house engine its compiled twin where the
-    compiled form models the scene (``harness.engines.inhouse.fast_method``: ``rk4`` ->
+    compiled form models the scene (``harness.engines.inhouse.run_method``: ``rk4`` ->
     ``rk4_compiled``, the same method as Numba kernels, as ``harness validate`` runs it)."""
     if variant.engine == "mujoco":
         return MUJOCO_INTEGRATOR
-    method = scene.integrators.get(variant.engine)
-    if method is None or variant.engine != "inhouse":
-        return method
-    from harness.engines.inhouse import fast_method
+    from harness.engines.inhouse import run_method
 
-    return fast_method(method, scene.multibody())
+    return run_method(variant.engine, scene.integrators.get(variant.engine), scene)
 
 
 def full_label(variant: Variant, integrator: str | None) -> str:

@@ -9,7 +9,7 @@ first leaves its tolerance band and the class of the energy drift. Error-control
 integrator its engine's table marks adaptive: the in-house SciPy methods, Drake's RK3, RK5 and
 Radau3) are run once at the catalogue's ``rtol`` instead, their largest step the save interval.
 The in-house ``rk4`` and ``DOP853`` runs, and the DOP853 references, run their compiled twins
-wherever the compiled form models the scene (``harness.engines.inhouse.fast_method``; the rows
+wherever the compiled form models the scene (``harness.engines.inhouse.run_method``; the rows
 keep the catalogue's names): ``rk4_compiled`` gives rk4's trajectory to round-off and fails in
 the same modes; ``dop853_compiled`` is the same method with its own step-size control, so its
 steps and errors differ from SciPy's within the tolerance (mean steps 0-10 % apart on the
@@ -469,13 +469,11 @@ def _quiet_mujoco() -> None:
 
 def run_settings(scene: Scene, spec: TrialSpec) -> RunSettings:
     """The settings a trial runs with: an in-house run takes the compiled twin of the trial's
-    method where the compiled form models the scene (``harness.engines.inhouse.fast_method``)."""
-    settings = settings_of(spec)
-    if spec.engine == "inhouse":
-        from harness.engines.inhouse import fast_method
+    method where the compiled form models the scene (``harness.engines.inhouse.run_method``)."""
+    from harness.engines.inhouse import run_method
 
-        settings = replace(settings, integrator=fast_method(settings.integrator, scene.multibody()))
-    return settings
+    settings = settings_of(spec)
+    return replace(settings, integrator=run_method(spec.engine, settings.integrator, scene))
 
 
 def trial_case(scene: Scene, spec: TrialSpec, ref: Reference, bounds: Bounds) -> TrialResult:

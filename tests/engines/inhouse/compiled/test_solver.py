@@ -285,3 +285,24 @@ def test_load_compiled_warms_the_kernels_of_compiled_runs_only(monkeypatch):
     assert compiled.warm_kernels() == frozenset()
     load_compiled([("rk4_compiled", top), ("dop853_compiled", top)])
     assert compiled.warm_kernels() == {"erk", "dop853"}
+
+
+def test_run_method_is_the_compiled_twin_for_the_inhouse_engine_only():
+    """The one rule validate, the stress map and the loop study run by: the in-house engine takes
+    its method's compiled twin where the compiled form models the scene; other engines, a
+    per-state run (``fast=False``) and a scene naming no method keep what they were given, and
+    their scene's model is not even built."""
+    from harness.engines.inhouse import run_method
+
+    scene = load_scene("double_pendulum")
+    assert run_method("inhouse", "rk4", scene) == "rk4_compiled"
+    assert run_method("inhouse", "DOP853", scene) == "dop853_compiled"
+    assert run_method("inhouse", "rk4", scene, fast=False) == "rk4"
+    assert run_method("inhouse", None, scene) is None
+
+    class Unbuilt:
+        def multibody(self):
+            raise AssertionError("built for another engine")
+
+    assert run_method("mujoco", "RK4", Unbuilt()) == "RK4"
+    assert run_method("exudyn", "GeneralizedAlpha", Unbuilt()) == "GeneralizedAlpha"
