@@ -301,21 +301,6 @@ def _body_inertia(p: BricardParams) -> np.ndarray:
     return np.array([transverse * np.eye(3) + (axial - transverse) * np.outer(a, a) for a in _ALONG])
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b of two 3-vectors (faster than np.cross on single vectors: Python floats)."""
-    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()
-    return np.array((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0))
-
-
-_NEXT, _AFTER = [1, 2, 0], [2, 0, 1]
-
-
-def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b along the last axis of two stacks of 3-vectors (np.cross without its axis handling,
-    which costs more than the product at these sizes)."""
-    return a[..., _NEXT] * b[..., _AFTER] - a[..., _AFTER] * b[..., _NEXT]
-
-
 def _kinetics(p: BricardParams, q, qd, qdd):
     """Per link (arrays (5, 3)): centre of mass x, its velocity v and acceleration a, angular
     velocity w and acceleration al (world frame), I^W (5, 3, 3), and each link's hinge axis u
@@ -429,11 +414,11 @@ def _reduced(p: BricardParams, x, xd):
     # with G_k[i, j] = [j <= i] S[j, k]: ω-Jacobian of body i along x_k  Σ_j G_k[i, j] u_j, and
     # v-Jacobian  Σ_j G_k[i, j] u_j × (x_i − o_j) = (Σ_j G_k[i, j] u_j) × x_i − Σ_j G_k[i, j] u_j × o_j
     Jw2 = _G @ U  # (2, body, 3)
-    Jv2 = _cross_rows(Jw2, X) - _G @ _cross_rows(U, O)
+    Jv2 = rotations.cross(Jw2, X) - _G @ rotations.cross(U, O)
     Jv2f, Jw2f = Jv2.reshape(2, 15), Jw2.reshape(2, 15)
     IJw = (IW @ Jw2.transpose(1, 2, 0))  # (body, 3, 2): I_i^W times body i's ω-Jacobian
     M2 = p.m * Jv2f @ Jv2f.T + np.einsum("kic,ica->ka", Jw2, IJw)
-    torque = (IW @ B0[:, :, None])[:, :, 0] + _cross_rows(w, (IW @ w[:, :, None])[:, :, 0])
+    torque = (IW @ B0[:, :, None])[:, :, 0] + rotations.cross(w, (IW @ w[:, :, None])[:, :, 0])
     h = p.m * Jv2f @ A0.ravel() + Jw2f @ torque.ravel()
     return M2, h, p.m * p.g * np.sum(Jv2[:, :, 2], axis=1)
 

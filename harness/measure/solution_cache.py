@@ -53,7 +53,6 @@ def solution_cache(maxsize: int = _DEFAULT_MAXSIZE) -> Callable[[Callable], Call
             return value
 
         cached.cache_clear = memo.clear  # type: ignore[attr-defined]
-        cached.maxsize = maxsize  # type: ignore[attr-defined]
         return cached
 
     return decorate

@@ -46,8 +46,6 @@ from harness.model.rotations import cross
 FLAT = 1e-9  # sqrt(1 - n_z^2) below this: the disk lies flat and the contact point is undefined
 
 
-
-
 def axis_and_up(R_WB: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(n, u, s)``: the symmetry axis n = R e_z (world), the unit upward direction u in the
     disk plane, and s = sqrt(1 - n_z^2) (the sine of the tilt of the axis from the vertical)."""

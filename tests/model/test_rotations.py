@@ -59,3 +59,5 @@ def test_cross_is_np_cross_to_the_last_bit():
     A, B = rng.standard_normal((4, 3)), rng.standard_normal((4, 3))
     assert np.array_equal(rotations.cross(A, B), np.cross(A, B))
     assert np.array_equal(rotations.cross(A, B[0]), np.cross(A, B[0]))
+    C, D = rng.standard_normal((2, 5, 3)), rng.standard_normal((5, 3))  # leading axes broadcast
+    assert np.array_equal(rotations.cross(C, D), np.cross(C, D))

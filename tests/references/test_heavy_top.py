@@ -10,14 +10,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from harness.model import rotations
 from harness.references import heavy_top as ht
 
 TOL = dict(method="DOP853", rtol=1e-12, atol=1e-12)
-
-
-def _cross3(a, b):
-    """a × b of two 3-vectors (np.cross's axis handling costs more than the product here)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def _top_rhs(t, y, m, l, A, I3, g):
@@ -25,8 +21,8 @@ def _top_rhs(t, y, m, l, A, I3, g):
     w = y[9:]
     Ib = np.array([A, A, I3])
     g_b = R[2, :]  # world z in body coordinates
-    tau = _cross3(np.array([0.0, 0.0, l]), -m * g * g_b)  # moment of gravity about the tip
-    wd = (_cross3(Ib * w, w) + tau) / Ib  # Euler's equations about the fixed tip
+    tau = rotations.cross(np.array([0.0, 0.0, l]), -m * g * g_b)  # moment of gravity about the tip
+    wd = (rotations.cross(Ib * w, w) + tau) / Ib  # Euler's equations about the fixed tip
     W = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
     return np.concatenate([(R @ W).ravel(), wd])  # Ṙ = R [ω]×
 

@@ -11,22 +11,18 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from harness.model import rotations
 from harness.references import heavy_top as ht
 
 TOL = dict(method="DOP853", rtol=1e-12, atol=1e-12)
-
-
-def _cross3(a, b):
-    """a × b of two 3-vectors (np.cross's axis handling costs more than the product here)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def _rhs(t, y, m, l, A, I3, g):
     R = y[:9].reshape(3, 3)
     w = y[9:]
     Ib = np.array([A, A, I3])
-    tau = _cross3(np.array([0.0, 0.0, l]), -m * g * R[2, :])
-    wd = (_cross3(Ib * w, w) + tau) / Ib
+    tau = rotations.cross(np.array([0.0, 0.0, l]), -m * g * R[2, :])
+    wd = (rotations.cross(Ib * w, w) + tau) / Ib
     W = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
     return np.concatenate([(R @ W).ravel(), wd])
 

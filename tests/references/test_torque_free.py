@@ -11,19 +11,15 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.special import ellipj as scipy_ellipj
 
+from harness.model import rotations
 from harness.references import torque_free as tf
 
 TOL = dict(method="DOP853", rtol=1e-12, atol=1e-12)
 
 
-def _cross3(a, b):
-    """a × b of two 3-vectors (np.cross's axis handling costs more than the product here)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
 def _euler_rhs(t, w, I):
     # I ω̇ = (I ω) × ω, body frame, principal axes
-    return _cross3(I * w, w) / I
+    return rotations.cross(I * w, w) / I
 
 
 def _integrate_euler(I, w0, T, n=401):
