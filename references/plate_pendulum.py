@@ -137,8 +137,9 @@ def _am(v: np.ndarray, m: float, m1: float) -> tuple[np.ndarray, np.ndarray]:
 def pendulum_motion(t, omega_p: float, phi0: float, dphi0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Exact (φ, φ̇, φ̈) of φ̈ = −ω_p² sin φ from φ(0) = φ0, φ̇(0) = φ̇0 (rad, rad/s, rad/s²).
 
-    φ is continuous in time (a rotating pendulum keeps winding); for a libration φ0 must lie in
-    (−π, π). See the module docstring for the three regimes.
+    φ is continuous in time (a rotating pendulum keeps winding) and starts at φ0 itself, any real
+    angle: a libration or the separatrix about the bottom 2πn nearest φ0 is the one about 0 from
+    φ0 − 2πn, shifted by 2πn. See the module docstring for the three regimes.
     """
     t = np.atleast_1d(np.asarray(t, dtype=float)).ravel()
     wp = float(omega_p)
@@ -151,14 +152,16 @@ def pendulum_motion(t, omega_p: float, phi0: float, dphi0: float) -> tuple[np.nd
     k2c = c0 * c0 - e * e  # 1 - k², without cancellation from 1 - k²
     if k2 == 0.0:  # at rest at the bottom
         return np.zeros(t.shape), np.zeros(t.shape), np.zeros(t.shape)
+    if k2c >= 0.0:  # libration or separatrix: about the bottom 2πn nearest φ0 (k² and 1 − k² do not change)
+        turns = 2.0 * np.pi * np.round(phi0 / (2.0 * np.pi))
+        phi0 = phi0 - turns
+        s0 = np.sin(0.5 * phi0)
     if k2c > 0.0:  # libration
         k = np.sqrt(k2)
-        if abs(phi0) >= np.pi:
-            raise ValueError("pendulum_motion: a libration needs -pi < phi0 < pi")
         psi0 = np.arctan2(s0 / k, e / k)
         u0 = float(ellipf(psi0, k2, k2c))
         sn, cn, _ = ellipj(wp * t + u0, k2, k2c)
-        phi = 2.0 * np.arcsin(np.clip(k * sn, -1.0, 1.0))
+        phi = turns + 2.0 * np.arcsin(np.clip(k * sn, -1.0, 1.0))
         dphi = 2.0 * k * wp * cn
     elif k2c < 0.0:  # rotation
         k = np.sqrt(k2)
@@ -174,7 +177,7 @@ def pendulum_motion(t, omega_p: float, phi0: float, dphi0: float) -> tuple[np.nd
         sigma = 1.0 if dphi0 >= 0.0 else -1.0
         u0 = float(np.arctanh(np.sin(sigma * 0.5 * phi0)))
         v = wp * t + u0
-        phi = 2.0 * sigma * np.arcsin(np.tanh(v))
+        phi = turns + 2.0 * sigma * np.arcsin(np.tanh(v))
         dphi = 2.0 * sigma * wp / np.cosh(v)
     return phi, dphi, -wp * wp * np.sin(phi)
 

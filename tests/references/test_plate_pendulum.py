@@ -113,9 +113,11 @@ def test_textbook_plate_inertia():
     assert pp.pivot_inertia(m, a, b) == pytest.approx(np.sum(dm * np.sum(pts**2, axis=1)), rel=1e-13)
 
 
-@pytest.mark.parametrize("phi0, dphi0", [(0.6, 0.0), (-2.5, -1.0), (0.3, 4.0), (0.3, -4.0), (3.0, 0.0), (7.0, 5.0)])
+@pytest.mark.parametrize("phi0, dphi0", [(0.6, 0.0), (-2.5, -1.0), (0.3, 4.0), (0.3, -4.0), (3.0, 0.0), (7.0, 5.0),
+                                         (3.5, 0.0), (-4.0, 0.5), (2 * np.pi + 0.6, 0.0), (-2 * np.pi - 0.3, 1.0)])
 def test_pendulum_motion_regimes(phi0, dphi0):
-    """Libration, rotation both ways and a wound start against phi'' = -wp^2 sin phi."""
+    """Libration, rotation both ways and wound starts (a libration from beyond pi swings about
+    the bottom nearest its start) against phi'' = -wp^2 sin phi."""
     wp = 1.7
     tt = np.linspace(0.0, 10.0, 501)
     sol = solve_ivp(lambda t, y: [y[1], -wp**2 * np.sin(y[0])], (0.0, 10.0), [phi0, dphi0], t_eval=tt, **TOL)

@@ -50,6 +50,20 @@ def test_in_house_runs_use_the_compiled_twins_unless_per_state():
         assert value(fast, name) == pytest.approx(value(oracle, name), rel=1e-2), name  # 1.1e-3 measured
 
 
+def test_drake_holds_its_tolerances_away_from_the_default_release_angle():
+    """Drake's RK5 runs at ERROR_CONTROL_TOL: at 1e-10 it left plate_pendulum's orientation
+    tolerance (2e-9 rad) 300x at theta0 = 2.5 rad (6.1e-7 rad), a release beyond the top whose
+    closed form is the libration about the bottom nearest it."""
+    from harness.validate.run import ERROR_CONTROL_TOL, default_settings
+
+    scene = load_scene("plate_pendulum", {"theta0": 2.5})
+    assert default_settings(scene, "drake").rtol == ERROR_CONTROL_TOL
+    (res,) = validate([scene], ["drake"], jobs=1)
+    assert res.passed, [c for c in res.checks if not c.passed]
+    exact = next(c for c in res.checks if c.engine == "reference" and c.check == "exact")
+    assert exact.value < exact.tolerance  # the closed form covers the start beyond pi
+
+
 def test_forced_pendulum_checks_energy_balance_not_conservation():
     (res,) = validate([short("double_pendulum", F0=2.0, omega_f=3.0)], ["pinocchio"], jobs=1)
     names = {c.check for c in res.checks if c.engine == "pinocchio"}
