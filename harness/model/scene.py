@@ -513,6 +513,30 @@ def apply_overrides(scene: Scene, overrides: Mapping[str, Any]) -> Scene:
             raise InputError(f"unknown parameter {key!r} for {source} (parameters: {known})")
         p = params[key]
         params[key] = replace(p, value=_coerce(key, raw, p.kind, source))
+    return _follow(replace(scene, parameters=params), set(overrides))
+
+
+def _follow(scene: Scene, explicit: set[str]) -> Scene:
+    """Recompute each parameter that the scene's builder lists in ``FOLLOWS`` (parameter name ->
+    function of the parameter values) and that the overrides did not set: a default that follows
+    the others, such as rolling_disk's ``dpsi0``, the steady spin for its ``theta0`` and
+    ``dphi0``. A function that raises an arithmetic or value error, or gives a non-finite
+    value, leaves the file's value."""
+    name = scene.builder or scene.name
+    if scene.from_model_file or not has_builder(name):
+        return scene
+    follows = getattr(importlib.import_module(f"harness.model.builders.{name}"), "FOLLOWS", {})
+    params, values = dict(scene.parameters), scene.params
+    for key, fn in follows.items():
+        if key in explicit or key not in params:
+            continue
+        try:
+            with np.errstate(all="raise"):
+                value = float(fn(values))
+        except (ArithmeticError, ValueError, FloatingPointError):
+            continue
+        if math.isfinite(value):
+            params[key] = replace(params[key], value=value)
     return replace(scene, parameters=params)
 
 

@@ -191,10 +191,10 @@ def _parameters_line(v: SceneValidation) -> str:
     parts = []
     for k, val in v.parameters.items():
         if k in v.overrides:
-            parts.append(f"**{k} = {val}** (--set; default {v.overrides[k]['default']})")
+            parts.append(f"**{k} = {val}** (default {v.overrides[k]['default']})")
         else:
             parts.append(f"{k} = {val}")
-    head = "Parameters (scene.toml defaults" + (", **bold**: set by --set" if v.overrides else "") + "): "
+    head = "Parameters (scene.toml defaults" + (", **bold**: set by --set, or following a set one (its builder's FOLLOWS)" if v.overrides else "") + "): "
     return head + ", ".join(parts)
 
 

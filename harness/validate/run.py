@@ -261,7 +261,8 @@ def _defaults(scene: Scene) -> Scene:
 
 
 def parameter_overrides(scene: Scene, defaults: Scene) -> dict[str, dict]:
-    """The parameters whose value differs from the ``scene.toml`` default (set by ``--set``):
+    """The parameters whose value differs from the ``scene.toml`` default (set by ``--set``, or
+    following a set one: the builder's ``FOLLOWS``, ``harness.model.scene``):
     name -> ``{"value": ..., "default": ...}`` (units of the parameter)."""
     base = defaults.params
     return {k: {"value": _jsonable(x), "default": _jsonable(base.get(k))}

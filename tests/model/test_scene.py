@@ -343,3 +343,30 @@ def test_both_model_files_by_default():
     scene = load_scene("heavy_top")
     assert scene.model_files == ("mjcf", "urdf") and scene.mjcf.suffix == ".xml" and scene.urdf.suffix == ".urdf"
     assert not any(scene.reads_other_format(e) for e in ("mujoco", "pinocchio", "drake"))
+
+
+def test_a_default_that_follows_the_others_follows_them_unless_set():
+    """rolling_disk's dpsi0 (its builder's FOLLOWS): the file's value is the steady spin at the
+    defaults; a scene that changes theta0 (or the disk) and not dpsi0 starts in steady circular
+    motion again; a dpsi0 the user sets is kept, and a dphi0 of 0 (no steady motion) keeps the
+    file's value."""
+    from harness.model.builders.rolling_disk import steady_dpsi0
+
+    scene = load_scene("rolling_disk")
+    assert scene.params["dpsi0"] == pytest.approx(steady_dpsi0(scene.params), rel=1e-14)
+    tilted = load_scene("rolling_disk", {"theta0": 1.0})
+    assert tilted.params["dpsi0"] == steady_dpsi0(tilted.params) != scene.params["dpsi0"]
+    assert scene.with_params(R=0.02).params["dpsi0"] == steady_dpsi0(scene.with_params(R=0.02).params)
+    assert load_scene("rolling_disk", {"theta0": 1.0, "dpsi0": -20.0}).params["dpsi0"] == -20.0
+    assert load_scene("rolling_disk", {"dphi0": 0.0}).params["dpsi0"] == scene.params["dpsi0"]
+
+
+def test_a_changed_steady_motion_is_judged_against_its_closed_form():
+    from harness.engines import get_engine
+    from harness.measure.exact import exact_error
+    from harness.validate.run import default_settings
+
+    scene = load_scene("rolling_disk", {"theta0": 1.0, "dphi0": 4.0})
+    settings = default_settings(scene, "inhouse")
+    value, _, detail = exact_error(scene, get_engine("inhouse").simulate(scene, settings), settings)
+    assert "no closed form" not in detail and value < scene.checks["exact"]["inhouse"]

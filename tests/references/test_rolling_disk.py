@@ -182,7 +182,7 @@ def test_exact_check_needs_a_steady_initial_state():
     traj = get_engine("mujoco").simulate(scene, settings)
     value, unit, detail = rd.exact_error(scene, traj, settings, None)
     assert unit == "rad" and value < 1e-3 and value == float(np.max(rd.exact_error_series(scene, traj)))
-    leaning = scene.with_params(theta0=1.1)  # dpsi0 is no longer the steady spin
+    leaning = scene.with_params(theta0=1.1, dpsi0=scene.params["dpsi0"])  # dpsi0 set: no longer the steady spin
     value, _, detail = rd.exact_error(leaning, traj, settings, None)
     assert np.isnan(value) and "not the steady spin" in detail
     with pytest.raises(ValueError, match="not the steady spin"):

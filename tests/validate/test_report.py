@@ -91,7 +91,7 @@ def test_units_have_their_own_column_and_marks():
     assert "| dt (s) | rtol |" in run_header
     ref_run = next(ln for ln in md.splitlines() if ln.startswith("| reference | DOP853"))
     assert "| adaptive | 1e-12 |" in ref_run
-    assert "**F0 = 2.0** (--set; default 0.0)" in md and "m = 1.0" in md
+    assert "**F0 = 2.0** (default 0.0)" in md and "m = 1.0" in md
     # an agreeing model file is one line, a disagreeing quantity a row of the table
     assert "- mujoco (alpha.xml as written): all 1 quantities of 1 body agree" in md
     assert "| pinocchio | model.bar2.inertia | 9.99e-01 | 1.00e-06 | rel |" in md

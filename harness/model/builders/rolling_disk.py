@@ -11,6 +11,22 @@ from harness.model.errors import InputError
 from harness.model.multibody import Body, Multibody, RollingContact
 
 
+def steady_dpsi0(params) -> float:
+    """The spin rate dpsi0 (rad/s) of steady circular motion at the parameters' tilt theta0
+    (rad) and heading rate dphi0 (rad/s, nonzero) for their disk (``references.rolling_disk``'s
+    ``steady_motion``, the closed form's own home)."""
+    from harness.references import rolling_disk as reference
+
+    disk = reference.DiskParams(params["mass"], params["R"], params["h"], params["g"])
+    return reference.steady_motion(disk, params["theta0"], params["dphi0"])["dpsi"]
+
+
+#: Parameters whose default follows the others (``harness.model.scene``): a scene that changes
+#: theta0, dphi0 or the disk and not dpsi0 starts in steady circular motion again, the motion
+#: the closed form covers.
+FOLLOWS = {"dpsi0": steady_dpsi0}
+
+
 def disk_inertia(m: float, R: float, h: float) -> np.ndarray:
     """Inertia (kg m^2) of a solid cylinder of radius R and length 2h about its centre, body z
     along the axis: transverse m (R^2/4 + h^2/3), axial m R^2 / 2."""
