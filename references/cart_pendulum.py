@@ -188,8 +188,8 @@ def exact_error(scene: "Scene", traj: "Trajectory", settings, run) -> tuple[floa
     (``relative_speed_squared``; at the vertical this is Ex. 1.6.1), over the squared velocity
     scale (squared because the speed is ill-conditioned where it vanishes); (2) the period of
     the run's pendulum (Hermite zero crossings of theta) against the exact period (``period``,
-    Gauss-Legendre quadrature), where the run's horizon holds it (``_period_error``); (3) the small-oscillation frequency (Ex. 1.5.1), measured on a
-    run by ``run`` of 2 periods from rest at theta = MODAL_AMPLITUDE with the step, integrator and
+    Gauss-Legendre quadrature), where the run's horizon holds it (``_period_error``); (3) the
+    small-oscillation frequency (Ex. 1.5.1), measured on a run by ``run`` of 2 periods from rest at theta = MODAL_AMPLITUDE with the step, integrator and
     tolerances of ``settings`` (the exact period at that amplitude is the reference, so no
     amplitude bias enters). The bob is a uniform sphere of radius r: I_c = 0.4 m r^2."""
     p = scene.params
@@ -202,7 +202,7 @@ def exact_error(scene: "Scene", traj: "Trajectory", settings, run) -> tuple[floa
     v_scale = max(float(np.max(np.abs(traj.v_WCm_W))), 1e-300)
     # compared squared: w itself is ill-conditioned at the turning points (w -> 0)
     err_speed = float(np.max(np.abs(w * w - relative_speed_squared(theta, M, m, L, I_c, g, E)))) / v_scale**2
-    err_period, period_text = _period_error(traj, theta, dtheta, M, m, L, I_c, g, p)
+    err_period, period_text = _period_error(traj, theta, dtheta, p, I_c)
     # small oscillations: a second run from rest at MODAL_AMPLITUDE
     T_small = period(M, m, L, I_c, g, MODAL_AMPLITUDE)
     modal = scene.with_params(theta0=MODAL_AMPLITUDE, dtheta0=0.0, dX0=0.0)
@@ -220,16 +220,17 @@ def exact_error(scene: "Scene", traj: "Trajectory", settings, run) -> tuple[floa
     return max(err_speed, err_period, err_small), "rel", detail
 
 
-def _period_error(traj: "Trajectory", theta, dtheta, M, m, L, I_c, g, p) -> tuple[float, str]:
-    """The run's libration period (Hermite zero crossings of theta) against the exact one
-    (``period``): (relative error, detail). Judged only where the exact motion guarantees the
+def _period_error(traj: "Trajectory", theta, dtheta, p, I_c: float) -> tuple[float, str]:
+    """The run's libration period (Hermite zero crossings of its angle theta and rate dtheta)
+    against the exact one (``period`` of the scene's parameters ``p`` and the bob's moment I_c,
+    kg m^2): (relative error, detail). Judged only where the exact motion guarantees the
     three crossings it needs within the run: a libration whose horizon holds 1.5 exact periods
     and two save intervals (the first crossing comes within half a period, the third one period
     later). Otherwise 0 with the reason in the detail: the pendulum goes over the top (no
     libration, no period of theta), or the horizon is too short for this amplitude; the cart
     velocity against the conservation laws still judges every sample."""
     try:
-        T = period(M, m, L, I_c, g, p["theta0"], p["dX0"], p["dtheta0"])
+        T = period(p["M"], p["m"], p["L"], I_c, p["g"], p["theta0"], p["dX0"], p["dtheta0"])
     except ValueError:
         return 0.0, "period not judged: the pendulum goes over the top (no libration)"
     horizon = float(traj.t[-1] - traj.t[0])

@@ -533,7 +533,7 @@ def _follow(scene: Scene, explicit: set[str]) -> Scene:
         try:
             with np.errstate(all="raise"):
                 value = float(fn(values))
-        except (ArithmeticError, ValueError, FloatingPointError):
+        except (ArithmeticError, ValueError):  # FloatingPointError (np.errstate) is an ArithmeticError
             continue
         if math.isfinite(value):
             params[key] = replace(params[key], value=value)
