@@ -19,9 +19,9 @@ The state is ``(q, v)`` with ``q`` on the configuration manifold and ``v`` in it
 spherical, ...): a joint with ``nq == nv`` is a vector space (revolute, prismatic, ...), whose
 ``dIntegrate`` block is the identity, so ``k_i = v_i`` there (``curved_blocks``). Each solve is
 LAPACK's ``dgesv`` on the block, the routine behind ``np.linalg.solve``. The numbers are those of
-the tableau sums with ``np.linalg.solve`` on the whole ``dIntegrate`` matrix, to the last bit (an
+the tableau sums with ``np.linalg.solve`` on the whole ``dIntegrate`` matrix, to round-off (an
 LU of a block-diagonal matrix factors each block on its own, and ``dIntegrate`` at Theta = 0 is
-exactly the identity).
+exactly the identity; SciPy's and NumPy's bundled LAPACK builds may differ in the last bits).
 """
 
 from __future__ import annotations

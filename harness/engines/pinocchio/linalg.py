@@ -1,7 +1,8 @@
 """Small dense linear algebra of the stepping loops, by the LAPACK routines behind NumPy's
-``np.linalg`` called directly (``scipy.linalg.lapack``): the same routines and so the same
-numbers (``dgesv`` for ``solve``, ``dpotrf`` for ``cholesky``, ``dgelsd`` for ``lstsq``,
-``dgesdd`` for ``svd_u``), without ``np.linalg``'s per-call checks, which cost 10-30 us each on
+``np.linalg`` called directly (``scipy.linalg.lapack``): the same routines (``dgesv`` for
+``solve``, ``dpotrf`` for ``cholesky``, ``dgelsd`` for ``lstsq``, ``dgesdd`` for ``svd_u``), so
+the same numbers to round-off (SciPy and NumPy bundle their own OpenBLAS builds, whose kernels
+are chosen by CPU: the last bits may differ), without ``np.linalg``'s per-call checks, which cost 10-30 us each on
 the few-by-few matrices here and dominated the projection steps. Matrix results are C-ordered as
 NumPy's are (the memory order decides which BLAS kernel a later product uses, and so its last
 bits). Failures raise ``np.linalg.LinAlgError`` as ``np.linalg`` does.
