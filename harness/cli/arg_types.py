@@ -37,6 +37,14 @@ def int_arg(text: str) -> int:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
 
 
+def seed_arg(text: str) -> int:
+    """A seed of NumPy's ``default_rng``: an integer >= 0 (it refuses a negative one)."""
+    value = int_arg(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"a seed is an integer >= 0, got {text!r}")
+    return value
+
+
 def csv_list(text: str) -> list[str]:
     """``"a, b,,c"`` -> ``["a", "b", "c"]``."""
     return [s for s in (p.strip() for p in text.split(",")) if s]
@@ -47,6 +55,36 @@ def models_dir_arg(text: str) -> Path:
     path = Path(text)
     if not path.is_dir():
         raise argparse.ArgumentTypeError(f"no such folder: {text!r}")
+    return path
+
+
+def out_file_arg(text: str) -> Path:
+    """An output file (``--out``): a path that does not exist or is a regular file (symlinks
+    resolved). Writing replaces it by a rename, which would put a regular file in place of a
+    FIFO or a device node (``/dev/full``): such a target is refused here, before anything runs
+    (``harness.io.atomic.check_out_file``)."""
+    from harness.io.atomic import check_out_file
+
+    try:
+        return check_out_file(Path(text))
+    except InputError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def out_dir_arg(text: str) -> Path:
+    """A report folder (``--out-dir``): a path that does not exist (it is created) or is a folder
+    (symlinks resolved); anything else (a file, a FIFO, a device) is refused here, before
+    anything runs. Whether it can be written is ``harness.io.atomic.check_writable``'s to say."""
+    import os
+    import stat
+
+    path = Path(text)
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return path
+    if not stat.S_ISDIR(mode):
+        raise argparse.ArgumentTypeError(f"cannot write to {text}: it is not a folder")
     return path
 
 
@@ -77,22 +115,25 @@ def check_samples(t_end: float, save_every: float, bodies: int = 1, options: str
 
 
 def require_utf8(path: Path, what: str) -> None:
-    """InputError naming ``path`` when it exists but is not UTF-8 text (an XML model file the
-    loaders would fail on with a decoding error); a missing file is the loaders' to report."""
-    try:
-        Path(path).read_bytes().decode("utf-8")
-    except UnicodeDecodeError as err:
-        raise InputError(f"{path}: {what} file is not UTF-8 text (byte 0x{err.object[err.start]:02x} at offset "
-                         f"{err.start})") from None
-    except OSError:
-        return
+    """InputError naming ``path`` when it exists but is not a regular file of at most
+    ``harness.io.input_files.MAX_INPUT_BYTES`` (a FIFO, a device, a folder) or not UTF-8 text (an
+    XML model file the loaders would fail on with a decoding error); a missing file is the
+    loaders' to report. Checked before any loader opens the file."""
+    from harness.io.input_files import check_input_file, read_input_text
+
+    if check_input_file(path, what, missing_ok=True):
+        read_input_text(path, what)
 
 
 def require_scene_files_utf8(scene) -> None:
-    """``require_utf8`` for the model files a scene names: its MJCF and URDF, or the one it has
-    (``Scene.mjcf`` and ``Scene.urdf`` are then the same file)."""
+    """``harness.io.input_files.check_model_file`` for the model files a scene names: its MJCF
+    and URDF, or the one it has (``Scene.mjcf`` and ``Scene.urdf`` are then the same file):
+    regular files of bounded size, UTF-8 text, their includes and assets inside the scene's
+    folder. A missing file is the loaders' to report."""
+    from harness.io.input_files import check_model_file
+
     for path in dict.fromkeys((scene.mjcf, scene.urdf)):
-        require_utf8(path, "URDF" if Path(path).suffix.lower() == ".urdf" else "MJCF")
+        check_model_file(path, missing_ok=True)
 
 
 def add_engines(parser) -> None:
@@ -144,7 +185,7 @@ def add_out_dir(parser, command: str, what: str, subset: tuple[str, ...]) -> Non
     """Add ``--out-dir`` to a report-writing command: ``what`` its files, ``subset`` the
     options (attribute names, e.g. ``("scenes", "quick")``) that make a run partial."""
     flags = ", ".join("--" + o.replace("_", "-") for o in subset)
-    parser.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
+    parser.add_argument("--out-dir", type=out_dir_arg, default=None, metavar="DIR",
                         help=f"folder for {what} (default: reports for a full run; reports/partial/{command} "
                              f"for a run with {flags}, so that only a full run refreshes the committed snapshot)")
 

@@ -43,7 +43,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     """Run the study, write the reports, print a summary; returns the exit code."""
     from harness.cli.arg_types import out_dir
-    from harness.io.progress import make_bar
+    from harness.io.progress import case_label, make_bar
     from harness.io.provenance import provenance
     from harness.model.errors import InputError
     from harness.studies.loops.report import write_reports
@@ -57,7 +57,7 @@ def run(args) -> int:
     out = out_dir(args, "loop-study", SUBSET)
     with make_bar(planned_runs(scenes, args.quick), desc="loop-study", unit="run", quiet=args.quiet) as bar:
         study = loop_study(quick=args.quick, jobs=args.jobs or None, timeout=args.timeout, scenes=scenes,
-                           on_done=lambda key, outcome: bar.update(1))
+                           on_done=lambda key, outcome: bar.done(case_label((*key[:2], f"{key[2]:g} dt"), outcome)))
     pngs = write_reports(study, out, provenance())
     bad = failures(study)
     print(f"wrote {out / 'loop_closure.md'}, {out / 'loop_closure.json'}" + "".join(f", {p}" for p in pngs))

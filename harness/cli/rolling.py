@@ -30,17 +30,20 @@ def add_parser(sub) -> None:
     r.add_argument("--models-dir", type=models_dir_arg, metavar="DIR",
                    help=MODELS_DIR_HELP + "; it must hold rolling_disk")
     r.add_argument("--quiet", action="store_true",
-                   help="no compile notice or other chatter on stderr (the summary lines and errors still print)")
+                   help="no progress bar, no per-run lines and no compile notice on stderr (the summary lines and "
+                        "errors still print); without it, a bar when stderr is a terminal, else one line per finished run")
 
 
 def run(args) -> int:
     from harness.cli.arg_types import out_dir
+    from harness.io.progress import make_bar
     from harness.io.provenance import provenance
     from harness.studies.rolling.report import write_reports
     from harness.studies.rolling.run import rolling_study, threshold_agrees
 
     out = out_dir(args, "rolling-study", SUBSET)
-    result = rolling_study(quick=args.quick, models_dir=args.models_dir)
+    with make_bar(None, desc="rolling-study", unit="run", quiet=args.quiet) as bar:
+        result = rolling_study(quick=args.quick, models_dir=args.models_dir, progress=bar)
     pngs = write_reports(result, out, provenance(), args.quick)
     agree = threshold_agrees(result.threshold)
     print(f"wrote {out / 'rolling_disk.md'}, {out / 'rolling_disk.json'}" + "".join(f", {p}" for p in pngs))

@@ -10,13 +10,13 @@ a sweep is never the committed snapshot.
 
 from __future__ import annotations
 
-import sys
-
 from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_dask, add_engines, check_selection, connect_dask,
-                                   float_arg as _float, int_arg as _int, models_dir_arg as _models_dir)
+                                   float_arg as _float, int_arg as _int, models_dir_arg as _models_dir,
+                                   seed_arg as _seed)
 from harness.engines import preload
 
 EXIT_OK = 0
+MAX_FAIL_LINES = 5  # failing points printed per engine (the report has them all)
 
 
 def add_parser(sub) -> None:
@@ -24,11 +24,13 @@ def add_parser(sub) -> None:
     from pathlib import Path
 
     s = sub.add_parser("sweep", help="one scene over a grid or random sample of its parameters: per point and engine "
-                                     "the worst check margin, trajectory error and energy drift; heatmap",
+                                     "the checks' verdicts (class, failing checks), the largest error, trajectory "
+                                     "error and energy drift; heatmap",
                        description="Run one scene at every point of a parameter grid (--grid, one or two keys) or "
                                    "of a random sample (--random, any number of keys, --samples, --seed) on the "
                                    "engines: each point is a validate case (the in-house DOP853 reference and each "
-                                   "engine, judged by the scene's own checks), each run in its own worker process. "
+                                   "engine, each check judged by how its error converges), each run in its own "
+                                   "worker process. "
                                    "Write <scene>_sweep.md, .csv (one row per point x engine) and .png. Exit 0 when "
                                    "the sweep ran (failing points are findings), 2 on bad input (nothing written).")
     s.add_argument("scene", help="scene name (list them and their parameters with `harness scenes`)")
@@ -40,8 +42,9 @@ def add_parser(sub) -> None:
                    help="draw KEY uniformly in [lo, hi) (append :log for log-uniform, lo > 0); repeatable, any "
                         "number of keys; needs --samples; not with --grid")
     s.add_argument("--samples", type=_int, metavar="N", help="random points to draw (>= 1; with --random)")
-    s.add_argument("--seed", type=_int, default=0, metavar="S",
-                   help="seed of the random points (numpy default_rng; default 0): the same seed, the same points")
+    s.add_argument("--seed", type=_seed, default=0, metavar="S",
+                   help="seed of the random points (an integer >= 0, numpy default_rng; default 0): the same seed, "
+                        "the same points")
     add_engines(s)
     s.add_argument("--t-end", type=_float, metavar="S",
                    help="horizon (s, > 0; a whole multiple of the scene's save interval; default: the scene's "
@@ -55,19 +58,19 @@ def add_parser(sub) -> None:
                         "sweep never replaces the committed reports)")
     s.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
     s.add_argument("--quiet", action="store_true",
-                   help="no progress bar and no per-point lines on stderr (the summary and errors still print); "
-                        "without it, a bar when stderr is a terminal, else one line per point")
+                   help="no progress bar and no per-run lines on stderr (the summary and errors still print); "
+                        "without it, a bar when stderr is a terminal, else one line per finished run")
 
 
 def run(args) -> int:
     from harness.engines import ENGINE_NAMES, get_engine
     from harness.io.atomic import check_writable, default_out_dir
-    from harness.io.progress import bar_enabled, make_bar
+    from harness.io.progress import make_bar
     from harness.io.provenance import provenance
     from harness.model.errors import InputError
     from harness.studies.sweep.report import write_sweep_reports
-    from harness.studies.sweep.run import (MAX_GRID_KEYS, MAX_POINTS, check_axes, grid_points, load_for_sweep,
-                                           parse_axis, random_points, run_sweep, with_horizon)
+    from harness.studies.sweep.run import (CLASS_ORDER, MAX_GRID_KEYS, MAX_POINTS, check_axes, grid_points,
+                                           load_for_sweep, parse_axis, random_points, run_sweep, with_horizon)
 
     if bool(args.grid) == bool(args.random):
         raise InputError("give --grid KEY=lo:hi:n (one or two) or --random KEY=lo:hi with --samples N, not both")
@@ -113,12 +116,11 @@ def run(args) -> int:
     runnable = [e for e in engines if e not in scene.not_run]
     if not args.dask:
         preload(runnable)  # the engines' own lazy imports, once for the forked workers
-    lines = not (args.quiet or bar_enabled())
+    # a bar on a terminal, else one line per finished run (harness.io.progress); neither with --quiet
     with make_bar(len(points) * (1 + len(runnable)), desc=f"sweep {scene.name}", unit="run", quiet=args.quiet) as bar:
         result = run_sweep(scene, axes, points, engines, mode="grid" if grid else "random",
                            seed=None if grid else args.seed, jobs=args.jobs or None, timeout=args.timeout,
-                           dask=args.dask, progress=bar,
-                           log=(lambda line: print(line, file=sys.stderr, flush=True)) if lines else None)
+                           dask=args.dask, progress=bar)
     paths = write_sweep_reports(result, provenance(), folder)
     print(f"sweep {scene.name}: {len(points)} points x {len(engines)} engines, {result.wall_s:.1f} s")
     for e in engines:
@@ -127,13 +129,21 @@ def run(args) -> int:
         if not ran:
             print(f"  {e}: no run ended ok ({', '.join(sorted({r.status.split(':')[0] for r in rows}))})")
             continue
-        worst = max(ran, key=lambda r: r.worst_margin if r.worst_margin == r.worst_margin else -1.0)
+        worst = max(ran, key=lambda r: r.error if r.error == r.error else -1.0)
         where = ", ".join(f"{a.key}={v:.4g}" for a, v in zip(axes, worst.values))
         bad = len(rows) - len(ran)
         unjudged = sum(1 for r in ran if r.no_value)
-        print(f"  {e}: worst margin {worst.worst_margin:.3g} ({worst.worst_check}) at {where}; "
+        classes = {c: sum(1 for r in ran if r.classification == c) for c in reversed(CLASS_ORDER)}
+        print(f"  {e}: largest error {worst.error:.3g} ({worst.error_check or '-'}) at {where}; "
+              + ", ".join(f"{c} {n}" for c, n in classes.items() if n) + "; "
               f"{sum(not r.passed for r in ran)} of {len(rows)} points fail a check"
               + (f" ({unjudged} with a check without a value)" if unjudged else "")
               + (f", {bad} not ok or refused" if bad else ""))
+        failing = [r for r in ran if r.failing]
+        for r in failing[:MAX_FAIL_LINES]:
+            at = ", ".join(f"{a.key}={v:.4g}" for a, v in zip(axes, r.values))
+            print(f"    FAIL at {at}: " + "; ".join(f"{c} [{cls}]" for c, cls, _ in r.failing))
+        if len(failing) > MAX_FAIL_LINES:
+            print(f"    ... {len(failing) - MAX_FAIL_LINES} more failing points (the report's table has each reason)")
     print("wrote " + ", ".join(str(p) for p in paths))
     return EXIT_OK

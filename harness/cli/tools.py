@@ -9,22 +9,25 @@ Heavy modules are imported inside the handlers, as in ``harness.cli.main``.
 
 from __future__ import annotations
 
+import contextlib
+import os
 import shlex
 import sys
 import warnings
 from pathlib import Path
 from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_dask, add_per_state, check_samples, connect_dask, csv_list as _csv_list, float_arg as _float,
-                                   int_arg as _int, models_dir_arg as _models_dir, require_scene_files_utf8,
+                                   int_arg as _int, models_dir_arg as _models_dir, require_scene_files_utf8, seed_arg as _seed,
                                    require_utf8)
+from harness.cli.arg_types import out_dir_arg as _out_dir
 from harness.model.errors import InputError
 
 EXIT_OK, EXIT_FAIL = 0, 1
 
 
 def _overrides(items: list[str] | None) -> dict[str, str]:
-    from harness.model.scene import parse_set
+    from harness.model.scene import parse_sets
 
-    return dict(parse_set(item) for item in items or [])
+    return parse_sets(items)  # a key set twice: InputError
 
 
 def add_parsers(sub) -> None:
@@ -38,20 +41,24 @@ def add_parsers(sub) -> None:
                    help="override a scene parameter, in its unit (`harness scenes`); a vector as a,b,c (repeatable)")
     i.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
     i.add_argument("--states", type=_int, default=4, metavar="N", help="random states for the dynamics check (>= 1, default 4)")
-    i.add_argument("--seed", type=_int, default=0, metavar="N", help="seed of the random states (any integer, default 0)")
+    i.add_argument("--seed", type=_seed, default=0, metavar="N", help="seed of the random states (an integer >= 0, default 0)")
 
-    d = sub.add_parser("debug", help="where two engines' runs of a scene part, per quantity; plot of the errors",
-                       description="Run a scene on two engines and show where each quantity (position m, "
-                                   "orientation rad, velocity m/s, angular velocity rad/s, energy J) first leaves "
-                                   "the scene's tolerance; write debug_<scene>_<A>_<B>.png. Exit 0 when both agree "
-                                   "within tolerance, 1 otherwise, 2 on bad input.")
+    d = sub.add_parser("debug", help="where two engines' runs of a scene part, per quantity, and how each engine's "
+                                     "error converges; plot of the differences",
+                       description="Run a scene on two engines as validate does (with the in-house reference, each "
+                                   "engine's checks judged by how their error converges) and show, per quantity "
+                                   "(position, orientation, velocity, angular velocity, energy), each engine's error "
+                                   "model (class, order, floor, resolution, verdict) and the first time the two runs' "
+                                   "difference exceeds 10x its resolution (or the scene's requirement); write "
+                                   "debug_<scene>_<A>_<B>.png. Exit 0 when every quantity's checks pass, 1 otherwise, "
+                                   "2 on bad input.")
     d.add_argument("scene", help="scene name: a folder of --models-dir (list them with `harness scenes`)")
     d.add_argument("--engines", type=_csv_list, required=True, metavar="A,B",
                    help=f"two of {ENGINES_HELP}, reference (the in-house DOP853 run at rtol 1e-12)")
     d.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a scene parameter, in its unit (`harness scenes`); a vector as a,b,c (repeatable)")
     d.add_argument("--t-end", type=_float, metavar="S", help="horizon (s, > 0; default: the scene's)")
-    d.add_argument("--out-dir", type=Path, default=Path("."), metavar="DIR",
+    d.add_argument("--out-dir", type=_out_dir, default=Path("."), metavar="DIR",
                    help="folder for debug_<scene>_<A>_<B>.png (default: .)")
     d.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
     add_per_state(d)
@@ -69,9 +76,9 @@ def add_parsers(sub) -> None:
                    help="MJCF file (loaded into MuJoCo; into all three when alone)")
     c.add_argument("--urdf", type=Path, metavar="FILE.urdf",
                    help="URDF file (loaded into Pinocchio and Drake; into all three when alone)")
-    c.add_argument("--out-dir", type=Path, default=Path("reports"), metavar="DIR",
+    c.add_argument("--out-dir", type=_out_dir, default=Path("reports"), metavar="DIR",
                    help="folder for check_<model>.md (default: reports)")
-    c.add_argument("--seed", type=_int, default=0, metavar="N", help="seed of the random states (any integer, default 0)")
+    c.add_argument("--seed", type=_seed, default=0, metavar="N", help="seed of the random states (an integer >= 0, default 0)")
     c.add_argument("--states", type=_int, default=4, metavar="N", help="random states for the dynamics terms (>= 1, default 4)")
     c.add_argument("--free-runs", type=_int, default=3, metavar="N", help="free-motion runs from random states (>= 0, default 3)")
     c.add_argument("--t-end", type=_float, default=0.5, metavar="S", help="free-motion horizon (s, > 0, default 0.5)")
@@ -89,9 +96,12 @@ def add_parsers(sub) -> None:
                         "lines (TOML, or two columns; # comments); the URDF's joints are compared under the MJCF's names")
     c.add_argument("--map", action="append", metavar="MJCF_NAME=URDF_NAME",
                    help="one joint of the map (repeatable; added to --joint-map's)")
+    c.add_argument("--allow-dir", action="append", type=_models_dir, default=[], metavar="DIR",
+                   help="a folder besides the model's own whose files its <include>s, meshes, textures and height "
+                        "fields may name (repeatable); any other file outside the model's folder is refused unread")
     c.add_argument("--quiet", action="store_true",
-                   help="print only the summary and errors: not what the engines printed on stderr during the "
-                        "comparison (numpy's and the importers' warnings)")
+                   help="print only the summary and errors: no progress bar or per-stage lines, not what the "
+                        "engines printed on stderr during the comparison (numpy's and the importers' warnings)")
 
     z = sub.add_parser("zoo", help="`check` on every model of a collection or folder, each in its own process; one table",
                        description="Run `harness check` on every model of an installed collection or a folder, each model "
@@ -111,13 +121,16 @@ def add_parsers(sub) -> None:
                         "keeps its own root joints. fixed / floating: for every model")
     z.add_argument("--strip-geometry", action="store_true",
                    help="for a folder: delete geoms and meshes from MuJoCo's copy (example-robot-data always, dm_control never)")
-    z.add_argument("--out-dir", type=Path, default=None, metavar="DIR",
+    z.add_argument("--out-dir", type=_out_dir, default=None, metavar="DIR",
                    help="folder for the table and the per-model reports (default: reports/zoo; reports/partial/zoo "
                         "with --only, so that only a full run refreshes the committed snapshot)")
     z.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
     z.add_argument("--timeout", type=_float, default=300.0, metavar="S",
                    help="seconds allowed per model (> 0, default 300); a model over it is recorded as crashed (timeout)")
     add_dask(z)
+    z.add_argument("--quiet", action="store_true",
+                   help="no progress bar and no per-model progress lines on stderr (the per-model verdicts, the "
+                        "summary and errors still print on stdout); the bar is drawn only when stderr is a terminal")
 
 
 def cmd_inspect(args) -> int:
@@ -133,7 +146,7 @@ def cmd_inspect(args) -> int:
 
 def cmd_debug(args) -> int:
     from harness.tools.debug import debug, parse_engines, summary, write_plot
-    from harness.model.scene import load_scene
+    from harness.model.scene import check_steps, load_scene
 
     from harness.validate.run import save_interval
 
@@ -144,6 +157,7 @@ def cmd_debug(args) -> int:
         raise InputError(f"horizon t_end must be positive and finite, got {args.t_end!r}")
     t_end = args.t_end if args.t_end is not None else scene.t_end
     check_samples(t_end, save_interval(scene), len(scene.multibody().bodies), options="--t-end")
+    check_steps(t_end, scene.dt, f"--t-end (at the scene's step dt = {scene.dt:g} s)")
     result = debug(scene, engines, args.t_end, fast=not args.per_state)
     print("\n".join(summary(result)))
     path = write_plot(result, args.out_dir)
@@ -154,6 +168,7 @@ def cmd_debug(args) -> int:
 def cmd_check(args) -> int:
     import numpy as np
 
+    from harness.io.progress import make_bar
     from harness.tools.check import (captured_native_stderr, parse_map_options, read_joint_map, run_check, summary_lines,
                                      write_report)
 
@@ -166,12 +181,15 @@ def cmd_check(args) -> int:
     # held back: on divergence the one error line says it all; after a run that ends it is shown as
     # before. MuJoCo's warnings are not among it: run_check captures them into the result (report).
     failure = None
-    with captured_native_stderr() as native, warnings.catch_warnings(record=True) as held:
+    # the progress (a bar, or one line per stage) goes to stderr as it was before the capture
+    with _live_stderr() as live, make_bar(None, desc="check", unit="stage", quiet=args.quiet, stream=live) as bar, \
+            captured_native_stderr() as native, warnings.catch_warnings(record=True) as held:
         warnings.simplefilter("always", RuntimeWarning)
         try:
             result = run_check(args.mjcf, args.urdf, seed=args.seed, n_states=args.states, n_free=args.free_runs,
                                t_end=args.t_end, dt=args.dt, floating_base=args.floating_base,
-                               strip=args.strip_geometry, keep_static=args.keep_static_links, joint_map=joint_map or None)
+                               strip=args.strip_geometry, keep_static=args.keep_static_links, joint_map=joint_map or None,
+                               progress=bar, allowed_dirs=tuple(args.allow_dir))
         except (np.linalg.LinAlgError, OverflowError, FloatingPointError) as err:
             failure = err
     if failure is not None:
@@ -189,6 +207,24 @@ def cmd_check(args) -> int:
     return EXIT_OK if result.passed else EXIT_FAIL
 
 
+@contextlib.contextmanager
+def _live_stderr():
+    """``sys.stderr``, or, when it writes to file descriptor 2 (which ``captured_native_stderr``
+    redirects), a stream on a copy of that descriptor: what is written to it shows at once."""
+    stream = sys.stderr
+    try:
+        fd = stream.fileno()
+    except (AttributeError, ValueError, OSError):
+        fd = None
+    if fd != 2:
+        yield stream
+        return
+    stream.flush()
+    with os.fdopen(os.dup(2), "w", buffering=1, encoding=getattr(stream, "encoding", None) or "utf-8",
+                   errors="replace") as live:
+        yield live
+
+
 def _command_line(args) -> str:
     parts = ["harness", "check"]
     for flag, value in (("--mjcf", args.mjcf), ("--urdf", args.urdf)):
@@ -202,11 +238,14 @@ def _command_line(args) -> str:
         parts += ["--joint-map", str(args.joint_map)]
     for item in args.map or []:
         parts += ["--map", item]
+    for folder in args.allow_dir:
+        parts += ["--allow-dir", str(folder)]
     return shlex.join(parts)
 
 
 def cmd_zoo(args) -> int:
     from harness.io.atomic import REPORTS_DIR, check_writable, default_out_dir
+    from harness.io.progress import make_bar
     from harness.io.provenance import command_line, provenance
     from harness.tools.zoo import collection, headline, made_line, run_zoo, select, write_zoo
 
@@ -219,12 +258,14 @@ def cmd_zoo(args) -> int:
     out = args.out_dir or (default_out_dir("zoo", full_run=False) if args.only else REPORTS_DIR / "zoo")
     check_writable(out)
 
-    def done(row) -> None:
-        print(f"  {row.verdict:<8} {row.name} ({row.wall_s:.1f} s)", flush=True)
-
     print(f"zoo {coll.name}: {len(coll.models)} model(s)", flush=True)
-    zoo = run_zoo(coll, base=args.base, jobs=args.jobs or None, timeout=args.timeout, on_done=done,
-                  dask=args.dask)
+    with make_bar(len(coll.models), desc=f"zoo {coll.name}", unit="model", quiet=args.quiet) as bar:
+        def done(row) -> None:
+            print(f"  {row.verdict:<8} {row.name} ({row.wall_s:.1f} s)", flush=True)
+            bar.done(f"{row.name} {row.verdict} {row.wall_s:.1f} s")
+
+        zoo = run_zoo(coll, base=args.base, jobs=args.jobs or None, timeout=args.timeout, on_done=done,
+                      dask=args.dask)
     paths = write_zoo(zoo, out, made_line(provenance()), command_line())
     print(f"zoo {coll.name}: {headline(zoo)}")
     print(f"wrote {paths[0]}, {paths[1]} and {len(paths) - 2} per-model report(s) in {out / coll.name}")

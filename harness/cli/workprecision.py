@@ -52,6 +52,10 @@ def add_parser(sub) -> None:
                    help="steps per trajectory in that benchmark (>= 1, default 100)")
     w.add_argument("--batch-budget-s", type=_float, metavar="S",
                    help="about the time of that benchmark's timed runs, which sizes its batch (s, > 0, default 3)")
+    w.add_argument("--run-timeout", type=_float, metavar="S",
+                   help="wall-clock seconds allowed to one point (its warm-up and timed repeats, in its own worker "
+                        "process; > 0, default 60): a point over it is recorded as timed out, its curve stops and "
+                        "the sweep goes on")
     w.add_argument("--quick", action="store_true", help="a small, fast sweep (for tests and smoke checks)")
     w.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true",
                    help="no progress bar and no compile notice on stderr (the summary and errors still print; "
@@ -74,7 +78,8 @@ def options_from_args(args):
                            ("batch", "batch", lambda v: 0 <= v <= MAX_SAMPLES),
                            ("batch_steps", "batch_steps", lambda v: 1 <= v <= MAX_SAMPLES),
                            ("budget_s", "curve_budget_s", lambda v: v > 0), ("key_budget_s", "key_budget_s", lambda v: v > 0),
-                           ("batch_budget_s", "batch_budget_s", lambda v: v > 0)):
+                           ("batch_budget_s", "batch_budget_s", lambda v: v > 0),
+                           ("run_timeout", "run_timeout_s", lambda v: v > 0)):
         value = getattr(args, name)
         if value is None:
             continue
@@ -96,7 +101,7 @@ def run(args) -> int:
     from harness.engines import ENGINE_NAMES, get_engine
     from harness.io.provenance import provenance
     from harness.model.scene import available_scenes, load_scene
-    from harness.studies.workprecision.run import TARGETS, run_sweep, time_table
+    from harness.studies.workprecision.run import TARGETS, check_step_budget, run_sweep, time_table
     from harness.studies.workprecision.report import write_reports
 
     from harness.model.scene import MODELS_DIR
@@ -108,6 +113,7 @@ def run(args) -> int:
     names = check_selection("--scenes", args.scenes, available_scenes(args.models_dir),
                             f"under {args.models_dir or MODELS_DIR} (a scene is a folder with a scene.toml)")
     scenes = [load_scene(n, models_dir=args.models_dir) for n in names]
+    check_step_budget(scenes, options)  # before any run: no ladder beyond MAX_STEPS
     connect_dask(args)  # an unreachable scheduler: one line, exit 2, nothing written
     folder = out_dir(args, "workprecision", SUBSET)
     load_before = os.getloadavg()[0]

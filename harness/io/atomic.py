@@ -9,7 +9,19 @@ replaced together.
   pass. A failure while writing (full disk, read-only or forbidden folder) leaves every old file
   untouched and removes the staging folder.
 * ``check_writable(out_dir)``: the same permission and disk check, for a command to call
-  *before* it spends minutes computing what it will write.
+  *before* it spends minutes computing what it will write; ``check_out_file(path)``, the same
+  for a single output file.
+* Only regular files are replaced: an existing target that is anything else (a FIFO, a device
+  node such as ``/dev/full``, a folder; symlinks resolved) is refused with an ``InputError``
+  before anything is written, since the rename would put a regular file in its place (as root,
+  ``--out /dev/full`` would otherwise destroy the device node). A report folder (``out_dir``)
+  must be a folder where it exists.
+* Two ``write_set`` calls on one folder at once (two commands writing the same reports) swap
+  their sets one after the other, under an exclusive lock (``fcntl.flock``) on a lock file
+  inside the folder, ``.write-set.lock``, removed again by the writer that holds it: the folder
+  holds one whole set or the other, never a mix.
+* ``sigterm_exits()``: a SIGTERM ends the process through ``SystemExit`` (status 143), so that
+  temporary folders are removed on the way out.
 * ``default_out_dir(command, full_run)``: where a study writes when the user gives no
   ``--out-dir`` (a subset run never replaces the committed full-run reports).
 
@@ -23,15 +35,21 @@ under the usual umask ``022``), like a file made by ``open(path, "w")``; not ``0
 from __future__ import annotations
 
 import errno
+import fcntl
 import os
 import secrets
 import shutil
+import stat
+from contextlib import contextmanager
 from pathlib import Path
 
 from harness.model.errors import InputError
 
 #: Prefix of the staging folder ``write_set`` makes inside ``out_dir`` (hidden; removed after).
 STAGING_PREFIX = ".write-set-"
+
+#: The lock file ``write_set`` holds (``fcntl.flock``) inside ``out_dir`` while it swaps a set.
+LOCK_NAME = ".write-set.lock"
 
 #: Where full study runs write their reports by default (relative to the working directory).
 REPORTS_DIR = Path("reports")
@@ -73,11 +91,38 @@ def write_text(path: Path, text: str) -> None:
     write_bytes(path, text.encode("utf-8"))
 
 
+def _kind(mode: int) -> str:
+    for test, name in ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISDIR, "a folder"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def check_out_file(path: Path) -> Path:
+    """InputError (``cannot write <path>: it is a character device, not a regular file``) when
+    ``path`` exists, symlinks resolved, and is not a regular file: writing it would rename a
+    regular file over it. Changes nothing; returns ``path``. Commands call it on their output
+    file before they run (``harness simulate --out``); ``write_bytes`` calls it again."""
+    path = Path(path)
+    try:
+        st = os.stat(path)
+    except OSError:
+        return path  # missing (or unreadable: the write names the reason)
+    if not stat.S_ISREG(st.st_mode):
+        link = f" (a symlink to {os.path.realpath(path)})" if os.path.islink(path) else ""
+        raise InputError(f"cannot write {path}: it is {_kind(st.st_mode)}{link}, not a regular file; "
+                         "only a regular file is replaced")
+    return path
+
+
 def write_bytes(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and ``os.replace``:
     a reader sees the whole old file or the whole new one. Mode ``0o666 & ~umask``. An
-    ``OSError`` becomes an ``InputError`` naming the path; the old file is then left as it was."""
+    ``OSError`` becomes an ``InputError`` naming the path; the old file is then left as it was.
+    An existing ``path`` that is not a regular file is refused (``check_out_file``)."""
     path = Path(path)
+    check_out_file(path)
     tmp = path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp"
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -135,7 +180,11 @@ def write_set(out_dir: Path, files: dict[str, bytes | str]) -> list[Path]:
     ``out_dir/.write-set-<random>/`` (same file system, so the next step is a rename); (3) only
     when all were written, each is moved to its place with ``os.replace`` in one quick pass (no
     data is written in this pass; subfolders such as ``stress/`` are created here); (4) the
-    staging folder is removed.
+    staging folder is removed. Step 3 runs under an exclusive lock of the folder
+    (``fcntl.flock`` on ``out_dir/.write-set.lock``, removed after): two writers of one folder
+    at once leave one whole set or the other, never a mix. An existing target that is not a
+    regular file (a FIFO, a device node, a folder) or a subfolder in the way that is not a
+    folder is refused in step 1 (``InputError``), before anything is written.
 
     Failures: an ``OSError`` in steps 1-2 (``ENOSPC``, ``EROFS``, ``EACCES``...) raises
     ``InputError`` naming the file and the system's reason, removes the staging folder and
@@ -155,6 +204,7 @@ def write_set(out_dir: Path, files: dict[str, bytes | str]) -> list[Path]:
             raise ValueError(f"write_set: {rel!r} is not a relative path inside the folder")
         items.append((rel, content.encode("utf-8") if isinstance(content, str) else bytes(content)))
     check_writable(out_dir)
+    _check_targets(out_dir, items)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as err:
@@ -173,20 +223,106 @@ def write_set(out_dir: Path, files: dict[str, bytes | str]) -> list[Path]:
                 raise _error(out_dir / rel, err, "write") from err
         _fsync_dir(staging)
         done: list[Path] = []
-        for rel, _ in items:
-            try:
-                (out_dir / rel).parent.mkdir(parents=True, exist_ok=True)
-                os.replace(staging / rel, out_dir / rel)
-            except OSError as err:
-                left = [str(out_dir / r) for r, _ in items[len(done):]]
-                raise InputError(f"cannot replace {out_dir / rel}: {err.strerror or err}; "
-                                 f"{len(done)} of {len(items)} files replaced, not replaced: {', '.join(left)}") from err
-            done.append(out_dir / rel)
+        with _folder_lock(out_dir):
+            _check_targets(out_dir, items)  # again: another writer may have changed the folder meanwhile
+            for rel, _ in items:
+                try:
+                    (out_dir / rel).parent.mkdir(parents=True, exist_ok=True)
+                    os.replace(staging / rel, out_dir / rel)
+                except OSError as err:
+                    left = [str(out_dir / r) for r, _ in items[len(done):]]
+                    raise InputError(f"cannot replace {out_dir / rel}: {err.strerror or err}; {len(done)} of "
+                                     f"{len(items)} files replaced, not replaced: {', '.join(left)}") from err
+                done.append(out_dir / rel)
         for folder in {(out_dir / rel).parent for rel, _ in items}:
             _fsync_dir(folder)
         return done
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+def _check_targets(out_dir: Path, items: list[tuple[str, bytes]]) -> None:
+    """InputError when a file of the set would replace something that is not a regular file, or
+    a folder on its way is not a folder (symlinks resolved); changes nothing."""
+    for rel, _ in items:
+        path = out_dir
+        for part in Path(rel).parts[:-1]:
+            path = path / part
+            try:
+                st = os.stat(path)
+            except OSError:
+                break  # missing: created in step 3
+            if not stat.S_ISDIR(st.st_mode):
+                raise InputError(f"cannot write {out_dir / rel}: {path} is {_kind(st.st_mode)}, not a folder")
+        else:
+            check_out_file(out_dir / rel)
+
+
+@contextmanager
+def _folder_lock(out_dir: Path):
+    """Hold an exclusive ``fcntl.flock`` on ``out_dir/.write-set.lock`` (created if missing),
+    then remove the file and release it. A writer that was waiting on a lock file its holder
+    has just removed finds it gone (or another file in its place) and locks the current one, so
+    at most one writer holds the folder's lock at a time and no lock file is left behind."""
+    path = out_dir / LOCK_NAME
+    while True:
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
+        except OSError as err:
+            raise _error(out_dir, err, "write to") from err
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            try:
+                current = os.path.samestat(os.fstat(fd), os.stat(path))
+            except FileNotFoundError:
+                current = False
+        except BaseException:
+            os.close(fd)
+            raise
+        if current:
+            break
+        os.close(fd)
+    try:
+        yield
+    finally:
+        _unlink_quietly(path)
+        os.close(fd)
+
+
+#: Exit status of a process ended by SIGTERM through ``sigterm_exits`` (128 + 15, as a shell reports it).
+EXIT_SIGTERM = 128 + 15
+
+
+@contextmanager
+def sigterm_exits():
+    """Inside it, a SIGTERM to this process raises ``SystemExit(143)`` instead of killing it at
+    once, so that the ``with tempfile.TemporaryDirectory()`` blocks it is unwinding (``harness
+    zoo``'s log folder, ``harness check``'s copies of a model) remove their folders and the local
+    workers are killed and reaped (``harness.validate.workers.Workers`` chains its own SIGTERM
+    handler to this one) before the process exits with status 143. A second SIGTERM kills at once.
+
+    Installed only in the main thread of a process that is not a ``multiprocessing`` worker (a
+    worker dies of the signal, as before) and only where SIGTERM has its default action (a
+    handler someone else installed is left alone); the previous action is restored on leaving."""
+    import multiprocessing
+    import signal
+    import threading
+
+    if (threading.current_thread() is not threading.main_thread() or multiprocessing.parent_process() is not None
+            or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL):
+        yield
+        return
+
+    def terminate(signum, frame):
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        raise SystemExit(EXIT_SIGTERM)
+
+    signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield
+    finally:
+        if signal.getsignal(signal.SIGTERM) is terminate:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def default_out_dir(command: str, full_run: bool) -> Path:

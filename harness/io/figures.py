@@ -16,8 +16,9 @@ def new_figure(width: float, height: float, **kwargs):
     return fig
 
 
-def png_bytes(fig, dpi: int) -> bytes:
-    """The figure rendered as PNG."""
+def png_bytes(fig, dpi: int, **savefig) -> bytes:
+    """The figure rendered as PNG (``savefig``: more options of ``Figure.savefig``, e.g.
+    ``bbox_inches="tight"`` to take in a legend placed outside the axes)."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
+    fig.savefig(buf, format="png", dpi=dpi, **savefig)
     return buf.getvalue()

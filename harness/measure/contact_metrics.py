@@ -83,23 +83,22 @@ def summary(traj: Trajectory, model: Multibody) -> dict[str, float]:
     return out
 
 
-def add_checks(scene, engine: str, traj: Trajectory, ref: Trajectory | None, model: Multibody, add) -> None:
+def add_checks(scene, traj: Trajectory, ref: Trajectory | None, model: Multibody, add) -> None:
     """Add the scene's ``slip``, ``contact_height`` and ``contact_force`` checks of one run via
-    ``add(check, value, tolerance, unit, detail)`` (``harness.validate.run.check_run``)."""
+    ``add(check, value, unit, detail)`` (``harness.judging.checks.check_run``)."""
     checks = scene.checks
     s = summary(traj, model)
     if "slip" in checks:
-        add("slip", s["slip_rel"], checks["slip"][engine], "rel",
+        add("slip", s["slip_rel"], "rel",
             f"max slip speed {s['slip_max']:.2e} m/s (rms {s['slip_rms']:.1e}) over the speed scale; "
             "horizontal velocity of the material point at the contact")
     if "contact_height" in checks:
-        add("contact_height", s["height_rel"], checks["contact_height"][engine], "rel",
+        add("contact_height", s["height_rel"], "rel",
             f"max |z_C| {s['height_max']:.2e} m over R (penetration {s['penetration_max']:.2e} m, gap {s['gap_max']:.2e} m)")
     if "contact_force" in checks:
-        tol = checks["contact_force"][engine]
         names = [c.name for c in model.contacts]
         if not all(name in traj.reactions for name in names):
-            add("contact_force", float("nan"), tol, "", f"{traj.engine} gave no contact force")
+            add("contact_force", float("nan"), "", f"{traj.engine} gave no contact force")
             return
         if ref is None or not ref.ok or not all(name in ref.reactions for name in names):
             return
@@ -107,7 +106,7 @@ def add_checks(scene, engine: str, traj: Trajectory, ref: Trajectory | None, mod
         other = _contacts_only(ref, names, skip_first=True)
         f_scale, _ = compare.reaction_scales(other, model)
         err = compare.reaction_error(own, other)
-        add("contact_force", err["force_max"] / f_scale, tol, "rel",
+        add("contact_force", err["force_max"] / f_scale, "rel",
             f"{err['force_max']:.2e} N over force scale {f_scale:.3g} N; vs the reference's multipliers (t > 0)")
 
 

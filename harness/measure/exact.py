@@ -76,6 +76,16 @@ def has_error_series(scene: "Scene | str") -> bool:
     return callable(getattr(reference_module(scene), "exact_error_series", None))
 
 
+def declared_floor(scene: "Scene | str"):
+    """The floor the scene's closed form declares for its ``exact`` check, where the closed form
+    is itself an approximation (a small-oscillation theory, a measured frequency): the
+    reference module's ``EXACT_FLOOR = (bound relative to the check's scale, why)``; None where
+    it declares none."""
+    module = reference_module(scene)
+    found = getattr(module, "EXACT_FLOOR", None) if module is not None else None
+    return None if found is None else (float(found[0]), str(found[1]))
+
+
 def needs_runs(scene: "Scene | str") -> bool:
     """Whether the scene's ``exact_error`` makes runs of its own (``EXACT_NEEDS_RUNS``); False
     for a scene without an exact check.

@@ -125,14 +125,17 @@ def file_format(path: Path) -> str:
 def read_spec(path: Path, *, root_joint: str = "none"):
     """Parse an MJCF file, or a URDF (``*.urdf``: MuJoCo's URDF importer) with the root joint a
     scene's ``urdf_root_joint`` names added to its root link (``add_urdf_root_joint``), into a
-    ``mujoco.MjSpec``; raise InputError (one line, naming the file) if it cannot be read.
+    ``mujoco.MjSpec``; raise InputError (one line, naming the file) if it cannot be read, or if
+    it is not a file MuJoCo may be given (``harness.io.input_files.check_model_file``: a regular
+    file of bounded size, UTF-8, its includes and assets inside its folder).
     ``root_joint`` is ignored for an MJCF (it states its own)."""
     import mujoco
 
+    from harness.io.input_files import check_model_file
+
     path = Path(path)
     fmt = file_format(path)
-    if not path.is_file():
-        raise InputError(f"{path}: {fmt} file not found")
+    check_model_file(path, what=fmt)  # missing, a FIFO or device, too large, not UTF-8, an include outside its folder
     try:
         spec = mujoco.MjSpec.from_file(str(path))
     except Exception as err:  # MuJoCo raises ValueError with a multi-line message
@@ -386,9 +389,14 @@ def parse_target(text: str) -> tuple[str, str, str]:
 
 
 def model_file_of(scene: "Scene") -> Path:
-    """The file a scene without code reads its system from: its MJCF, else its URDF (a scene
-    may name only one: ``Scene.model_files``)."""
+    """The file a scene without code reads its system from: its MJCF when its ``scene.toml``
+    names one, its URDF when it names only a URDF (``Scene.model_files``). A named MJCF that is
+    missing is an InputError naming it, never a silent read of the URDF beside it."""
     files = list(dict.fromkeys((scene.mjcf, scene.urdf)))
+    if "mjcf" in scene.model_files and not scene.mjcf.is_file() and scene.urdf.is_file() and len(files) == 2:
+        raise InputError(f"{scene.directory / 'scene.toml'}: its MJCF {scene.mjcf.name} is not in {scene.directory}: "
+                         f"a scene without a builder reads its system from the MJCF it names (not from "
+                         f"{scene.urdf.name}; name only urdf = \"{scene.urdf.name}\" to read the URDF)")
     for path in files:
         if path.is_file():
             return path

@@ -47,30 +47,30 @@ ENGINE_NAMES = ("inhouse", "mujoco", "pinocchio", "exudyn", "drake")
 #: ``harness.measure.compare.MOMENTUM_COMPONENTS`` (kept equal by tests/model/test_scene.py).
 MOMENTUM_COMPONENTS = ("px", "py", "pz", "Lx", "Ly", "Lz", "L3")
 
-#: The check tables a scene may declare (``[checks.<name>]``) and the keys each must hold, no
-#: more and no fewer: the checks ``harness.validate.run.check_run`` and
-#: ``harness.measure.contact_metrics.add_checks`` read. An engine name (``inhouse``, ``mujoco``,
-#: ``pinocchio``) holds that engine's tolerance, a positive finite number; ``components`` the
-#: conserved momentum components (``harness.measure.compare.MOMENTUM_COMPONENTS``); any other key
-#: (the trajectory's quantities) a tolerance for every engine, as one number or a table with a
-#: number per engine. Units are each check's (see ``harness.validate.run``). Every check table may
-#: also hold ``regression_only = ["<engine>", ...]`` (``OPTIONAL_CHECK_KEYS``): the engines whose
-#: tolerance there is a regression bound (what the engine reaches, with a margin) rather than an
-#: accuracy the physics asks for; the report marks those checks.
+#: The check tables a scene may declare (``[checks.<name>]``) and the keys each may hold: the
+#: checks ``harness.judging.checks.check_run`` and ``harness.measure.contact_metrics.add_checks``
+#: make. A check table says only that the check applies (an empty table) and, for
+#: ``momentum_drift``, which components are conserved (``components``, required). It holds no
+#: number: every check is judged by how its error converges (``harness.judging``); what a scene
+#: demands of every engine alike is a ``[requirements]`` entry, what it expects of one engine a
+#: ``[model_differences.<engine>]`` table.
 CHECKS: dict[str, tuple[str, ...]] = {
-    "energy_drift": ENGINE_NAMES,
-    "momentum_drift": ("components",) + ENGINE_NAMES,
-    "trajectory": ("position", "orientation", "velocity"),
-    "constraint": ENGINE_NAMES,
-    "closure": ("position", "velocity"),
-    "exact": ENGINE_NAMES,
-    "reaction": ENGINE_NAMES,
-    "slip": ENGINE_NAMES,
-    "contact_height": ENGINE_NAMES,
-    "contact_force": ENGINE_NAMES,
+    "energy_drift": (),
+    "momentum_drift": ("components",),
+    "trajectory": (),
+    "constraint": (),
+    "closure": (),
+    "exact": (),
+    "reaction": (),
+    "slip": (),
+    "contact_height": (),
+    "contact_force": (),
 }
 
-OPTIONAL_CHECK_KEYS = ("regression_only",)
+#: The keys a ``[model_differences.<engine>]`` table holds: ``model`` (what differs from the
+#: scene's ideal model, one line) and ``floor`` (a bound on the size of the difference relative
+#: to each quantity's scale, a positive number; ``harness.judging.verdict``).
+MODEL_DIFFERENCE_KEYS = ("model", "floor")
 
 #: The checks a scene without code may declare besides ``exact`` (which needs its closed forms,
 #: ``references/<scene>.py``): those that need no builder (no loop, no rolling contact).
@@ -88,6 +88,27 @@ MAX_PARAMETER = 1e100
 #: 15 float64 per body and sample: 1e7 is ~1.2 GB, before the CSV or the report is made).
 MAX_SAMPLES = 10_000_000
 
+#: The most integration steps one run may take: its horizon over its step, ``t_end / dt`` (for a
+#: fixed-step method its step count; Drake's error-controlled methods take at least that many,
+#: ``dt`` being their maximum step). Checked before any run (``check_steps``: ``simulate``,
+#: ``validate`` through ``scene.toml``, ``check``, ``debug``, the studies, and every engine's
+#: ``check_settings``). 1e8 steps are 100 s of MuJoCo at ~1 us per step and hours of the Python
+#: step loops; MuJoCo counts its steps in 32 bits (2.1e9), which this refuses long before.
+MAX_STEPS = 100_000_000
+
+
+def check_steps(t_end: float, dt: float, options: str = "--t-end and --dt") -> None:
+    """InputError when a run of horizon ``t_end`` (s) at step ``dt`` (s) would take more than
+    ``MAX_STEPS`` integration steps (``t_end / dt``), naming ``options`` (what set them), the step
+    count and the limit. A non-positive or non-finite value is left to the callers' own checks."""
+    if not (math.isfinite(t_end) and math.isfinite(dt) and t_end > 0 and dt > 0):
+        return
+    steps = t_end / dt
+    if steps > MAX_STEPS:
+        raise InputError(f"{options}: a horizon of {t_end:g} s at a step of {dt:g} s is {steps:.3g} integration "
+                         f"steps, more than the {MAX_STEPS:.0e} a run may take; lengthen the step or shorten "
+                         "the horizon")
+
 # Top-level keys of scene.toml: key -> (what it must be, required)
 _TOP_KEYS = {
     "name": ("string", True), "title": ("string", False), "textbook": ("list of strings", False),
@@ -95,7 +116,7 @@ _TOP_KEYS = {
     "builder": ("string", False), "initial_state": ("string", False), "needs": ("table", True),
     "parameters": ("table", True),
     "simulation": ("table", True), "integrators": ("table", True), "checks": ("table", False),
-    "not_run": ("table", False),
+    "not_run": ("table", False), "requirements": ("table", False), "model_differences": ("table", False),
 }
 #: The model-file keys of scene.toml: a scene names at least one (``check_description``).
 MODEL_FILE_KEYS = ("mjcf", "urdf")
@@ -138,7 +159,13 @@ class Scene:
         parameters: name -> Parameter (values validated).
         t_end, dt, save_every: default horizon, step and save interval (s).
         integrators: default integrator per engine.
-        checks: check name -> settings (tolerances per engine or per quantity).
+        checks: check name -> its table (which checks apply; ``components`` of momentum_drift).
+        requirements: check name (``closure.position``) or check table (``closure``) -> a bound
+            on its value at the scene's step that every engine must meet, in the check's unit
+            (``[requirements]``; a project's ``--requirements`` file adds to it).
+        model_differences: engine -> ``{"model": what differs, "floor": bound}``: an engine whose
+            model differs from the scene's ideal one (``[model_differences.<engine>]``,
+            ``harness.judging.verdict``).
         not_run: engine -> why it does not run this scene (``[not_run]``: a model the engine
             cannot state, e.g. Drake and the ideal rolling contact); such an engine needs no
             default integrator or tolerances, and ``validate`` reports it as not run.
@@ -168,6 +195,8 @@ class Scene:
     save_every: float
     integrators: Mapping[str, str]
     checks: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    requirements: Mapping[str, float] = field(default_factory=dict)
+    model_differences: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     not_run: Mapping[str, str] = field(default_factory=dict)
     builder: str = ""
     from_model_file: bool = False
@@ -229,9 +258,21 @@ class Scene:
         return apply_overrides(self, overrides)
 
 
+def builder_names() -> list[str]:
+    """The builder modules of ``harness.model.builders`` (each has ``build(params)``): the
+    values a ``builder`` key may take."""
+    import pkgutil
+
+    from harness.model import builders
+
+    return sorted(m.name for m in pkgutil.iter_modules(builders.__path__)
+                  if not m.ispkg and not m.name.startswith("_"))
+
+
 def has_builder(name: str) -> bool:
-    """Whether a module ``harness.model.builders.<name>`` exists."""
-    if not name.isidentifier():
+    """Whether a builder module ``harness.model.builders.<name>`` exists (a package's
+    ``__init__`` or a private module is none)."""
+    if not name.isidentifier() or name.startswith("_"):
         return False
     return importlib.util.find_spec(f"harness.model.builders.{name}") is not None
 
@@ -239,6 +280,13 @@ def has_builder(name: str) -> bool:
 def available_scenes(models_dir: Path | None = None) -> list[str]:
     """Names of all scenes under ``models/`` (folders with a ``scene.toml``)."""
     return sorted(p.parent.name for p in (models_dir or MODELS_DIR).glob("*/scene.toml"))
+
+
+def is_plain_name(name: str) -> bool:
+    """Whether ``name`` is a plain folder name (a scene name): not empty, not ``.`` or ``..``,
+    no path separator, no leading or trailing blank, no NUL."""
+    return (bool(name) and name not in (".", "..") and not any(c in name for c in "/\\\0")
+            and name == name.strip())
 
 
 def load_scene(name: str, overrides: Mapping[str, Any] | None = None, *, models_dir: Path | None = None) -> Scene:
@@ -249,21 +297,33 @@ def load_scene(name: str, overrides: Mapping[str, Any] | None = None, *, models_
             description (``check_description``); unknown parameter or a bad value.
     """
     root = models_dir or MODELS_DIR
+    if not is_plain_name(name):
+        raise InputError(f"scene name {name!r} is not a plain folder name of {root} (no / or \\, not . or ..): "
+                         f"give one of {', '.join(available_scenes(root)) or 'none'}")
     path = root / name / "scene.toml"
     if not path.is_file():
         known = ", ".join(available_scenes(root)) or "none"
         raise InputError(f"unknown scene {name!r} (known: {known})")
     data = read_toml(path)
     try:
-        return apply_overrides(_scene_from_toml(data, path), overrides or {})
+        scene = apply_overrides(_scene_from_toml(data, path), overrides or {})
     except (KeyError, TypeError) as err:  # pragma: no cover - check_description catches these first
         raise InputError(f"{path}: scene description lacks or misstates {err}") from None
+    from harness.io.input_files import check_model_file
+
+    for model_file in dict.fromkeys((scene.mjcf, scene.urdf)):  # before any engine opens them; missing: theirs to say
+        check_model_file(model_file, missing_ok=True)
+    return scene
 
 
 def read_toml(path: Path) -> dict:
-    """Parse a TOML file; InputError naming the file if it is not UTF-8 text or not valid TOML."""
+    """Parse a TOML file; InputError naming the file if it is not a regular file of bounded size
+    (``harness.io.input_files``: a FIFO or a device is refused unread), not UTF-8 text or not
+    valid TOML."""
+    from harness.io.input_files import read_input_bytes
+
     try:
-        text = Path(path).read_bytes().decode("utf-8")
+        text = read_input_bytes(Path(path), "TOML file").decode("utf-8")
     except UnicodeDecodeError as err:
         raise InputError(f"{path}: not UTF-8 text (byte 0x{err.object[err.start]:02x} at offset {err.start})") from None
     except OSError as err:
@@ -278,9 +338,10 @@ def check_description(data: dict, path: Path) -> None:
     """Validate a parsed ``scene.toml`` as the loader reads it; InputError naming the file, the
     table and the key for: an unknown or missing top-level key, table or check table, a value of
     the wrong type, a parameter of unknown kind, a run setting that is not a positive finite
-    number (or saves more than ``MAX_SAMPLES`` samples), an engine without a default integrator,
-    and a check table without a tolerance for every engine (``CHECKS``) or with a tolerance that
-    is not a positive finite number."""
+    number (or saves more than ``MAX_SAMPLES`` samples, or takes more than ``MAX_STEPS`` steps),
+    an engine without a default integrator, a check table holding a number (``CHECKS``: no
+    per-engine tolerances), a requirement naming no check of the scene or not a positive finite
+    number, and a model difference of an unknown engine or without its model and floor."""
     _known_keys(data, _TOP_KEYS, path, "top level")
     for key, (what, required) in _TOP_KEYS.items():
         if key not in data:
@@ -347,6 +408,7 @@ def check_description(data: dict, path: Path) -> None:
     if sim["t_end"] / sim["save_every"] > MAX_SAMPLES:
         raise InputError(f"{path}: [simulation] t_end = {sim['t_end']!r} s over save_every = {sim['save_every']!r} s "
                          f"saves more than {MAX_SAMPLES:.0e} samples")
+    check_steps(sim["t_end"], sim["dt"], f"{path}: [simulation] t_end and dt")
 
     not_run = data.get("not_run", {})
     _known_keys(not_run, ENGINE_NAMES, path, "[not_run]")
@@ -372,32 +434,38 @@ def check_description(data: dict, path: Path) -> None:
             hint = f"did you mean {close[0]}? " if close else ""
             raise InputError(f"{path}: unknown check table {where} ({hint}known: {', '.join(CHECKS)})")
         if not isinstance(table, dict):
-            raise InputError(f"{path}: {where} must be a table of tolerances, got {_show(table)}")
-        _known_keys(table, CHECKS[check] + OPTIONAL_CHECK_KEYS, path, where)
-        listed = table.get("regression_only", [])
-        if not (isinstance(listed, list) and all(e in ENGINE_NAMES for e in listed)):
-            raise InputError(f"{path}: {where} regression_only must be a list of engine names "
-                             f"({', '.join(ENGINE_NAMES)}), got {_show(listed)}")
-        for key in CHECKS[check]:
-            if key in not_run:
+            raise InputError(f"{path}: {where} must be a table (empty, or momentum_drift's components), got {_show(table)}")
+        for key, value in table.items():
+            if key in CHECKS[check]:
                 continue
-            if key not in table:
-                what = "the conserved components" if key == "components" else \
-                    ("a tolerance for " + key if key in ENGINE_NAMES else "a tolerance")
-                raise InputError(f"{path}: {where} lacks {key} ({what})")
-            value = table[key]
-            if key == "components":
-                if not (isinstance(value, list) and value and all(c in MOMENTUM_COMPONENTS for c in value)):
-                    raise InputError(f"{path}: {where} components must be a non-empty list of "
-                                     f"{', '.join(MOMENTUM_COMPONENTS)}, got {_show(value)}")
-            elif key in ENGINE_NAMES or not isinstance(value, dict):
-                _positive(value, path, f"{where} {key}", "a tolerance")
-            else:  # a tolerance per engine
-                _known_keys(value, ENGINE_NAMES, path, f"{where} {key}")
-                for engine in runs:
-                    if engine not in value:
-                        raise InputError(f"{path}: {where} {key} lacks a tolerance for {engine}")
-                    _positive(value[engine], path, f"{where} {key}.{engine}", "a tolerance")
+            if key in ENGINE_NAMES or key in ("position", "orientation", "velocity", "regression_only") or \
+                    isinstance(value, (int, float, dict)):
+                raise InputError(f"{path}: {where} {key}: a check holds no tolerance (no per-engine numbers): every "
+                                 "check is judged by how its error converges; a bound every engine must meet is a "
+                                 "[requirements] entry, an engine's expected model difference a "
+                                 "[model_differences.<engine>] table")
+            _known_keys(table, CHECKS[check], path, where)
+        if "components" in CHECKS[check]:
+            value = table.get("components")
+            if not (isinstance(value, list) and value and all(c in MOMENTUM_COMPONENTS for c in value)):
+                raise InputError(f"{path}: {where} components must be a non-empty list of "
+                                 f"{', '.join(MOMENTUM_COMPONENTS)}, got {_show(value)}")
+    checks = data.get("checks", {})
+    for key, value in data.get("requirements", {}).items():
+        if key.split(".", 1)[0] not in checks and key.split(".", 1)[0] != "energy_balance":
+            raise InputError(f"{path}: [requirements] {key}: names no check the scene makes ([checks.*]: "
+                             f"{', '.join(checks) or 'none'})")
+        _positive(value, path, f"[requirements] {key}", "a bound")
+    for engine, table in data.get("model_differences", {}).items():
+        where = f"[model_differences.{engine}]"
+        if engine not in ENGINE_NAMES:
+            raise InputError(f"{path}: {where}: unknown engine (known: {', '.join(ENGINE_NAMES)})")
+        if not isinstance(table, dict):
+            raise InputError(f"{path}: {where} must be a table with model and floor, got {_show(table)}")
+        _known_keys(table, MODEL_DIFFERENCE_KEYS, path, where)
+        if not (isinstance(table.get("model"), str) and table["model"].strip()):
+            raise InputError(f"{path}: {where} model must say what differs (a string)")
+        _positive(table.get("floor"), path, f"{where} floor", "a bound relative to the quantity's scale")
     _check_code_or_data(data, path)
 
 
@@ -414,6 +482,9 @@ def _check_code_or_data(data: dict, path: Path) -> None:
     need no builder (``CHECKS_WITHOUT_CODE``, and ``exact`` where ``references/<scene>.py`` has
     its closed forms: ``harness.measure.exact`` says when it has not)."""
     params = data["parameters"]
+    if "builder" in data and not has_builder(data["builder"]):
+        raise InputError(f"{path}: builder = {data['builder']!r} is not a builder: one of "
+                         f"{', '.join(builder_names())} (or no builder key: a scene without code)")
     if not without_code(data):
         system = data.get("builder") or data["name"]
         mapped = next((p for p, spec in params.items() if "sets" in spec), None)
@@ -492,6 +563,9 @@ def _scene_from_toml(data: dict, path: Path) -> Scene:
         save_every=float(sim["save_every"]),
         integrators=dict(data.get("integrators", {})),
         checks=dict(data.get("checks", {})),
+        requirements={k: float(v) for k, v in data.get("requirements", {}).items()},
+        model_differences={e: {"model": str(d["model"]), "floor": float(d["floor"])}
+                           for e, d in data.get("model_differences", {}).items()},
         not_run=dict(data.get("not_run", {})),
         builder=str(data.get("builder", "")),
         from_model_file=without_code(data),
@@ -548,6 +622,33 @@ def parse_set(item: str) -> tuple[str, str]:
     return key.strip(), value.strip()
 
 
+def parse_sets(items: list[str] | None) -> dict[str, str]:
+    """The ``--set KEY=VALUE`` arguments of a command as overrides (``parse_set`` each);
+    InputError when a key is set twice (which value was meant is not for the harness to guess)."""
+    overrides: dict[str, str] = {}
+    for item in items or []:
+        key, value = parse_set(item)
+        if key in overrides:
+            raise InputError(f"--set {key} is given twice ({key}={overrides[key]} and {key}={value}): set each "
+                             "parameter once")
+        overrides[key] = value
+    return overrides
+
+
+def _as_given(raw: Any) -> str:
+    """A parameter value for a message as it was given: text as typed (quoted), a number (a
+    Python or NumPy scalar: a sweep's values are NumPy's) plainly (``{x:g}``, never
+    ``np.float64(0.0005)``), a sequence as its numbers joined by commas (``--set``'s form)."""
+    if isinstance(raw, str):
+        return repr(raw)
+    if isinstance(raw, (list, tuple, np.ndarray)):
+        return ",".join(_as_given(v) for v in raw)
+    try:
+        return f"{float(raw):g}"
+    except (TypeError, ValueError):
+        return repr(raw)
+
+
 def _coerce(name: str, raw: Any, kind: str, source: str) -> ParamValue:
     """Convert and validate one parameter value according to its kind."""
     if isinstance(raw, bool) or (isinstance(raw, (list, tuple)) and any(isinstance(v, bool) for v in raw)):
@@ -571,9 +672,9 @@ def _coerce(name: str, raw: Any, kind: str, source: str) -> ParamValue:
         except (TypeError, ValueError):
             raise InputError(f"{source}: parameter {name!r}: not a number: {raw!r}") from None
     if not all(math.isfinite(v) for v in values):
-        raise InputError(f"{source}: parameter {name!r} must be finite, got {raw!r}")
+        raise InputError(f"{source}: parameter {name!r} must be finite, got {_as_given(raw)}")
     if any(abs(v) > MAX_PARAMETER for v in values):
-        raise InputError(f"{source}: parameter {name!r} = {raw!r} is beyond +-{MAX_PARAMETER:g} (SI units): "
+        raise InputError(f"{source}: parameter {name!r} = {_as_given(raw)} is beyond +-{MAX_PARAMETER:g} (SI units): "
                          "no physical value is that large, and the computation would overflow")
     if kind == "vector3":
         if len(values) != 3:
@@ -583,7 +684,7 @@ def _coerce(name: str, raw: Any, kind: str, source: str) -> ParamValue:
         raise InputError(f"{source}: parameter {name!r} is a scalar, got {len(values)} values")
     value = values[0]
     if kind == "positive" and not value > 0.0:
-        raise InputError(f"{source}: parameter {name!r} must be > 0, got {value!r}")
+        raise InputError(f"{source}: parameter {name!r} must be > 0, got {value:g}")
     if kind == "nonnegative" and value < 0.0:
-        raise InputError(f"{source}: parameter {name!r} must be >= 0, got {value!r}")
+        raise InputError(f"{source}: parameter {name!r} must be >= 0, got {value:g}")
     return value

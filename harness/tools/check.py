@@ -111,6 +111,14 @@ in QACC ... The simulation is unstable.") are captured into the result (``CheckR
 the summary, never printed on stderr; Drake's parser warnings (Python logging) are captured into
 the notes.
 
+Before any loader opens a file, it must be a regular file (symlinks resolved) of at most
+``harness.io.input_files.MAX_INPUT_BYTES``, UTF-8 text, whose ``<include>``s, meshes, textures and
+height fields lie inside its folder or a folder given with ``--allow-dir`` (``allowed_dirs``;
+``harness.io.input_files.check_model_file``); a FIFO, a device, an include outside is bad input.
+The copies live in a temporary folder ``harness-check-*``, removed on SIGTERM too
+(``atomic.sigterm_exits``). When MuJoCo refuses the file, its own reason is the message (Pinocchio
+is asked for a second opinion only on a body's mass or inertia).
+
 Bad input (missing or malformed file, missing mesh, a file MuJoCo cannot load, non-positive
 mass, an inertia that is not positive definite or violates the triangle inequality, a model that
 only MuJoCo loads, a joint map naming joints the files do not have) raises ``InputError`` naming
@@ -135,6 +143,7 @@ import numpy as np
 import pinocchio as pin
 
 from harness.io import atomic
+from harness.io.input_files import check_input_file, check_model_file, parse_xml, read_input_text
 from harness.io.provenance import drake_version
 from harness.tools import dynamics_terms as dc
 from harness.tools import witnesses as wit
@@ -147,6 +156,7 @@ from harness.model import rotations
 from harness.model.errors import InputError
 from harness.model.from_model_file import add_root_joint  # noqa: F401 - also harness zoo's
 from harness.model.joints import FREE, JOINTS, TRANSLATIONAL, by_pinocchio
+from harness.model.scene import check_steps
 from harness.tools.loaded_models import (
     DrakeRefusal,
     JointBody,
@@ -205,9 +215,10 @@ def file_format(path: Path) -> str:
 
 
 def _require_file(path: Path) -> Path:
+    """``path`` if it is a regular file of bounded size (``harness.io.input_files``: a FIFO or a
+    device would block or flood the loader), else InputError naming it (``... file not found``)."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: {file_format(path)} file not found")
+    check_input_file(path, file_format(path))
     return path
 
 
@@ -536,7 +547,7 @@ class MjcfCopy:
     def __init__(self, path: Path):
         self.path = Path(path)
         try:
-            self.root = ET.parse(self.path).getroot()
+            self.root = parse_xml(self.path, "MJCF")
             self._inline(self.root, 0)
         except (ET.ParseError, OSError) as err:
             raise InputError(f"{path}: cannot read the MJCF for the loaders' copy: {_one_line(err)}") from None
@@ -552,7 +563,7 @@ class MjcfCopy:
             if child.tag == "include":
                 name = child.get("file", "")
                 path = self.path.parent / name   # MuJoCo: relative to the main file's folder
-                included = ET.parse(path).getroot()
+                included = parse_xml(path, "included MJCF")
                 self._inline(included, depth + 1)
                 children += list(included)
             else:
@@ -681,7 +692,7 @@ class MjcfCopy:
 def strip_urdf_copy(path: Path, folder: Path) -> tuple[Path, dict[str, int]]:
     """A copy of a URDF without ``<visual>`` and ``<collision>`` elements, as ``<folder>/<name>``."""
     try:
-        tree = ET.parse(path)
+        tree = ET.ElementTree(parse_xml(path, "URDF"))
     except (ET.ParseError, OSError) as err:
         raise InputError(f"{path}: cannot load URDF: {_one_line(err)}") from None
     counts = {"visual": 0, "collision": 0}
@@ -977,21 +988,24 @@ def _body_joints(m: mujoco.MjModel) -> dict[str, list[str]]:
 
 
 def load_models(mjcf: Path | None, urdf: Path | None, *, floating_base: bool = False, strip: bool = False,
-                keep_static: bool = False, joint_map: dict[str, str] | None = None
-                ) -> tuple[dict[str, Reading], str, list[str], list[str]]:
+                keep_static: bool = False, joint_map: dict[str, str] | None = None,
+                allowed_dirs: tuple[Path, ...] = ()) -> tuple[dict[str, Reading], str, list[str], list[str]]:
     """Every loader's reading of the file(s) per the module docstring; returns (readings by
     loader name, mode, notes on loading, how what the loaders read differs from the files: the
     copies and the joint map). ``joint_map``: MJCF joint name -> URDF joint name, for
     an MJCF and a URDF whose joints are named differently (``apply_joint_map``). Raises
     InputError for bad input: no file, a missing or malformed file, a file MuJoCo does not load,
     a non-physical body (non-positive mass, invalid inertia), a model without a moving joint, a
-    model only MuJoCo loads, or a joint map naming joints the files do not have."""
+    model only MuJoCo loads, or a joint map naming joints the files do not have. Before any
+    loader opens them, each file must be a regular file of bounded size and UTF-8 text whose
+    includes and assets lie in its folder or one of ``allowed_dirs``
+    (``harness.io.input_files.check_model_file``)."""
     if mjcf is None and urdf is None:
         raise InputError("check needs --mjcf MODEL.xml, --urdf MODEL.urdf, or both")
     mj_file = Path(mjcf) if mjcf is not None else Path(urdf)
     other_file = Path(urdf) if urdf is not None else Path(mjcf)
-    for path in {mj_file, other_file}:
-        _require_file(path)
+    for path in dict.fromkeys((mj_file, other_file)):
+        check_model_file(path, allowed_dirs)
     if joint_map and (mjcf is None or urdf is None):
         raise InputError("--joint-map and --map rename the URDF's joints to the MJCF's: they need both --mjcf and --urdf")
     mode = {(True, True): "MJCF -> MuJoCo, URDF -> Pinocchio and Drake",
@@ -1003,7 +1017,7 @@ def load_models(mjcf: Path | None, urdf: Path | None, *, floating_base: bool = F
         spec = read_mujoco_spec(path)
         add_root_joint(spec, root, path)
         check_spec_inertials(spec, path)
-    with tempfile.TemporaryDirectory(prefix="harness-check-") as tmp:
+    with atomic.sigterm_exits(), tempfile.TemporaryDirectory(prefix="harness-check-") as tmp:  # removed on SIGTERM too
         readings, notes, copies = _load_readings(mj_file, other_file, Path(tmp), root=root, strip=strip,
                                                  keep_static=keep_static, mjcf_alone=mjcf is not None and urdf is None)
     if joint_map:
@@ -1021,10 +1035,7 @@ def read_joint_map(path: Path) -> dict[str, str]:
     urdf_name`` per line; ``#`` starts a comment). InputError (naming the file and line) for
     anything else."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputError(f"{path}: cannot read the joint map: {_one_line(err)}") from None
+    text = read_input_text(path, "joint map")  # a regular file of bounded size, UTF-8: InputError otherwise
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError:
@@ -1069,8 +1080,8 @@ def parse_map_options(items: list[str] | None) -> dict[str, str]:
 def _urdf_joint_names(path: Path) -> list[str]:
     """The names of a URDF's joints that move (not ``fixed``), in file order."""
     try:
-        root = ET.parse(path).getroot()
-    except (ET.ParseError, OSError):
+        root = parse_xml(path, "URDF")
+    except (ET.ParseError, OSError, InputError):
         return []
     return [j.get("name") for j in root.findall("joint") if j.get("name") and j.get("type") != "fixed"]
 
@@ -1181,14 +1192,21 @@ def _refusal_in(err: Exception, tmp: Path, source: Path) -> str:
 
 
 def _pinocchio_or(err: InputError, other_file: Path, root: str) -> InputError:
-    """When MuJoCo refuses the file and Pinocchio reads a body of it as non-physical, Pinocchio's
-    message, which names the body and its joint; else MuJoCo's error."""
+    """When MuJoCo refuses the file over a body's mass or inertia and Pinocchio reads a body of it
+    as non-physical, Pinocchio's message, which names the body and its joint; else MuJoCo's error,
+    which carries MuJoCo's own reason (its depth limit for a chain too deep, a missing file...).
+    Pinocchio is not asked about any other refusal: its data for a model MuJoCo refuses for its
+    size (a 2000-link chain) would not fit in memory, and its failure would hide MuJoCo's reason."""
+    if not re.search(r"mass|inertia", str(err), re.IGNORECASE):
+        return err
     try:
         pmodel = load_pinocchio(other_file, root_joint=root)
         check_joint_bodies_physical(pinocchio_joint_bodies(pmodel), str(other_file))
     except InputError as pin_err:
         if "Pinocchio cannot load" not in str(pin_err):
             return pin_err
+    except (MemoryError, Exception):  # noqa: BLE001 - only a second opinion: MuJoCo's reason stands
+        pass
     return err
 
 
@@ -1729,8 +1747,8 @@ def _urdf_links(path: Path) -> list:
     import xml.etree.ElementTree as ET
 
     try:
-        return ET.parse(path).getroot().findall("link")
-    except (ET.ParseError, OSError):
+        return parse_xml(path, "URDF").findall("link")
+    except (ET.ParseError, OSError, InputError):
         return []
 
 
@@ -2134,18 +2152,36 @@ def _joint_set_problem(mjr: Reading, kinds: dict[str, str], r: Reading | None = 
 def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: int = dc.DEFAULT_STATES,
               n_free: int = 3, t_end: float = 0.5, dt: float = 1e-3, save_every: float = 0.01,
               floating_base: bool = False, strip: bool = False, keep_static: bool = False,
-              joint_map: dict[str, str] | None = None, witnesses: bool = True) -> CheckResult:
-    """Load, compare models, dynamics terms and free motion (see module docstring); ``joint_map``:
+              joint_map: dict[str, str] | None = None, witnesses: bool = True, progress=None,
+              allowed_dirs: tuple[Path, ...] = ()) -> CheckResult:
+    """Load, compare models, dynamics terms and free motion (see module docstring); ``allowed_dirs``:
+    folders besides the model's own that its includes and assets may lie in (``load_models``); ``joint_map``:
     MJCF joint name -> URDF joint name (``apply_joint_map``); ``witnesses``: also the in-house
-    engine and Exudyn built from MuJoCo's reading (``harness.tools.witnesses``)."""
+    engine and Exudyn built from MuJoCo's reading (``harness.tools.witnesses``); ``progress``: a
+    bar (``harness.io.progress.make_bar``) whose total is set to the stages (the loads, the
+    witnesses, the dynamics terms, each free-motion run, the witnesses' runs), ticked as each
+    ends; or None."""
+    clock = [time.perf_counter()]
+
+    def tick(label: str, n: int = 1) -> None:
+        if progress is not None:
+            now = time.perf_counter()
+            progress.done(f"{label} {now - clock[0]:.1f} s", n)
+            clock[0] = now
+
     for label, value in (("--t-end", t_end), ("--dt", dt)):
         if not (np.isfinite(value) and value > 0):
             raise InputError(f"{label} must be positive and finite, got {value!r}")
+    check_steps(t_end, dt, "--t-end and --dt")  # before any model is loaded or run
     if n_states < 1 or n_free < 0:
         raise InputError("--states must be >= 1 and --free-runs >= 0")
+    if progress is not None:
+        progress.total = 4 + n_free
+        progress.refresh()
     readings, mode, notes, copies = load_models(mjcf, urdf, floating_base=floating_base, strip=strip,
-                                                keep_static=keep_static, joint_map=joint_map)
+                                                keep_static=keep_static, joint_map=joint_map, allowed_dirs=allowed_dirs)
     name = Path(urdf if urdf is not None else mjcf).stem
+    tick(f"{name} loaded: " + ", ".join(f"{k} {'ok' if r.loaded else 'no'}" for k, r in readings.items()))
     res = CheckResult(name, mode, "floating (free root joint 'root_joint')" if floating_base else "fixed", readings)
     res.notes += notes
     res.copies = copies
@@ -2176,6 +2212,7 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
         sources["Drake"] = lambda q, v: dc.drake_terms(plant, jmap, q, v, context)
     if witnesses:
         res.witnesses = _witnesses(res, mjr, jmap, sources)
+    tick(f"{name} witnesses {'built' if witnesses else 'not asked for'}")
     with captured_warnings() as caught:  # MuJoCo's warnings go into the result, not onto stderr
         try:
             if len(sources) >= 2:
@@ -2193,19 +2230,23 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
                 res.findings += diagnose_dynamics(readings, jmap, {k: t for k, t in terms.items() if k in LOADERS},
                                                   [d for d in res.dynamics if d.a in LOADERS and d.b in LOADERS],
                                                   max(dc.DEFAULT_RTOL, rtol))
+            tick(f"{name} dynamics terms at {n_states} states")
             if pin_table is None:
                 res.free_skipped = ("Pinocchio does not load the file" if not pinr.loaded
                                     else f"Pinocchio's dynamics are not compared ({pinr.dynamics})")
                 res.free_skipped += "; the free motion compares MuJoCo with Pinocchio only"
+                tick(f"{name} free motion skipped", n_free)
             else:
                 frames = _pinocchio_frames(mjr, pinr)
                 for k, (q, v) in enumerate(dc.random_states(jmap, n_free, seed + 1)):
                     res.free.append(free_motion(m, pinr.model, jmap, q, v, k, t_end=t_end, dt=dt, save_every=save_every,
                                                 frames=frames))
+                    tick(f"{name} free motion {k + 1}/{n_free}")
             w = res.witnesses
             if w is not None and not w.refusal:
                 wit.run(w, m, jmap, dc.random_states(jmap, n_free, seed + 1), t_end=t_end, dt=dt, save_every=save_every,
                         rigid=_rigid_copy(m, dt))
+            tick(f"{name} witness runs {'done' if w is not None and not w.refusal else 'not run'}")
         finally:
             res.warnings = caught.stats()
     return res

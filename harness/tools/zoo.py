@@ -33,7 +33,10 @@ forked, at most one per usable CPU, each with its own wall-clock ``--timeout``):
 segfault), a hang or a timeout of one model is that model's row and reaches no other; the workers
 are killed when the parent gets SIGTERM, returns or raises, and die with it when it is killed
 outright (Linux ``PR_SET_PDEATHSIG``). A worker's stdout and stderr (importers' chatter) go to a
-file the parent reads only when the worker dies, for the last Python frame ``faulthandler`` wrote.
+file the parent reads only when the worker dies, for the last Python frame ``faulthandler`` wrote;
+that file and the worker's temporary files (``check``'s copies of the model) are in one temporary
+folder ``harness-zoo-*``, removed when the zoo ends, raises or gets SIGTERM (``atomic.sigterm_exits``:
+the process then exits with status 143).
 With ``--dask ADDRESS`` the models are checked the same way on the workers of that Dask scheduler
 (``harness.validate.dask_workers``); a worker on another machine, which cannot reach that file,
 leaves the chatter in its own log.
@@ -42,11 +45,14 @@ One row per model (``ModelRow``):
 
 * which loaders load the file: from the check's readings, or, when the check refuses the model,
   by asking each engine alone (MuJoCo compiles the spec; Pinocchio ``buildModelFrom*``; Drake's
-  parser), with the one-line reason where one refuses;
+  parser), with the one-line reason where one refuses (none is asked about a file refused before
+  loading);
 * the verdict: ``pass`` / ``fail`` (``check``'s verdict: the loaders that read the file agree or
   not), ``refused`` (``check`` rejects the model as bad input: a file MuJoCo does not load, a
-  non-physical body, no moving joint, only MuJoCo loads it, a comparison that diverged) with
-  ``check``'s one line, ``crashed`` (the worker died, timed out, or ``check`` raised an
+  non-physical body, no moving joint, only MuJoCo loads it, a comparison that diverged; or,
+  before any engine is given the file, one that is not a regular file, is larger than
+  ``harness.io.input_files.MAX_INPUT_BYTES``, is not UTF-8 or includes a file outside its folder:
+  ``harness.io.input_files.check_model_file``) with ``check``'s one line, ``crashed`` (the worker died, timed out, or ``check`` raised an
   unexpected exception) with how;
 * the largest discrepancy (``Discrepancy``): the one largest relative to its tolerance among
   the counted model quantities on which the loaders disagree (the cause in the file) or, when
@@ -109,6 +115,7 @@ import mujoco
 import numpy as np
 
 from harness.io import atomic
+from harness.io.input_files import check_model_file, parse_xml
 from harness.io.provenance import made_with
 from harness.model.errors import InputError
 from harness.model.joints import FREE, JOINTS, TRANSLATIONAL
@@ -213,8 +220,10 @@ def dm_control_suite() -> Collection:
 
 
 def folder_collection(folder: Path, strip: bool) -> Collection:
-    """Every ``*.xml`` and ``*.urdf`` directly in ``folder``; an MJCF and a URDF of one stem pair up."""
-    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in (".xml", ".urdf"))
+    """Every ``*.xml`` and ``*.urdf`` directly in ``folder``; an MJCF and a URDF of one stem pair up.
+    An entry that is not a regular file (a FIFO, a link to a device) is a model too: its row says
+    why it is refused (``check_model``), never read."""
+    files = sorted(p for p in folder.iterdir() if not p.is_dir() and p.suffix.lower() in (".xml", ".urdf"))
     if not files:
         raise InputError(f"{folder}: no model file (*.xml, *.urdf) in the folder")
     models = []
@@ -284,8 +293,8 @@ def urdf_root_link(path: Path) -> str | None:
     """The name of a URDF's root link (the one link no joint has as child); None when the file
     does not parse or has no single root."""
     try:
-        robot = ET.parse(path).getroot()
-    except (ET.ParseError, OSError):
+        robot = parse_xml(path, "URDF")
+    except (ET.ParseError, OSError, InputError):
         return None
     children = {c.get("link") for j in robot.iter("joint") for c in j.findall("child")}
     roots = [link.get("name") for link in robot.findall("link") if link.get("name") not in children]
@@ -608,10 +617,21 @@ def check_model(model: ZooModel, base: str, strip: bool, log_path: str | None = 
         os.dup2(log.fileno(), 1)
         os.dup2(log.fileno(), 2)
         faulthandler.enable(file=log)
+        # this worker's temporary files (check's copies of the model) go into the zoo's log folder, which
+        # the parent removes however the worker ends (killed at its timeout, or with the parent)
+        tempfile.tempdir = os.path.dirname(log_path) or None
     warnings.simplefilter("ignore")
     floating = floating_base(model, base)
     command = check_command(model, floating, strip)
     row = ModelRow(model.name, tuple(str(p) for p in model.files), "floating" if floating else "fixed", "", "")
+    try:  # what `harness check` refuses before any loader opens the file: no loader is asked either
+        for path in model.files:
+            check_model_file(path)
+    except InputError as err:
+        row.verdict, row.reason = "refused", _without_path(str(err), model)
+        row.bodies_from = "not read (the file is refused before any engine reads it)"
+        row.report = refused_report(row, command)
+        return row
     try:
         res = run_check(model.mjcf, model.urdf, floating_base=floating, strip=strip, **CHECK_DEFAULTS)
     except (InputError, np.linalg.LinAlgError, OverflowError, FloatingPointError) as err:
@@ -648,8 +668,9 @@ def refused_report(row: ModelRow, command: str) -> str:
     plausibility of its inertias."""
     lines = [f"# harness check: {row.name}", "", f"Verdict: **REFUSED**: {row.reason}", "", f"Command: `{command}`", "",
              f"- Files: {', '.join(f'`{f}`' for f in row.files)}; base: {row.base}",
-             "- Loads (each engine asked alone): " + "; ".join(
-                 f"{k} {'loads it' if not why else 'does not load it: ' + why}" for k, why in row.loads.items()), ""]
+             ("- Loads (each engine asked alone): " + "; ".join(
+                 f"{k} {'loads it' if not why else 'does not load it: ' + why}" for k, why in row.loads.items())
+              if row.loads else "- Loads: no engine is given a file refused before loading"), ""]
     return "\n".join(lines + plausibility_section(row)) + "\n"
 
 
@@ -703,7 +724,8 @@ def run_zoo(coll: Collection, *, base: str = "auto", jobs: int | None = None, ti
     by_name = {m.name: m for m in coll.models}
     rows: dict[str, ModelRow] = {}
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="harness-zoo-") as logs:
+    # the log folder goes on SIGTERM too (the workers, killed first, write their copies into it)
+    with atomic.sigterm_exits(), tempfile.TemporaryDirectory(prefix="harness-zoo-") as logs:
         log = {m.name: Path(logs) / f"{i}.log" for i, m in enumerate(coll.models)}
 
         def done(name, outcome: Outcome) -> None:

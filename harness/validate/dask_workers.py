@@ -12,9 +12,22 @@ contract and the ``Outcome`` are those of a local run: a case that raises is ``e
 whose process dies (a segfault, ``os._exit``) is ``crashed`` with the same message, one past its
 timeout is ``timeout``; the Dask worker itself survives all three and takes the next case. Only
 a Dask worker that dies under a case (killed from outside, out of memory) reaches Dask, which
-retries the task elsewhere and then gives up: that case is ``crashed`` ("the Dask worker running
-it died"). A case whose task outlives its timeout by ``GRACE_S`` on this side (a worker that hangs
-or vanishes without Dask noticing) is ``timeout`` and its task is cancelled.
+resubmits the task to another worker (up to ``distributed.scheduler.allowed-failures`` times, the
+scheduler's setting, then that case is ``crashed``: "Dask worker lost: ...").
+
+Nothing here can hang on a lost cluster. While cases wait, this side looks at the cluster every
+``POLL_S`` s: a lost scheduler (the client's connection closed, which cancels every task) ends
+every waiting case at once, ``crashed`` with "Dask scheduler lost"; a cluster left without any
+worker for ``NO_WORKER_S`` s (a nanny restarts its worker sooner) ends them ``crashed`` with
+"Dask worker lost". Waiting has one overall deadline: when no case has ended (nor started, nor
+the cluster's workers changed) for the longest waiting case's timeout plus ``GRACE_S`` s, every
+waiting case ends ``timeout`` together. After any of the three the cluster counts as lost: the
+cases started later end at once with the same reason, not one timeout after another; leaving
+the context prints one line on stderr naming the cause (once per process and address: a later
+executor on that address, a command's next batch of cases, fails its cases at once, without
+asking the cluster), and the command's own report and exit code (a failed run) follow. distributed's own loggers are silenced
+while a client is open (its tracebacks of these expected failures are not ours to print; our
+messages do not go through them).
 
 A Dask worker process is daemonic (``distributed.worker.daemon``) and multiprocessing refuses
 children to daemonic processes; ``_remote_case`` lifts that flag in the worker process. The case
@@ -27,14 +40,17 @@ caps it), so a case starts as it is submitted. Cases and results travel pickled
 importable: the same environment on every worker, and the scene files at the same paths for a
 cluster of several machines.
 
-``connect(address)`` checks the scheduler answers (``CONNECT_TIMEOUT`` s) and has a worker, and
-raises ``InputError`` (exit 2, one line) otherwise; it keeps one client per address for the
+``connect(address)`` checks a Dask scheduler answers there (``CONNECT_TIMEOUT`` s for the
+connection and Dask's handshake both: a server that accepts but is not Dask, e.g. an HTTP server,
+fails it too) and has a worker, and raises ``InputError`` (exit 2, one line "cannot reach a Dask
+scheduler at ADDRESS: ...") otherwise; it keeps one client per address for the
 process, closed at exit or by ``close_clients()``.
 """
 
 from __future__ import annotations
 
 import atexit
+import logging
 import pickle
 import sys
 import threading
@@ -46,25 +62,65 @@ from typing import Any, Callable, Hashable
 from harness.model.errors import InputError
 from harness.validate.workers import Outcome
 
-CONNECT_TIMEOUT = 5.0  # s to reach the scheduler, and again for a first worker to be there
-GRACE_S = 60.0  # s past a case's timeout before this side gives up on its task
+CONNECT_TIMEOUT = 5.0  # s to reach the scheduler and end Dask's handshake, and again for a first worker to be there
+NO_WORKER_S = 5.0  # s the cluster may have no worker while cases wait (a nanny restarts one sooner)
+GRACE_S = 60.0  # s past the longest waiting case's timeout without any result before waiting ends
+POLL_S = 0.5  # s between looks at the cluster (its scheduler, its workers) while cases wait
 
 _CLIENTS: dict[str, Any] = {}
 _LOCK = threading.Lock()
+_LOG_LEVELS: dict[str, int] = {}  # distributed's loggers' levels before ``connect`` silenced them
+_LOST: dict[str, tuple[str, str]] = {}  # address -> (why, status): a cluster lost in this process stays lost
+_TOLD: set[str] = set()  # the addresses whose loss was said on stderr
 
 
 # ------------------------------------------------------------------------------------ client
 def _why(err: BaseException) -> str:
+    if isinstance(err, TimeoutError) and not str(err):  # asyncio.wait_for's: the handshake never came
+        return (f"no Dask handshake within {CONNECT_TIMEOUT:g} s (something that is not a Dask scheduler "
+                "listens there?)")
     if isinstance(err, (OSError, ValueError, TimeoutError)):
         text = " ".join(str(err).split())
         return text[:200] or type(err).__name__
-    return f"no Dask scheduler answered there ({type(err).__name__})"
+    return f"what answers there does not speak Dask's protocol ({type(err).__name__} reading its answer)"
+
+
+def _unreachable(address: str, err: BaseException) -> InputError:
+    return InputError(f"cannot reach a Dask scheduler at {address}: {_why(err)}")
+
+
+def _silence_distributed() -> None:
+    """Silence distributed's loggers in this process (the levels its logging config set,
+    ``distributed.config.initialize_logging``), once, until ``close_clients``: the failures it
+    logs here with tracebacks (a lost scheduler, a failed reconnection) are expected and reported
+    by this module in one line; the harness's own messages do not go through them."""
+    if _LOG_LEVELS:
+        return
+    names = ["distributed"] + [name for name, logger in list(logging.root.manager.loggerDict.items())
+                               if name.startswith("distributed.") and isinstance(logger, logging.Logger)
+                               and logger.level != logging.NOTSET]
+    for name in names:
+        logger = logging.getLogger(name)
+        _LOG_LEVELS[name] = logger.level
+        logger.setLevel(logging.CRITICAL + 1)
+
+
+def _restore_logging() -> None:
+    for name, level in _LOG_LEVELS.items():
+        logging.getLogger(name).setLevel(level)
+    _LOG_LEVELS.clear()
+
+
+def _restore_logging_unless(clients: dict) -> None:
+    if not clients:  # no client left open to speak for
+        _restore_logging()
 
 
 def connect(address: str):
     """The ``distributed.Client`` of the scheduler at ``address`` (``tcp://host:port``), made
-    once per process. InputError, one line, when no scheduler answers within
-    ``CONNECT_TIMEOUT`` s or it has no worker within as long."""
+    once per process. InputError, one line, when no Dask scheduler answers there within
+    ``CONNECT_TIMEOUT`` s (the connection and Dask's handshake) or it has no worker within as
+    long."""
     import asyncio
 
     with _LOCK:
@@ -78,21 +134,27 @@ def connect(address: str):
             raise InputError(f"--dask needs dask.distributed: pip install 'dask[distributed]' ({err})") from None
 
         async def probe() -> None:  # a bare handshake first: a failed Client leaves noise behind
-            comm = await comm_connect(address, timeout=CONNECT_TIMEOUT)
+            # distributed's connect bounds the connection, not the handshake after it (a server
+            # that accepts and says nothing would hold it for ever): the whole probe is bounded
+            comm = await asyncio.wait_for(comm_connect(address, timeout=CONNECT_TIMEOUT), CONNECT_TIMEOUT)
             await comm.close()
 
+        _silence_distributed()
         try:
             asyncio.run(probe())
         except Exception as err:
-            raise InputError(f"--dask {address}: cannot reach the Dask scheduler: {_why(err)}") from None
+            _restore_logging_unless(_CLIENTS)
+            raise _unreachable(address, err) from None
         try:
             client = Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
         except Exception as err:
-            raise InputError(f"--dask {address}: cannot reach the Dask scheduler: {_why(err)}") from None
+            _restore_logging_unless(_CLIENTS)
+            raise _unreachable(address, err) from None
         try:
             client.wait_for_workers(1, timeout=CONNECT_TIMEOUT)
         except Exception:
             client.close()
+            _restore_logging_unless(_CLIENTS)
             raise InputError(f"--dask {address}: the Dask scheduler has no worker (start one with "
                              f"`dask worker {address}`)") from None
         if not _CLIENTS:
@@ -102,14 +164,18 @@ def connect(address: str):
 
 
 def close_clients() -> None:
-    """Close every client ``connect`` made (the clusters keep running)."""
+    """Close every client ``connect`` made (the clusters keep running) and give distributed's
+    loggers their levels back."""
     with _LOCK:
         for client in _CLIENTS.values():
             try:
-                client.close()
+                client.close(timeout=CONNECT_TIMEOUT)
             except Exception:  # a scheduler already gone
                 pass
         _CLIENTS.clear()
+        _LOST.clear()
+        _TOLD.clear()
+        _restore_logging()
 
 
 def cluster_threads(address: str) -> int:
@@ -118,7 +184,10 @@ def cluster_threads(address: str) -> int:
 
 
 def slots(address: str, jobs: int | None) -> int:
-    """Cases run at once on the cluster: its worker threads, at most ``jobs`` when given (> 0)."""
+    """Cases run at once on the cluster: its worker threads, at most ``jobs`` when given (> 0);
+    for a cluster lost during this run, ``jobs`` or 1, without asking it."""
+    if address in _LOST:
+        return max(1, int(jobs)) if jobs and jobs > 0 else 1
     threads = cluster_threads(address)
     return threads if not jobs or jobs < 0 else max(1, min(int(jobs), threads))
 
@@ -180,18 +249,32 @@ class _Submitted:
 class DaskWorkers:
     """``harness.validate.workers.Workers`` on the Dask scheduler at ``address``: ``start``
     submits a case, ``wait`` returns the cases that ended as ``[(key, Outcome)]``; on leaving the
-    context the tasks still running are cancelled."""
+    context the tasks still running are cancelled. ``lost``: why the cluster can run no more
+    cases (None while it can); the cases started from then on end at once with that reason, in
+    this executor and in those made later in this process for the same address (a command's
+    next batch of cases)."""
 
     def __init__(self, address: str, jobs: int | None = None):
         import cloudpickle
 
         self._dumps = cloudpickle.dumps
         self.address = address
-        self.client = connect(address)
+        self.lost: str | None = None
+        self._lost_as = "crashed"  # the status of the cases the loss ends
+        if address in _LOST:
+            self.lost, self._lost_as = _LOST[address]
+            self.client = None
+        else:
+            self.client = connect(address)
         self.jobs = jobs
         self.slots = slots(address, jobs)
         self._running: dict[Any, _Submitted] = {}
         self._ended = threading.Event()  # set by each task's done callback
+        self._failed: list[tuple[Hashable, Outcome]] = []  # cases ended by the loss, not yet returned by wait
+        self._n_lost = 0  # cases the loss ended
+        self._event = time.monotonic()  # the last case started or ended, or change of the cluster's workers
+        self._workers: frozenset | None = None  # the cluster's worker addresses at the last look
+        self._no_worker_since: float | None = None
 
     def __enter__(self) -> "DaskWorkers":
         return self
@@ -200,22 +283,32 @@ class DaskWorkers:
         self.close()
 
     def close(self) -> None:
-        """Cancel the tasks still running (their cases get no outcome)."""
+        """Cancel the tasks still running (their cases get no outcome); after a loss, say so in
+        one line on stderr."""
         futures = [s.future for s in self._running.values()]
         self._running.clear()
-        if futures:
+        if futures and self.lost is None:
             try:
                 self.client.cancel(futures, force=True)
             except Exception:  # a scheduler already gone
                 pass
+        if self.lost is not None and self._n_lost and self.address not in _TOLD:
+            _TOLD.add(self.address)
+            print(f"harness: {self.lost}: the cases not finished are recorded as failed", file=sys.stderr, flush=True)
 
     def __len__(self) -> int:
-        return len(self._running)
+        return len(self._running) + len(self._failed)
 
     def free(self) -> int:
-        """How many more cases may start now (workers that joined since count)."""
+        """How many more cases may start now (workers that joined since count; after a loss,
+        any number: each ends at once)."""
+        if self.lost is not None:
+            return max(1, self.slots)
         if not self._running:
-            self.slots = slots(self.address, self.jobs)
+            workers = self._look()
+            if workers:
+                threads = sum(workers.values())
+                self.slots = threads if not self.jobs or self.jobs < 0 else max(1, min(int(self.jobs), threads))
         return max(0, self.slots - len(self._running))
 
     def start(self, key: Hashable, fn: Callable, args: tuple, timeout: float) -> None:
@@ -223,11 +316,48 @@ class DaskWorkers:
         from its start there."""
         from harness.io.progress import is_quiet
 
-        name = getattr(fn, "__name__", "case")
-        future = self.client.submit(_remote_case, self._dumps((fn, args)), float(timeout), is_quiet(), _loaded_modules(),
-                                    key=f"harness-{name}-{uuid.uuid4().hex}", pure=False, retries=0)
-        self._running[future.key] = _Submitted(key, future, time.monotonic(), float(timeout))
-        future.add_done_callback(lambda _: self._ended.set())
+        if self.lost is None:
+            name = getattr(fn, "__name__", "case")
+            try:
+                future = self.client.submit(_remote_case, self._dumps((fn, args)), float(timeout), is_quiet(),
+                                            _loaded_modules(), key=f"harness-{name}-{uuid.uuid4().hex}", pure=False,
+                                            retries=0)
+            except Exception:
+                if self.client.status == "running":
+                    raise
+                self._lose(f"Dask scheduler lost (the connection to {self.address} closed)")
+            else:
+                self._event = time.monotonic()
+                self._running[future.key] = _Submitted(key, future, self._event, float(timeout))
+                future.add_done_callback(lambda _: self._ended.set())
+                return
+        self._n_lost += 1
+        self._failed.append((key, Outcome(self._lost_as, message=self.lost, wall_s=0.0)))
+
+    def _lose(self, why: str, status: str = "crashed") -> None:
+        """The cluster can run no more cases: ``why`` is their reason from now on, ``status`` their end."""
+        if self.lost is None:
+            self.lost, self._lost_as = why, status
+            _LOST[self.address] = (why, status)
+
+    def _look(self) -> dict | None:
+        """The cluster's workers now, ``{address: threads}``; None when the scheduler does not
+        answer within ``CONNECT_TIMEOUT`` s. Notes a lost scheduler and a change of workers."""
+        if self.client.status != "running":  # the connection closed: distributed cancelled every task
+            self._lose(f"Dask scheduler lost (the connection to {self.address} closed)")
+            return None
+        try:
+            workers = self.client.nthreads(callback_timeout=CONNECT_TIMEOUT)
+        except Exception:
+            if self.client.status != "running":
+                self._lose(f"Dask scheduler lost (the connection to {self.address} closed)")
+            return None
+        now = time.monotonic()
+        if frozenset(workers) != self._workers:
+            self._workers = frozenset(workers)
+            self._event = now  # a lost worker's tasks start again elsewhere (Dask resubmits them)
+        self._no_worker_since = None if workers else (self._no_worker_since or now)
+        return workers
 
     def _outcome(self, sub: _Submitted) -> Outcome:
         wall = time.monotonic() - sub.start
@@ -239,33 +369,65 @@ class DaskWorkers:
                 return Outcome("error", message=f"result did not come back: {type(err).__name__}: {err}", wall_s=wall)
         if status == "error":
             err = sub.future.exception()
-            if type(err).__name__ == "KilledWorker":
-                return Outcome("crashed", message=f"the Dask worker running it died ({_one_line(err)})", wall_s=wall)
+            if type(err).__name__ in ("KilledWorker", "NoValidWorkerError"):
+                return Outcome("crashed", message=f"Dask worker lost: {_one_line(err)}", wall_s=wall)
             return Outcome("error", message=f"{type(err).__name__}: {_one_line(err)} (on the Dask worker)", wall_s=wall)
+        if status == "cancelled" and self.client.status != "running":  # distributed cancels all on a lost connection
+            self._lose(f"Dask scheduler lost (the connection to {self.address} closed)")
+        if self.lost is not None:
+            self._n_lost += 1
+            return Outcome(self._lost_as, message=self.lost, wall_s=wall)
         return Outcome("crashed", message=f"its Dask task was {status}", wall_s=wall)
 
+    def _end_all(self) -> list[tuple[Hashable, Outcome]]:
+        """After a loss: every waiting case ends with its reason; their tasks are cancelled."""
+        now = time.monotonic()
+        ended = []
+        for sub in self._running.values():
+            if sub.future.done():
+                ended.append((sub.key, self._outcome(sub)))
+            else:
+                self._n_lost += 1
+                ended.append((sub.key, Outcome(self._lost_as, message=self.lost, wall_s=now - sub.start)))
+        futures = [s.future for s in self._running.values() if not s.future.done()]
+        self._running.clear()
+        if futures and self.client.status == "running":
+            try:
+                self.client.cancel(futures, force=True)
+            except Exception:  # a scheduler already gone
+                pass
+        return ended
+
     def wait(self) -> list[tuple[Hashable, Outcome]]:
-        """Block until at least one submitted case ends; ``[(key, Outcome)]``, ``[]`` if none runs."""
+        """Block until at least one submitted case ends; ``[(key, Outcome)]``, ``[]`` if none runs.
+        Bounded: a lost scheduler, no worker for ``NO_WORKER_S`` s or no progress for the longest
+        waiting timeout plus ``GRACE_S`` s ends every waiting case at once."""
+        if self._failed:
+            ended, self._failed = self._failed, []
+            return ended
         while self._running:
             self._ended.clear()  # before looking: a task ending from here on sets it again
-            now = time.monotonic()
-            deadline = min(s.start + s.timeout + GRACE_S for s in self._running.values())
             if not any(s.future.done() for s in self._running.values()):
-                self._ended.wait(max(0.0, deadline - now))
+                self._ended.wait(POLL_S)
             ended: list[tuple[Hashable, Outcome]] = []
             for fkey, sub in list(self._running.items()):
                 if sub.future.done():
-                    outcome = self._outcome(sub)
-                elif time.monotonic() > sub.start + sub.timeout + GRACE_S:
-                    self.client.cancel([sub.future], force=True)
-                    outcome = Outcome("timeout", message=f"no result within {sub.timeout:g} s",
-                                      wall_s=time.monotonic() - sub.start)
-                else:
-                    continue
-                del self._running[fkey]
-                ended.append((sub.key, outcome))
+                    del self._running[fkey]
+                    ended.append((sub.key, self._outcome(sub)))
             if ended:
-                return ended
+                self._event = time.monotonic()
+                return ended + self._end_all() if self.lost is not None else ended
+            self._look()
+            now = time.monotonic()
+            if self.lost is None and self._no_worker_since is not None and now - self._no_worker_since > NO_WORKER_S:
+                self._lose(f"Dask worker lost (no worker left on the scheduler at {self.address} "
+                           f"for {NO_WORKER_S:g} s)")
+            if self.lost is not None:
+                return self._end_all()
+            limit = max(s.timeout for s in self._running.values()) + GRACE_S
+            if now - self._event > limit:
+                self._lose(f"no result from the Dask cluster at {self.address} for {limit:g} s", "timeout")
+                return self._end_all()
         return []
 
 

@@ -1,4 +1,4 @@
-"""Validation of scenes: run every engine, compare, check each quantity against its tolerance.
+"""Validation of scenes: run every engine, compare, judge each check by how its error converges.
 
 First, for each scene, the model files are judged AS WRITTEN (``model_checks``): each engine that
 reads one (MuJoCo the MJCF, Pinocchio the URDF) loads it without the scene's parameters applied
@@ -11,8 +11,8 @@ files with the scene's parameters written over them (``load_mjcf``, ``load_urdf`
 
 Then, for each scene: an in-house reference run (DOP853, rtol = atol = 1e-12) is made first; then
 each engine runs at the scene's default integrator and step (an error-controlled default, Drake's
-RK5, at the target accuracy ``ERROR_CONTROL_TOL``). The in-house runs (the reference
-included) use the compiled twin of their method (``harness.engines.inhouse.run_method``:
+RK5, at the target accuracy ``ERROR_CONTROL_TOL`` of ``harness.engines.base``, simulate's default
+too). The in-house runs (the reference included) use the compiled twin of their method (``harness.engines.inhouse.run_method``:
 ``rk4_compiled`` for ``rk4``, ``dop853_compiled`` for ``DOP853``) wherever the compiled form models
 the scene, unless ``fast=False`` (``harness validate --per-state``: the readable per-state oracle
 everywhere); each run's record names the method that ran. Checks (those the scene declares
@@ -22,8 +22,8 @@ in ``[checks.*]`` of its ``scene.toml``):
   (forced: E - E0 - work of the forces);
 * ``momentum_drift.<c>`` for each conserved component the scene lists;
 * ``trajectory.position/orientation/velocity/angular_velocity`` against the reference (each
-  quantity, its scale and its tolerance defined once in ``harness.validate.quantities``, which
-  ``harness debug`` judges by too);
+  quantity and its scale defined once in ``harness.judging.quantities``, which ``harness debug``
+  uses too);
 * ``constraint.position/axis``, joint violations from maximal coordinates;
 * ``exact``: against the scene's closed-form solution (``harness.measure.exact``);
 * ``reaction.force/moment`` (scenes with ``[checks.reaction]``): joint reactions against the
@@ -33,10 +33,11 @@ in ``[checks.*]`` of its ``scene.toml``):
   the contact force against the reference's;
 * ``engine_energy``: the engine's own energy against the harness's recomputation.
 
-A ``[checks.trajectory]`` tolerance is a number for every engine or a table per engine (rolling_disk:
-MuJoCo's soft contact is held to what it can reach, the ideal-constraint engines to 1e-9). A check
-whose tolerance is such a regression bound (what the engine reaches, with a margin) is marked
-``regression_only`` (``harness.validate.quantities.regression_only``).
+Every check of every run is then judged by how its error converges (``judge_convergence``,
+``harness.judging``): the run is repeated at a coarser step (or a looser tolerance), each check
+fitted as ``C h^p + F``, classified (converges, model difference, defect) and given a verdict
+against the scene's requirements and declared model differences; no check holds a per-engine
+number.
 
 The reference run is itself checked (engine ``reference``) for conservation and against the
 exact solution before it judges anything. Every run (reference, and each scene x engine) is
@@ -58,54 +59,21 @@ from typing import Any
 import numpy as np
 
 from harness.engines import get_engine, integrator
-from harness.engines.base import RunSettings
+from harness.engines.base import ERROR_CONTROL_ATOL, ERROR_CONTROL_TOL, RunSettings  # one set of defaults (simulate's too)
 from harness.engines.inhouse import run_method
+from harness.judging.checks import (REFERENCE_ENGINE, REFERENCE_LABEL, CheckResult, check_run, extrapolated_difference,
+                                    judge_convergence)
 from harness.measure import compare, contact_metrics, exact, solution_cache
 from harness.measure.invariants import mark_non_finite
 from harness.measure.trajectory import Trajectory
 from harness.model import forces
 from harness.model.errors import InputError
 from harness.model.scene import MODELS_DIR, Scene
-from harness.validate import quantities
-from harness.validate.quantities import REFERENCE_ENGINE  # the engine of the reference run (``reference_case``)
 from harness.validate.workers import Outcome, run_cases
 
 REFERENCE_METHOD = "DOP853"
 REFERENCE_TOL = 1e-12
-#: Target accuracy (``RunSettings.rtol``) of an engine's default method where it is error-controlled
-#: (Drake's RK5; the other defaults are fixed-step and ignore it). Drake's error control does not
-#: bound the global error by it: at 1e-10 its RK5 held every scene's tolerances at the defaults
-#: (worst margin 0.25) but left them up to 300x at other initial states (plate_pendulum at theta0 =
-#: 2.5 rad: 6.1e-7 rad of orientation against 2e-9); at 1e-13 its worst margin at the defaults is
-#: 0.11, those states pass, and its runs take 8.3 s in all instead of 4.7 s (validate --engines drake).
-ERROR_CONTROL_TOL = 1e-13
-ENGINE_ENERGY_TOL = 1e-9  # relative; a larger mismatch means the engine's mass model differs
 DEFAULT_TIMEOUT = 300.0   # s per case
-
-
-@dataclass(frozen=True)
-class CheckResult:
-    """One checked quantity of one scene on one engine."""
-
-    scene: str
-    engine: str
-    check: str
-    value: float
-    tolerance: float
-    unit: str
-    passed: bool
-    detail: str = ""
-    regression_only: bool = False  # the tolerance is a regression bound (quantities.regression_only)
-
-    @property
-    def margin(self) -> float:
-        """value / tolerance (1 = at the tolerance); 0 for a zero value, inf for a nonzero value
-        against a zero tolerance, NaN for a missing value."""
-        if not np.isfinite(self.value):
-            return float("nan")
-        if self.value == 0.0:
-            return 0.0
-        return self.value / self.tolerance if self.tolerance > 0 else float("inf")
 
 
 @dataclass(frozen=True)
@@ -136,6 +104,13 @@ class SceneValidation:
     checks: list[CheckResult] = field(default_factory=list)
     runs: list[RunRecord] = field(default_factory=list)
     cross: dict[str, dict[str, float]] = field(default_factory=dict)
+    # "<a> vs <b>" -> judged trajectory quantity -> the two engines' difference extrapolated to
+    # zero step (``extrapolated_difference``), in the quantity's judged unit (rel or rad)
+    cross_extrapolated: dict[str, dict[str, float]] = field(default_factory=dict)
+    # the reference run's motion scales (``compare.motion_scales``: length m, velocity m/s,
+    # angular_velocity rad/s), which judge ``cross`` in the units of ``cross_extrapolated``; empty
+    # where the reference did not run
+    scales: dict[str, float] = field(default_factory=dict)
     tolerance_changes: list[str] = field(default_factory=list)
     overrides: dict[str, dict] = field(default_factory=dict)  # parameter -> {"value", "default"}: set away from scene.toml
     not_run: dict[str, str] = field(default_factory=dict)  # engine -> why it does not run this scene ([not_run])
@@ -163,9 +138,11 @@ def reference_settings(scene: Scene, fast: bool = True) -> RunSettings:
 def default_settings(scene: Scene, engine: str, fast: bool = True) -> RunSettings:
     """The engine's default integrator (for the in-house engine with ``fast``, its compiled twin
     where the compiled form models the scene) and the scene's step, horizon and save interval; an
-    error-controlled method at the target accuracy ``ERROR_CONTROL_TOL``."""
+    error-controlled method at ``harness.engines.base.ERROR_CONTROL_TOL`` and ``ERROR_CONTROL_ATOL``
+    (``simulate``'s defaults too)."""
     method = run_method(engine, scene.integrators[engine], scene, fast)
-    return RunSettings(scene.t_end, scene.dt, save_interval(scene), method, rtol=ERROR_CONTROL_TOL)
+    return RunSettings(scene.t_end, scene.dt, save_interval(scene), method, rtol=ERROR_CONTROL_TOL,
+                       atol=ERROR_CONTROL_ATOL)
 
 
 def reference_case(scene: Scene, fast: bool = True) -> tuple[Trajectory, RunRecord, list[CheckResult], dict]:
@@ -180,6 +157,7 @@ def reference_case(scene: Scene, fast: bool = True) -> tuple[Trajectory, RunReco
         checks = check_run(scene, "reference", REFERENCE_ENGINE, traj, None, settings)
         if traj.ok and "exact" in scene.checks:
             exact.prepare(scene, traj)  # what the engines' exact checks need, if the reference's did not compute it
+        checks, _ = judge_convergence(scene, "reference", REFERENCE_ENGINE, settings, traj, None, checks)
     return traj, record, checks, solutions
 
 
@@ -194,7 +172,8 @@ def engine_case(scene: Scene, engine: str, ref: Trajectory | None, fast: bool = 
     traj = mark_non_finite(get_engine(engine).simulate(scene, settings), scene.multibody())  # NaN "ok" -> blowup
     record = _record(scene, engine, settings, traj, time.perf_counter() - t0)
     checks = check_run(scene, engine, engine, traj, ref, settings)
-    return traj, record, checks
+    checks, second = judge_convergence(scene, engine, engine, settings, traj, ref, checks)
+    return traj, record, checks, second
 
 
 def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None,
@@ -211,7 +190,7 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
     jobs = jobs or os.cpu_count() or 1
     defaults = {s.name: _defaults(s) for s in scenes}
     models = {s.name: model_checks(s, engines, defaults[s.name]) for s in scenes}
-    tick = None if progress is None else (lambda key, outcome: progress.update(1))
+    tick = None if progress is None else (lambda key, outcome: _tick(progress, key, outcome))
     refs = run_cases([(s.name, reference_case, (s, fast)) for s in scenes], jobs, timeout, on_done=tick, dask=dask)
     _raise_input_errors(refs)
     cases = []
@@ -229,7 +208,7 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
                             overrides=parameter_overrides(s, defaults[s.name]))
         v.checks.extend(models[s.name])
         _collect(v, s, "reference", refs[s.name], reference_settings(s, fast))
-        trajectories = {}
+        trajectories, seconds = {}, {}
         v.not_run = {e: s.not_run[e] for e in engines if e in s.not_run}
         for e in engines:
             if e in v.not_run:
@@ -238,15 +217,33 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
             _collect(v, s, e, outcome, default_settings(s, e, fast))
             if outcome.status == "ok" and outcome.value[0].ok:
                 trajectories[e] = outcome.value[0]
+                seconds[e] = outcome.value[3]
             if refs[s.name].status != "ok" and "trajectory" in s.checks:
                 v.checks.append(CheckResult(s.name, e, "trajectory", float("nan"), 0.0, "", False,
                                             f"no reference: reference run {refs[s.name].status}: {refs[s.name].message}"))
+        if refs[s.name].status == "ok" and refs[s.name].value[0].ok:
+            v.scales = compare.motion_scales(refs[s.name].value[0], s.multibody())
         names = list(trajectories)
         for i, a in enumerate(names):
             for b in names[i + 1:]:
                 v.cross[f"{a} vs {b}"] = compare.trajectory_error(trajectories[a], trajectories[b])
+                found = extrapolated_difference(
+                    s, (integrator(a, default_settings(s, a, fast).integrator), trajectories[a], seconds.get(a)),
+                    (integrator(b, default_settings(s, b, fast).integrator), trajectories[b], seconds.get(b)),
+                    refs[s.name].value[0] if refs[s.name].status == "ok" else None)
+                if found:
+                    v.cross_extrapolated[f"{a} vs {b}"] = found
         results.append(v)
     return results
+
+
+def _tick(progress, key, outcome) -> None:
+    """One finished case on the bar: ``heavy_top reference ok 0.8 s``, ``heavy_top mujoco ok 0.3 s``."""
+    from harness.io.progress import case_label
+
+    label = case_label(key if isinstance(key, tuple) else (key, "reference"), outcome)
+    done = getattr(progress, "done", None)
+    done(label) if done is not None else progress.update(1)
 
 
 def validate_scene(scene: Scene, engines: list[str], **kwargs) -> SceneValidation:
@@ -337,154 +334,6 @@ def _collect(v: SceneValidation, scene: Scene, label: str, outcome: Outcome, set
     v.checks.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False, f"{outcome.status}: {outcome.message}"))
 
 
-def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Trajectory | None,
-              settings: RunSettings) -> list[CheckResult]:
-    """The checks of one run; ``label`` names it in the report, ``engine`` picks tolerances."""
-    model = scene.multibody()
-    checks = scene.checks
-    out: list[CheckResult] = []
-
-    def add(check, value, tol, unit, detail=""):
-        ok = bool(np.isfinite(value) and value <= tol)
-        out.append(CheckResult(scene.name, label, check, float(value), float(tol), unit, ok, detail,
-                               quantities.regression_only(scene.name, checks, check, engine)))
-
-    traj = mark_non_finite(traj, model)  # any engine: a state or invariant that overflowed is never "ok"
-    if not traj.ok:  # "unsupported": the scene's own integrator for this engine cannot run it, a configuration error
-        why = " (bad configuration: see [integrators] in scene.toml)" if traj.unsupported else ""
-        out.append(CheckResult(scene.name, label, "run", float("nan"), 0.0, "", False, f"{traj.status}: {traj.message}{why}"))
-        return out
-    if "energy_drift" in checks:
-        tol = checks["energy_drift"][engine]
-        if forces.does_work(model):
-            balance, quad = compare.energy_balance(traj, model)
-            add("energy_balance", balance, tol, "rel", f"E - E0 - W(t) over the energy scale; quadrature error of W ~{quad:.1e}")
-        else:
-            add("energy_drift", compare.energy_drift(traj, model, ref if ref is not None and ref.ok else None), tol, "rel",
-                "max |E - E0| / energy scale (of the reference run)")
-    if "momentum_drift" in checks:
-        spec = checks["momentum_drift"]
-        for comp, value in compare.momentum_drift(traj, model, spec["components"]).items():
-            add(f"momentum_drift.{comp}", value, spec[engine], "rel", "max |c - c0| / momentum scale")
-    if "trajectory" in checks and ref is not None:
-        if not ref.ok:
-            out.append(CheckResult(scene.name, label, "trajectory", float("nan"), 0.0, "", False,
-                                   f"reference run {ref.status}: {ref.message}"))
-        else:
-            err = compare.trajectory_error(traj, ref)
-            scales = compare.motion_scales(ref, model)
-            for q in quantities.TRAJECTORY:
-                raw = err[f"{q.name}_max"]
-                add(q.check, q.judged(raw, scales), quantities.tolerance(checks, q, engine), q.judged_unit,
-                    q.detail(raw, scales))
-    if "constraint" in checks:
-        viol = compare.constraint_violation(traj, model)
-        tol = checks["constraint"][engine]
-        add("constraint.position", viol["position"], tol, "m", "joint points coincide")
-        what = compare.angular_conditions(model)  # e.g. "hinge axes stay aligned" (joint table)
-        if what:
-            add("constraint.axis", viol["axis"], tol, "rad", ", ".join(what))
-    if "closure" in checks:
-        _check_closure(checks["closure"], engine, traj, model, add)
-    if "exact" in checks:
-        tol = checks["exact"][engine]
-        try:
-            value, unit, detail = exact.exact_error(scene, traj, settings, run=get_engine(engine).simulate)
-        except InputError:
-            raise
-        except Exception as err:  # a failing modal run etc. is a failed check, not a crash
-            value, unit, detail = float("nan"), "", f"{type(err).__name__}: {err}"
-        add("exact", value, tol, unit, detail)
-    if "reaction" in checks:
-        _check_reactions(scene, label, engine, traj, ref, model, add)
-    if model.contacts:  # rolling contacts: slip, contact height, contact force (harness.measure.contact_metrics)
-        contact_metrics.add_checks(scene, engine, traj, ref, model, add)
-    mismatch = compare.engine_energy_mismatch(traj, model)
-    if mismatch is not None:
-        add("engine_energy", mismatch, ENGINE_ENERGY_TOL, "rel", "engine's own energy vs harness recomputation")
-    return out
-
-
-def _check_closure(table, engine: str, traj: Trajectory, model, add) -> None:
-    """``closure.position`` (m) and ``closure.velocity`` (m/s): the largest gap and relative
-    velocity of the cut joints' points (``compare.loop_closure``), and for hinges ``closure.axis``
-    (rad, judged with the position tolerance) and ``closure.axis_rate`` (rad/s, with the velocity
-    tolerance); the detail names the worst cut joint."""
-    found = compare.loop_closure(traj, model)
-    if not found:
-        add("closure.position", float("nan"), quantities.per_engine(table["position"], engine), "",
-            "the scene has [checks.closure] but no loop joints")
-        return
-    units = {"position": ("m", "position"), "axis": ("rad", "position"), "velocity": ("m/s", "velocity"),
-             "axis_rate": ("rad/s", "velocity")}
-    texts = {"position": "cut points coincide", "axis": "cut hinge axes stay aligned",
-             "velocity": "cut points move together", "axis_rate": "relative rotation only about the cut hinge axis"}
-    for kind, (unit, key) in units.items():
-        values = {name: res[kind] for name, res in found.items() if kind in res}
-        if not values:
-            continue
-        worst = max(values, key=lambda n: values[n])
-        add(f"closure.{kind}", values[worst], quantities.per_engine(table[key], engine), unit,
-            f"{texts[kind]}; worst: {worst}")
-
-
-def _check_reactions(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Trajectory | None, model, add) -> None:
-    """``reaction.force`` / ``reaction.moment`` against the reference run's reactions, and
-    ``reaction.exact`` against the scene's exact support force where ``harness.measure.exact`` has one;
-    all relative to ``compare.reaction_scales`` of the reference (or of the run itself). In a
-    model with loops the redundant rows leave part of each reaction to the engine's choice (the
-    in-house minimum norm, Pinocchio's proximal solve, Exudyn's rows left out, MuJoCo's two
-    connects); for a planar mechanism only the determinate part is compared, the force in the
-    plane and the moment about its normal (``compare.plane_normal``). Joints
-    only: a rolling contact's force is in ``Trajectory.reactions`` too, and has its own check
-    (``contact_force``, ``harness.measure.contact_metrics``); with rolling contacts from the
-    second sample on (``_joint_reactions_only``)."""
-    tol = scene.checks["reaction"][engine]
-    traj, ref = _joint_reactions_only(traj, model), None if ref is None else _joint_reactions_only(ref, model)
-    if not traj.reactions:
-        add("reaction", float("nan"), tol, "", f"{traj.engine} gave no joint reactions")
-        return
-    judge = ref if ref is not None and ref.ok and ref.reactions else traj
-    f_scale, m_scale = compare.reaction_scales(judge, model)
-    normal, part = None, ""
-    if model.loops:  # redundant loop rows: only the determinate part of each reaction is the engines' to agree on
-        normal = compare.plane_normal(model)
-        if normal is None:
-            add("reaction", float("nan"), tol, "", "the loops' redundant rows leave the reactions indeterminate and the "
-                "mechanism is not planar: no determinate part to compare")
-            return
-        part = "; in-plane force and moment about the plane normal (the determinate part with redundant loop rows)"
-    if ref is not None and ref.ok:
-        err = compare.reaction_error(traj, ref, normal)
-        add("reaction.force", err["force_max"] / f_scale, tol, "rel",
-            f"{err['force_max']:.2e} N over force scale {f_scale:.3g} N; vs the reference's multipliers{part}")
-        add("reaction.moment", err["moment_max"] / m_scale, tol, "rel",
-            f"{err['moment_max']:.2e} N m over moment scale {m_scale:.3g} N m; about the joint point{part}")
-    try:
-        found = exact.exact_reaction(scene, traj)
-    except Exception as err:  # noqa: BLE001 - a failing reference is a failed check, not a crash
-        found = (float("nan"), f"{type(err).__name__}: {err}")
-    if found is not None:
-        value, detail = found
-        add("reaction.exact", value / f_scale, tol, "rel", f"{value:.2e} N over force scale {f_scale:.3g} N; {detail}")
-
-
-def _joint_reactions_only(traj: Trajectory, model) -> Trajectory:
-    """``traj`` without the reactions of the model's rolling contacts (``Multibody.contacts``)
-    and, in a model with rolling contacts, without the sample at t = 0, as the ``contact_force``
-    check (``harness.measure.contact_metrics``): MuJoCo's soft contact carries no force before
-    the rim penetrates the floor, so at t = 0 the whole system is in free fall there and every
-    joint reaction differs from the ideal contact's (rolling_cylinder_bar: 2.45 N of 49 N at
-    t = 0, 1.1e-6 N from t = 0.02 s)."""
-    contacts = {c.name for c in getattr(model, "contacts", ())}
-    if not contacts or not traj.reactions:
-        return traj
-    k = 1 if len(traj.t) > 1 else 0
-    return replace(traj, t=traj.t[k:], p_WCm_W=traj.p_WCm_W[k:], quat_WB=traj.quat_WB[k:], v_WCm_W=traj.v_WCm_W[k:],
-                   w_WB_W=traj.w_WB_W[k:],
-                   reactions={n: (f[k:], m[k:]) for n, (f, m) in traj.reactions.items() if n not in contacts})
-
-
 def _record(scene, engine, settings, traj, wall) -> RunRecord:
     adaptive = integrator(REFERENCE_ENGINE if engine == "reference" else engine, settings.integrator).adaptive
     return RunRecord(scene.name, engine, settings.integrator, settings.dt,
@@ -503,9 +352,11 @@ def as_dict(v: SceneValidation) -> dict:
         "passed": v.passed,
         "parameters": v.parameters,
         "parameter_overrides": v.overrides,
-        "tolerance_changes": v.tolerance_changes,
+        "requirement_changes": v.tolerance_changes,
         "runs": [asdict(r) for r in v.runs],
         "checks": [asdict(c) for c in v.checks],
         "cross_engine": v.cross,
+        "cross_engine_extrapolated": v.cross_extrapolated,
+        "motion_scales": v.scales,
         "not_run": v.not_run,
     }

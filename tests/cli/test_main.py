@@ -152,14 +152,14 @@ def test_validation_in_which_no_check_ran_is_exit_2(tmp_path, capsys, monkeypatc
     assert not reports.exists()
 
 
-ENERGY = "[checks.energy_drift]\ninhouse = 1e-8\nmujoco = 1e-8\npinocchio = 1e-8\n"
+ENERGY = "[checks.energy_drift]\n"
 
 
 @pytest.mark.parametrize("old,new,fragment", [
     ("[checks.energy_drift]", "[checks.enrgy_drift]", "unknown check table [checks.enrgy_drift]"),
-    (ENERGY, ENERGY.replace("inhouse", "inhous"), "unknown key 'inhous' at [checks.energy_drift]"),
+    (ENERGY, ENERGY + "colour = 'red'\n", "unknown key 'colour' at [checks.energy_drift]"),
     ("t_end = 5.0", 't_end = "abc"', "[simulation] t_end must be a number"),
-    (ENERGY, ENERGY.replace("mujoco = 1e-8\n", ""), "[checks.energy_drift] lacks mujoco"),
+    (ENERGY, ENERGY + "mujoco = 1e-8\n", "[checks.energy_drift] mujoco: a check holds no tolerance"),
     ("[parameters]", 'colour = "red"\n[parameters]', "unknown key 'colour' at [needs]"),
 ])
 def test_scene_description_mistakes_are_exit_2(models_copy, tmp_path, capsys, old, new, fragment):
@@ -206,14 +206,15 @@ def test_non_utf8_model_in_check_is_exit_2(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("text,fragment", [
-    ("heavy_top = 5\n", "heavy_top = 5: expected tables [heavy_top.<check>] of tolerances"),
-    (b"[heavy_top.energy_drift]\nmujoco = 1e-9 # \xff\n", "not UTF-8 text"),
-    ("[heavy_top.energy_drift]\nmujoco = inf\n", "must be positive and finite"),
+    ("heavy_top = 5\n", "heavy_top = 5: expected a table [heavy_top] of check = bound"),
+    (b"[heavy_top]\nexact = 1e-9 # \xff\n", "not UTF-8 text"),
+    ("[heavy_top]\nexact = inf\n", "must be positive and finite"),
+    ("[heavy_top]\nslip = 1e-3\n", "the scene makes no slip check"),
 ])
-def test_bad_tolerance_file_is_exit_2(tmp_path, capsys, text, fragment):
+def test_bad_requirements_file_is_exit_2(tmp_path, capsys, text, fragment):
     tol = tmp_path / "tol.toml"
     (tol.write_bytes if isinstance(text, bytes) else tol.write_text)(text)
-    code, _, err, reports = _validate(["--scenes", "heavy_top", "--tolerances", str(tol)], tmp_path, capsys)
+    code, _, err, reports = _validate(["--scenes", "heavy_top", "--requirements", str(tol)], tmp_path, capsys)
     assert_one_line_error(code, err, fragment)
     assert str(tol) in err and not reports.exists()
 
@@ -222,6 +223,12 @@ def test_bad_tolerance_file_is_exit_2(tmp_path, capsys, text, fragment):
     (["simulate", "double_pendulum", "--engine", "mujoco", "--set", "L=1e300"], "parameter 'L' = '1e300' is beyond +-1e+100"),
     (["simulate", "double_pendulum", "--engine", "mujoco", "--set", "L=-1e101"], "parameter 'L' = '-1e101' is beyond"),
     (["simulate", "torque_free", "--engine", "mujoco", "--t-end", "1e9"], "--t-end and --save-every"),
+    (["simulate", "torque_free", "--engine", "inhouse", "--dt", "1e-12"],
+     "--t-end and --dt: a horizon of 10 s at a step of 1e-12 s is 1e+13 integration steps, more than the 1e+08"),
+    (["simulate", "torque_free", "--engine", "drake", "--integrator", "RK2", "--dt", "1e-12"],
+     "is 1e+13 integration steps, more than the 1e+08 a run may take"),
+    (["simulate", "torque_free", "--engine", "mujoco", "--dt", "1e-12"],  # MuJoCo's 32-bit step count: a traceback
+     "is 1e+13 integration steps, more than the 1e+08 a run may take"),
     (["simulate", "torque_free", "--engine", "mujoco", "--t-end", "inf"], "argument --t-end: not a finite number"),
     (["simulate", "torque_free", "--engine", "inhouse", "--integrator", "DOP853", "--rtol", "0"], "--rtol must be positive"),
     (["simulate", "torque_free", "--engine", "mujoco", "--models-dir", "/nonexistent/models"], "no such folder"),
@@ -399,7 +406,9 @@ def test_option_help_states_units_and_defaults():
     helps = {a.dest: a.help for a in commands["simulate"]._actions}
     assert "(s," in helps["t_end"] and "(s," in helps["dt"] and "(s;" in helps["save_every"]
     assert "inhouse" in helps["engine"] and "mujoco" in helps["engine"] and "pinocchio" in helps["engine"]
-    assert "default 1e-10" in helps["rtol"]
+    from harness.engines.base import ERROR_CONTROL_TOL
+
+    assert f"default {ERROR_CONTROL_TOL:g}" in helps["rtol"]  # validate's, one definition
 
 
 def test_simulate_help_lists_every_option(capsys):
@@ -410,7 +419,9 @@ def test_simulate_help_lists_every_option(capsys):
     for option in ("--engine", "--set", "--t-end", "--dt", "--integrator", "--save-every", "--rtol", "--atol",
                    "--out", "--models-dir"):
         assert option in text
-    assert "horizon (s" in text and "default 1e-10" in text
+    from harness.engines.base import ERROR_CONTROL_TOL
+
+    assert "horizon (s" in text and f"default {ERROR_CONTROL_TOL:g}" in text
 
 
 @pytest.mark.parametrize("args,fragment", [
@@ -505,3 +516,29 @@ def test_quiet_lasts_one_command(tmp_path, capsys, monkeypatch):
     assert main(["validate", "--quiet", "--scenes", "no_such_scene", "--out-dir", str(tmp_path)]) == 2
     assert not progress.is_quiet()  # reset after the command, even after an error
     assert main(["scenes"]) == 0 and seen == [False]
+
+
+def test_check_refuses_more_steps_than_the_budget(tmp_path, capsys):
+    """``harness check --dt`` is held to MAX_STEPS before any model is loaded or run."""
+    out = tmp_path / "reports"
+    code, _, err = run(["check", "--urdf", str(MODELS_DIR / "heavy_top" / "heavy_top.urdf"), "--dt", "1e-9",
+                        "--out-dir", str(out)], capsys)
+    assert_one_line_error(code, err, "--t-end and --dt: a horizon of 0.5 s at a step of 1e-09 s is 5e+08 integration "
+                                     "steps, more than the 1e+08")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("engine", ["inhouse", "mujoco", "pinocchio", "exudyn", "drake"])
+def test_simulate_runs_each_engine_as_validate_does(engine):
+    """One set of defaults: simulate's settings without options are validate's for every engine
+    (integrator, step, horizon, save interval, rtol and atol; validate's per-state in-house method,
+    as simulate runs it without --fast), and the --rtol/--atol defaults are that one definition."""
+    from harness.cli.main import build_parser, simulate_settings
+    from harness.engines.base import ERROR_CONTROL_ATOL, ERROR_CONTROL_TOL
+    from harness.model.scene import load_scene
+    from harness.validate.run import default_settings
+
+    args = build_parser().parse_args(["simulate", "heavy_top", "--engine", engine, "--out", "x.csv"])
+    scene = load_scene("heavy_top")
+    assert simulate_settings(args, scene) == default_settings(scene, engine, fast=False)
+    assert (args.rtol, args.atol) == (ERROR_CONTROL_TOL, ERROR_CONTROL_ATOL)

@@ -98,7 +98,7 @@ def test_what_a_copy_lacks_is_one_line_and_exit_2(tmp_path, capsys, edit, fragme
 def test_an_exact_check_without_closed_forms_is_one_line_and_exit_2(tmp_path, capsys):
     models = copy_example(tmp_path, t_end="0.1")
     _replace(models / "my_chain" / "scene.toml", "[checks.energy_drift]",
-             "[checks.exact]\ninhouse = 1e-6\nmujoco = 1e-6\npinocchio = 1e-6\nexudyn = 1e-6\ndrake = 1e-6\n\n[checks.energy_drift]")
+             "[checks.exact]\n\n[checks.energy_drift]")
     code = main(["validate", "--models-dir", str(models), "--scenes", "my_chain", "--engines", "mujoco",
                  "--out-dir", str(tmp_path / "out"), "--quiet"])
     assert code == 2
@@ -165,3 +165,14 @@ def _replace(path, old, new):
     text = path.read_text()
     assert old in text, old
     path.write_text(text.replace(old, new, 1))
+
+
+def test_simulate_refuses_a_missing_mjcf_instead_of_reading_the_urdf(tmp_path, capsys):
+    models = copy_example(tmp_path)
+    (models / "my_chain" / f"{EXAMPLE}.xml").unlink()
+    csv = tmp_path / "run.csv"
+    code = main(["simulate", "my_chain", "--engine", "inhouse", "--models-dir", str(models), "--t-end", "0.01",
+                 "--out", str(csv)])
+    assert code == 2
+    one_line_error(capsys, f"its MJCF {EXAMPLE}.xml is not in")
+    assert not csv.exists()

@@ -107,10 +107,11 @@ def test_engines_roll_on_the_steady_circle(scene, runs, engine, slip, height, po
 
 
 def test_validation_adds_the_contact_checks(scene, runs):
-    from harness.validate.run import check_run
+    from harness.judging.checks import check_run
 
     settings = RunSettings(0.1, scene.dt, 0.01, "RK4")
     checks = {c.check: c for c in check_run(scene, "mujoco", "mujoco", runs["mujoco"], runs["reference"], settings)}
     for name in ("energy_drift", "slip", "contact_height", "contact_force", "exact", "trajectory.position"):
         assert name in checks and checks[name].passed, (name, checks.get(name))
-    assert checks["trajectory.position"].tolerance == scene.checks["trajectory"]["position"]["mujoco"]
+    # no requirement bounds them: each is judged by how it converges (harness.judging.checks.judge_convergence)
+    assert all(checks[name].tolerance == float("inf") for name in checks)

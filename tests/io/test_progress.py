@@ -23,14 +23,36 @@ def _not_quiet():
     progress.set_quiet(False)
 
 
-def test_no_bar_when_the_stream_is_not_a_terminal():
+def test_no_bar_but_one_line_per_tick_when_the_stream_is_not_a_terminal():
     stream = io.StringIO()
-    bar = progress.make_bar(3, stream=stream)
+    bar = progress.make_bar(3, desc="demo", stream=stream)
     with bar:
+        bar.done("heavy_top mujoco ok 0.8 s")
+        bar.set_postfix_str("torque_free: rk4")
         bar.update(2)
-        bar.update(1)
+        bar.update(0)  # no tick, no line
     assert isinstance(bar, progress.NoBar) and bar.n == 3
+    assert stream.getvalue() == "[1/3] heavy_top mujoco ok 0.8 s\n[3/3] torque_free: rk4\n"
+
+
+def test_no_line_with_quiet_when_the_stream_is_not_a_terminal():
+    stream = io.StringIO()
+    with progress.make_bar(2, quiet=True, stream=stream) as bar:
+        bar.done("a")
+    progress.set_quiet(True)
+    with progress.make_bar(2, stream=stream) as bar:
+        bar.done("b")
+        bar.update(1)
     assert stream.getvalue() == ""
+
+
+def test_a_bar_on_a_terminal_names_the_finished_case():
+    stream = _Terminal()
+    with progress.make_bar(2, desc="demo", stream=stream) as bar:
+        bar.done("heavy_top mujoco ok 0.8 s")
+        bar.done("heavy_top inhouse ok 0.2 s")
+    assert bar.n == 2 and "2/2" in stream.getvalue() and "heavy_top inhouse ok 0.2 s" in stream.getvalue()
+    assert "[1/2]" not in stream.getvalue()  # a bar, not lines
 
 
 def test_a_bar_on_a_terminal_counts_and_draws():
@@ -82,13 +104,15 @@ def test_the_validate_bar_counts_its_cases(tmp_path, capsys, monkeypatch, quiet)
     assert ("3/3" in err) != quiet
 
 
-def test_validate_draws_no_bar_when_stderr_is_not_a_terminal(tmp_path, capsys, monkeypatch):
+def test_validate_prints_one_line_per_case_when_stderr_is_not_a_terminal(tmp_path, capsys, monkeypatch):
     made = _record_bars(monkeypatch)
     assert main(["validate", "--scenes", "torque_free", "--engines", "mujoco", "--jobs", "1",
                  "--out-dir", str(tmp_path)]) in (0, 1)
     err = capsys.readouterr().err
     assert isinstance(made[0], progress.NoBar) and made[0].n == 2
-    assert "2/2" not in err and "validate" not in err
+    lines = [line for line in err.splitlines() if line.startswith("[")]
+    assert len(lines) == 2 and lines[0].startswith("[1/2] torque_free reference ok ")
+    assert lines[1].startswith("[2/2] torque_free mujoco ok ") and lines[1].endswith(" s")
 
 
 def test_the_kernel_compilation_is_announced_once(monkeypatch, capsys):

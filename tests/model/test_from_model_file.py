@@ -285,3 +285,27 @@ def test_a_mapping_the_file_cannot_take_is_one_line(param, fragment):
     with pytest.raises(InputError) as err:
         apply_parameters(mf, [_param(*param)], MODELS_DIR / "x.toml")
     assert fragment in str(err.value) and "\n" not in str(err.value), str(err.value)
+
+
+def test_a_missing_mjcf_is_refused_unless_the_scene_names_only_a_urdf(tmp_path):
+    """A scene without code that names an MJCF reads that MJCF: when it is missing, one line
+    naming it, never a silent read of the URDF beside it; a scene that names only its URDF
+    reads the URDF (its declared file)."""
+    import shutil
+
+    from harness.model.from_model_file import model_file_of
+
+    folder = tmp_path / "models" / "my_chain"
+    shutil.copytree(MODELS_DIR / "three_link_chain", folder)
+    toml = folder / "scene.toml"
+    toml.write_text(toml.read_text().replace('name = "three_link_chain"', 'name = "my_chain"'))
+    (folder / "three_link_chain.xml").unlink()
+    with pytest.raises(InputError) as err:
+        load_scene("my_chain", models_dir=tmp_path / "models").multibody()
+    message = str(err.value)
+    assert "its MJCF three_link_chain.xml is not in" in message and "\n" not in message, message
+    toml.write_text(toml.read_text().replace('mjcf = "three_link_chain.xml"\n', ""))
+    scene = load_scene("my_chain", models_dir=tmp_path / "models")
+    assert scene.model_files == ("urdf",)
+    assert model_file_of(scene) == folder / "three_link_chain.urdf"
+    assert [b.name for b in scene.multibody().bodies] == [b.name for b in load_scene("three_link_chain").multibody().bodies]

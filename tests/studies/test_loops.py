@@ -300,3 +300,42 @@ def test_a_gap_that_stops_falling_is_a_floor_and_the_floors_follow_the_complianc
                     "mujoco_default_solimp": [(2.9e-5, 1e-3), (7.2e-7, 1e-3), (7.2e-7, 1e-3), (7.2e-7, 1e-3)]})
     text = " ".join(report.findings(study.scenes[0], study))
     assert "a ratio of 112× (the compliances (1 − d0)/d0 differ by 1111×)" in text and "not a step error" not in text
+
+
+def test_each_engine_and_measure_gets_its_error_model():
+    """``error_models`` (``harness.judging.error_model``): the ideal engine's closure gap at
+    round-off converges (at the resolution) and its exact error at its integrator's order; MuJoCo's
+    gap that stays put is a model difference with its floor, one falling at dt^2 with RK4 a defect
+    by the error model, both within the bound four_bar declares for MuJoCo's soft loop constraints;
+    a blow-up at the scene's step is a defect, a timeout there not judged. The report's table shows
+    the classes."""
+    steps = [f * 1e-3 for f in loops.FACTORS]
+    study = _study({"inhouse": [(1e-14, 1e-6 * (h / 1e-3) ** 4) for h in steps],
+                    "mujoco_written": [(1e-6, 3e-6), (1e-6, 3e-6), (1e-6, 3e-6), (1e-6, 3e-6)],
+                    "mujoco_two_dt": [(4e-6, 3e-6), (1e-6, 7.5e-7), (2.5e-7, 1.9e-7), (6.25e-8, 4.7e-8)],
+                    "pinocchio": [(1e-14, 1e-6)] * 4, "exudyn": [(1e-14, 1e-6)] * 4})
+    s = study.scenes[0]
+    models = loops.error_models(s, 1.0)
+    assert models[("inhouse", "closure_position")].classification == "converges"
+    exact = models[("inhouse", "exact")]
+    assert exact.classification == "converges" and exact.observed_order == pytest.approx(4.0)
+    assert exact.levels[0].step == s.scene.dt  # the scene's step first
+    flat = models[("mujoco_written", "closure_position")]
+    assert flat.classification == "model difference" and flat.floor == pytest.approx(1e-6, rel=1e-6) and flat.unit == "m"
+    steep = models[("mujoco_two_dt", "closure_position")]
+    assert steep.classification == "defect" and steep.observed_order == pytest.approx(2.0)
+    for r in s.rows:
+        if r["variant"] == "pinocchio" and r["dt"] == s.scene.dt:
+            r["status"], r["closure_position"] = "blowup", math.nan
+        if r["variant"] == "exudyn" and r["dt"] == s.scene.dt:
+            r["status"] = "timeout"
+    models = loops.error_models(s, 1.0)
+    assert models[("pinocchio", "closure_position")].classification == "defect"
+    assert models[("exudyn", "closure_position")].classification == "not judged"
+    table = "\n".join(report.model_lines(s, study))
+    assert "| engine / variant | class (order) of closure gap (m) |" in table
+    assert "| MuJoCo RK4, MJCF's solref/solimp | model difference (0.00), floor 1.0e-06 m — declared, within its bound 0.0001 |" in table
+    assert "defect (2.00) — declared, within its bound 0.0001" in table and "| in-house rk4_compiled | converges | converges | converges (4.00) |" in table
+    data = report.as_json(study, {"date_utc": "x"}, "harness loop-study")
+    assert any(m["variant"] == "mujoco_two_dt" and m["measure"] == "closure_position" and m["class"] == "defect"
+               for m in data["scenes"][0]["error_models"])

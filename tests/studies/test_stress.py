@@ -513,3 +513,29 @@ def test_a_non_finite_compiled_error_estimate_is_a_blowup():
     from harness.engines.inhouse.compiled import kernels, solver
 
     assert solver.STATUS[kernels.BAD_ERROR][0] == "blowup" and solver.STATUS[kernels.NONFINITE][0] == "blowup"
+
+
+def test_a_nominal_run_that_diverged_is_a_defect_in_the_judging_vocabulary():
+    """``judging_class``: a nominal run that diverged (non-finite, MuJoCo's guards, energy or speed
+    growth) is a ``defect`` as the error model calls a non-finite value at the scene's step; a
+    stable run, a model failure (singular constraint) and a timeout keep the study's own terms;
+    the variant table and the map's numbers say so."""
+    from harness.studies.stress import report
+    from harness.studies.stress.run import MapRow, judging_class
+
+    spec = TrialSpec("v", "mujoco", "RK4", 1e-3, 1.0, 0.1, float("nan"), "nominal")
+    assert judging_class(fake_result(spec, False, "nan")) == "defect (diverged: nan)"
+    assert judging_class(fake_result(spec, False, "energy growth")) == "defect (diverged: energy growth)"
+    assert judging_class(fake_result(spec, True)) == ""
+    assert judging_class(fake_result(spec, False, "singular constraint")) == ""
+    assert judging_class(fake_result(spec, False, "timeout")) == "" and judging_class(None) == ""
+    blown = fake_result(spec, False, "badqacc", t_fail=0.5)
+    row = report._section_row("mujoco/RK4", "< 1e-3", "—", "—", "—", blown, [], "", False)
+    assert "(**defect (diverged: badqacc)**)" in row
+    stiff = report._section_row("mujoco/RK4", "1e-3", "—", "—", "—", fake_result(spec, False, "constraint drift"), [],
+                                "", False)
+    assert "(constraint drift)" in stiff and "defect" not in stiff
+    cell = MapRow("v", "mujoco", "RK4", 1.0, "fixed", None, False, 1e-3, "badqacc", float("nan"), "", False, blown,
+                  float("nan"), [], {})
+    fake = type("Run", (), {"rows": [cell], "rates": {}})()
+    assert report.map_frame(fake)["nominal_class"].tolist() == ["defect (diverged: badqacc)"]

@@ -10,8 +10,11 @@ import pytest
 from harness.cli.main import main
 from harness.model.errors import InputError
 from harness.model.scene import load_scene
-from harness.studies.sweep.run import (Axis, check_axes, grid_points, parse_axis, point_overrides, random_points,
-                                       summarize)
+from harness.studies.sweep.report import figure_png, frame, markdown
+from harness.studies.sweep.run import (Axis, PointResult, SweepRun, check_axes, grid_points, parse_axis,
+                                       point_overrides, random_points, summarize, worst_class)
+from harness.judging.checks import CheckResult
+from harness.validate.run import RunRecord
 from harness.validate.workers import Outcome
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -31,16 +34,18 @@ def test_a_1d_grid_writes_a_row_per_point_and_engine(tmp_path, capsys):
     rows = pd.read_csv(csv)
     assert len(rows) == 6 and list(rows["engine"]) == ["mujoco", "pinocchio"] * 3
     assert sorted(set(rows["theta0"])) == [0.0, 0.75, 1.5]
-    assert (rows["status"] == "ok").all() and rows["passed"].all()
-    assert ((rows["worst_margin"] > 0) & (rows["worst_margin"] < 1)).all()  # every check holds at every point
+    assert (rows["status"] == "ok").all() and rows["passed"].all() and (rows["failed_checks"] == 0).all()
+    assert (rows["classification"] == "converges").all() and rows["failing"].isna().all()  # every check converges
+    assert ((rows["error"] > 0) & (rows["error"] < 1e-8)).all() and rows["error_check"].notna().all()
+    assert (rows["error"] >= rows["trajectory_error"]).all()  # the largest dimensionless value: trajectory's included
     assert (rows["trajectory_error"] < 1e-8).all() and (rows["energy_drift"] < 1e-8).all()
     text = md.read_text()
-    assert "## Worst point per engine" in text and "| mujoco | RK4 |" in text and "| pinocchio | rkmk4 |" in text
-    assert "![log10 worst margin](plate_pendulum_sweep.png)" in text
+    assert "## Largest error per engine" in text and "| mujoco | RK4 |" in text and "| pinocchio | rkmk4 |" in text
+    assert "![log10 largest error](plate_pendulum_sweep.png)" in text and "| converges 3 | 0/3 |" in text
     data = png.read_bytes()
     assert data.startswith(PNG) and len(data) > 10_000
     printed = capsys.readouterr().out
-    assert "mujoco: worst margin" in printed and "pinocchio: worst margin" in printed
+    assert "mujoco: largest error" in printed and "pinocchio: largest error" in printed and "FAIL" not in printed
 
 
 @pytest.mark.slow
@@ -57,6 +62,7 @@ def test_a_2x2_grid_records_refused_points_and_goes_on(tmp_path, capsys):
     assert list(refused) == [False, True, True, False]
     assert rows.loc[refused, "status"].str.contains("triangle inequality").all()
     assert (rows.loc[~refused, "status"] == "ok").all() and rows.loc[~refused, "passed"].all()
+    assert (rows.loc[~refused, "classification"] == "converges").all() and rows.loc[refused, "classification"].isna().all()
     assert files(out, "torque_free")[2].read_bytes().startswith(PNG)
     assert "| mujoco | RK4 |" in files(out, "torque_free")[0].read_text()
 
@@ -70,9 +76,10 @@ def test_a_seeded_random_sweep_is_reproducible(tmp_path, capsys):
         return pd.read_csv(tmp_path / folder / "torque_free_sweep.csv")
 
     a, b = sweep(7, "a"), sweep(7, "b")
-    cols = ["omega0[2]", "I1", "status", "worst_margin", "worst_check"]
+    cols = ["omega0[2]", "I1", "status", "passed", "classification", "error", "error_check"]
     pd.testing.assert_frame_equal(a[cols], b[cols])
     assert (a["status"] == "ok").all() and a["omega0[2]"].between(0.1, 10).all() and a["I1"].between(1, 2).all()
+    assert a["passed"].all() and (a["error"] > 0).all()
     assert (tmp_path / "a" / "torque_free_sweep.png").read_bytes().startswith(PNG)
     assert "(seed 7)" in (tmp_path / "a" / "torque_free_sweep.md").read_text()
     axes = [Axis("I1", "I1", None, 1.0, 2.0, None)]
@@ -149,6 +156,72 @@ def test_axes_grid_and_overrides():
 def test_a_crash_or_timeout_is_that_point_s_result():
     for status in ("crashed", "timeout"):
         r = summarize(0, (1.0,), "mujoco", "RK4", Outcome(status, message="gone"), "ok")
-        assert r.status == status and not r.passed and r.worst_margin == math.inf and r.worst_check == "run"
+        assert r.status == status and not r.passed and r.classification == "" and math.isnan(r.error)
+        assert r.failing == (("run", "", "gone"),) and r.failed_checks == 1
     r = summarize(0, (1.0,), "mujoco", "RK4", Outcome("input_error", message="no such body"), "ok")
-    assert r.status == "refused: no such body" and r.refused
+    assert r.status == "refused: no such body" and r.refused and not r.failing
+
+
+def _c(check, value, unit, passed=True, cls="converges", judged="order 4.01 (method's 4)"):
+    return CheckResult("s", "mujoco", check, value, math.inf, unit, passed, "detail", classification=cls,
+                       judged=judged)
+
+
+def _case(checks):
+    record = RunRecord("s", "mujoco", "RK4", 1e-3, None, 1.0, "ok", "", 0.5, 1000.0)
+    return Outcome("ok", value=(None, record, checks, None))
+
+
+def test_a_point_is_judged_by_the_verdicts_of_its_checks():
+    """The worst class, the failing checks with their class and reason, and the largest
+    dimensionless error (rel, rad or unitless; not m) with its check."""
+    declared = "model difference (declared)"
+    checks = [_c("trajectory.position", 2e-6, "rel"), _c("trajectory.orientation", 5e-6, "rad", cls=declared),
+              _c("constraint.position", 1.0, "m"), _c("exact", 7e-6, ""), _c("energy_drift", 1e-9, "rel")]
+    r = summarize(3, (0.5,), "mujoco", "RK4", _case(checks), "ok")
+    assert r.passed and r.classification == declared and r.failing == () and r.failing_class == ""
+    assert (r.error, r.error_check) == (7e-6, "exact")  # the 1.0 m constraint violation is not dimensionless
+    assert (r.trajectory_error, r.energy_drift, r.failed_checks, r.checks) == (5e-6, 1e-9, 0, 5)
+
+    checks[1] = _c("trajectory.orientation", 5e-6, "rad", passed=False, cls="model difference",
+                   judged="a floor of 4.9e-06 rad that does not shrink with the step; not declared by the scene")
+    checks.append(_c("reaction.force", 3e-3, "rel", passed=False, cls="defect", judged="order 0.21 where the method's is 4"))
+    checks.append(_c("reaction.exact", float("nan"), "rel", passed=False, cls="", judged=""))
+    r = summarize(3, (0.5,), "mujoco", "RK4", _case(checks), "ok")
+    assert not r.passed and r.classification == "defect" and r.failing_class == "defect" and r.failed_checks == 3
+    assert r.failing == (("trajectory.orientation", "model difference",
+                          "a floor of 4.9e-06 rad that does not shrink with the step; not declared by the scene"),
+                         ("reaction.force", "defect", "order 0.21 where the method's is 4"),
+                         ("reaction.exact", "not judged", "detail"))  # no value: not judged, why from its detail
+    assert (r.error, r.error_check) == (3e-3, "reaction.force") and r.no_value == ("reaction.exact",)
+    assert worst_class(["converges", declared, "model difference"]) == "model difference"
+    assert worst_class(["not judged", "model difference", ""]) == "not judged" and worst_class([]) == ""
+
+
+def test_the_report_shows_classes_errors_and_failing_checks():
+    """The CSV and the table carry the class, the error, its check and each failing check with its
+    class and reason; the figure (heatmap, line, scatter) is drawn with a failing point."""
+    axes = [Axis("a", "a", None, 0.0, 1.0, 2), Axis("b", "b", None, 1.0, 2.0, 2)]
+    points = grid_points(axes)
+
+    def row(i, values, failing=()):
+        return PointResult(i, values, "mujoco", "RK4", "ok", not failing, failing[0][1] if failing else "converges",
+                           10.0 ** (-9 + i), "trajectory.position", len(failing), 5, 1e-9, 1e-10, "ok", 0.1,
+                           failing=failing)
+
+    bad = (("trajectory.position", "defect", "order 0.30 where the method's is 4"),)
+    rows = [row(i, v, bad if i == 2 else ()) for i, v in enumerate(points)]
+    run = SweepRun("demo", "grid", axes, points, ["mujoco"], 1.0, rows=rows)
+    table = frame(run)
+    assert list(table["classification"]) == ["converges", "converges", "defect", "converges"]
+    assert table["error"].tolist() == pytest.approx([1e-9, 1e-8, 1e-7, 1e-6])
+    assert table.loc[2, "failing"] == "trajectory.position [defect]: order 0.30 where the method's is 4"
+    assert "worst_margin" not in table.columns
+    text = markdown(run, {"harness": "0"}, "demo_sweep.png", "harness sweep demo")
+    assert "| class | error | check | failing checks |" in text
+    assert "| defect | 1.00e-07 | trajectory.position | trajectory.position [defect]: order 0.30" in text
+    assert "| defect 1, converges 3 | 1/4 |" in text  # the headline's classes, worst first, and failing points
+    assert "margin" not in text
+    for r2 in (run, SweepRun("demo", "grid", axes[:1], [(0.0,), (1.0,)], ["mujoco"], 1.0, rows=rows[:2]),
+               SweepRun("demo", "random", axes, points, ["mujoco"], 1.0, seed=1, rows=rows)):
+        assert figure_png(r2).startswith(PNG)

@@ -242,10 +242,59 @@ def test_time_to_error_interpolates_on_the_lower_envelope():
 def test_observed_order_of_an_exact_power_law():
     pts = [point(h, 3.0 * h**4, 1.0 / h) for h in (0.1, 0.05, 0.025, 0.0125)]
     o = observed_order(pts, 1e-14)
-    assert o["order"] == pytest.approx(4.0) and o["n"] == 4
+    assert o["order"] == pytest.approx(4.0) and o["n"] == 3 and o["range"] == "0.013..0.05"  # the three finest
+    assert o["model"].classification == "converges"
     adaptive = [point(tol, 2 * tol, 1.0, integrator="dop853_compiled", steps=tol**-0.125) for tol in (1e-4, 1e-6, 1e-8)]
     o = observed_order(adaptive, 1e-14)
     assert o["tol_slope"] == pytest.approx(1.0) and o["steps_order"] == pytest.approx(8.0)
+
+
+def test_each_curve_gets_its_error_model():
+    """``curve_model`` (``harness.judging.error_model``) on fabricated curves: a fourth-order power
+    law converges at order 4 from its finest resolved points (the round-off tail left out), an
+    error that levels off is a model difference with its floor, a first-order error of a
+    fourth-order method is a defect, an error of the motion's size is unresolved, a curve whose
+    every run blew up or one sound point is not judged; an error-controlled curve that follows its tolerance converges at order 1 in
+    it, one flat over its tolerances has a floor."""
+    from harness.studies.workprecision.run import curve_model
+
+    steps = [0.1 / 2**k for k in range(9)]  # 3 h^4 falls below 10x the resolution (1e-11) after steps[6]
+    rk4 = curve_model([point(h, max(3.0 * h**4, 3e-13), 1.0 / h) for h in steps])
+    assert rk4.classification == "converges" and rk4.observed_order == pytest.approx(4.0)
+    assert [lv.step for lv in rk4.levels] == steps[6:3:-1]  # the finest resolved three, the finest first
+    steps = steps[:6]
+    soft = curve_model([point(h, 1e-5 + 3.0 * h**4, 1.0 / h) for h in steps])
+    assert soft.classification == "model difference" and soft.floor == pytest.approx(1e-5, rel=0.05)
+    assert soft.observed_order < 1.0
+    low = curve_model([point(h, 0.1 * h, 1.0 / h) for h in steps])
+    assert low.classification == "defect" and low.observed_order == pytest.approx(1.0)
+    blown = curve_model([point(h, float("nan"), 1.0, status="blowup") for h in steps[:2]])
+    assert blown.classification == "not judged" and "2 blew up" in blown.reason  # beyond its stability: no defect
+    lost = curve_model([point(h, 0.3 + h, 1.0 / h) for h in steps])
+    assert lost.classification == "unresolved"  # the motion's own size: nothing to fit
+    assert curve_model([point(0.1, 1e-4, 1.0)]).classification == "not judged"
+    tols = [1e-4, 1e-6, 1e-8]
+    dop = curve_model([point(t, 5.0 * t, 1.0, integrator="dop853_compiled") for t in tols])
+    assert dop.kind == "adaptive" and dop.classification == "converges" and dop.observed_order == pytest.approx(1.0)
+    flat = curve_model([point(t, 2.6e-6, 1.0, integrator="dop853_compiled") for t in tols])
+    assert flat.classification == "model difference" and flat.floor == pytest.approx(2.6e-6)
+
+
+def test_the_order_table_shows_each_curves_class():
+    from harness.studies.workprecision.report import markdown
+
+    steps = [0.1 / 2**k for k in range(5)]
+    sweep = SceneSweep("s", 1.0, 0.1, "ref", points=[point(h, 2.0 * h**4, 1.0 / h) for h in steps]
+                       + [mujoco_point("rollout", h, 1e-5 + 3.0 * h**4, 1.0 / h) for h in steps])
+    md = markdown([sweep], {}, SweepOptions(), command="harness workprecision")
+    assert "| curve | nominal | class (order) | floor |" in md
+    assert "| inhouse rk4_compiled (compiled) | 4 | converges (4.00) | 0 |" in md
+    row = next(line for line in md.splitlines() if line.startswith("| mujoco RK4 (rollout) | 4 |"))
+    assert "| model difference (0." in row and "| 1.0e-05 |" in row
+    from harness.studies.workprecision.run import points_table
+
+    table = points_table([sweep])
+    assert set(table["curve_class"]) == {"converges", "model difference"}
 
 
 def test_time_table_ratios_are_to_the_fastest_curve():
@@ -335,7 +384,7 @@ def test_stop_reasons():
     hist = lambda errs, **kw: [(point(0.1 / 2**i, e, 0.01, **kw), 0.05) for i, e in enumerate(errs)]  # noqa: E731
     assert stop_reason(hist([1e-3, 1e-5]), o) == ""
     assert stop_reason(hist([1e-3, 5e-12]), o) == "state error below 1e-11"
-    assert stop_reason(hist([1e-3, 1e-4, 9e-5, 8e-5, 8.5e-5]), o) == "error stalled"
+    assert stop_reason(hist([1e-3, 1e-4, 9e-5, 8e-5, 8.5e-5]), o) == "error stalled (model difference, floor 8.5e-05)"
     assert stop_reason(hist([1e-3, 1e-4, 9e-5, 8e-5, 8.5e-5], integrator="dop853_compiled"), o) == ""  # tolerances
     assert stop_reason(hist([0.5, 0.4, 0.45, 0.42]), o) == ""  # not stalled: above 1e-2, the coarse end
     assert stop_reason(hist([1e-3, 1e-4, 1e-5, 1e-6]), o) == ""
@@ -546,3 +595,49 @@ def test_cli_options_set_the_budgets_and_the_per_state_curves(capsys):
     assert free.max_run_s == 0.5
     assert parse("--quick").per_state == "all"
     assert main(["workprecision", "--budget-s", "0"]) == 2 and "--budget-s out of range" in capsys.readouterr().err
+
+
+def test_a_point_over_its_wall_clock_budget_is_timed_out_and_the_sweep_goes_on(monkeypatch):
+    """Every point runs in its own worker under ``run_timeout_s``: one that hangs is killed and
+    recorded as failed, "timed out after N s", its curve stops there, and the next curve still
+    runs all its points."""
+    import time
+
+    import harness.studies.workprecision.run as wp
+
+    monkeypatch.setattr(wp, "reference", lambda scene, t_end, save: (None, "fake"))
+    monkeypatch.setattr(wp, "reference_checks", lambda *a: {})
+    monkeypatch.setattr(wp, "compiled_covers", lambda scene: (True, ""))
+
+    def fake_measure(scene, c, settings, ref, model, opts):
+        if c.integrator == "Euler" and settings.dt < 0.3:
+            time.sleep(30)  # a hang: killed at the budget
+        return replace(point(settings.dt, settings.dt**2, 1e-4), engine=c.engine, integrator=c.integrator,
+                       variant=c.variant)
+
+    monkeypatch.setattr(wp, "measure", fake_measure)
+    options = replace(QUICK, run_timeout_s=0.3, curve_budget_s=None, key_budget_s=None, loop_budget_s=None,
+                      reach_budget_s=None, progress=False)
+    euler, rk4 = Curve("mujoco", "Euler", "rollout"), Curve("mujoco", "RK4", "rollout")
+    start = time.perf_counter()
+    sweep = sweep_scene(load_scene("torque_free"), ["mujoco"], options, curve_list=[euler, rk4])
+    assert time.perf_counter() - start < 10
+    by_label = {label: [p for p in sweep.points if p.label == label] for label in (euler.label, rk4.label)}
+    assert [p.param for p in by_label[euler.label]] == [2.0, 1.0, 0.5, 0.25]  # torque_free: save 10 s / 5
+    last = by_label[euler.label][-1]
+    assert last.status == "failed" and last.message.startswith("timed out after 0.3 s"), last
+    assert sweep.curves[euler.label]["stop"] == last.message
+    assert all(p.ok for p in by_label[euler.label][:-1])
+    assert len(by_label[rk4.label]) == QUICK.dt_levels and all(p.ok for p in by_label[rk4.label])
+
+
+def test_a_sweep_beyond_the_step_budget_is_refused_before_any_run(tmp_path, capsys):
+    from harness.cli.main import main
+
+    out = tmp_path / "wp"
+    code = main(["workprecision", "--scenes", "heavy_top", "--quick", "--saves", "10000000", "--out-dir", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "heavy_top: the sweep's finest step (--saves, --t-end): a horizon of 5 s at a step of 7.8125e-09 s is " \
+           "6.4e+08 integration steps, more than the 1e+08" in err[0], err
+    assert not out.exists()

@@ -241,3 +241,55 @@ def _state(pid: int) -> str:
         return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
     except (OSError, IndexError):
         return "Z"
+
+
+def test_a_file_check_would_refuse_is_refused_not_crashed(tmp_path):
+    """Issue #29: a latin-1 MJCF, a FIFO and a link to /dev/zero in the folder are rows "refused"
+    with check's one-line reason (no engine is given them), never "crashed" or a hang."""
+    d = tmp_path / "odd"
+    d.mkdir()
+    (d / "cafe.xml").write_bytes(ROD_MJCF.replace('model="rod"', 'model="caf\xe9"').encode("latin-1"))
+    os.mkfifo(d / "pipe.urdf")
+    (d / "zero.urdf").symlink_to("/dev/zero")  # read-side only: refused before a byte is read
+    result = zoo.run_zoo(zoo.collection(str(d)), timeout=60.0)
+    by = {r.name: r for r in result.rows}
+    assert {n: r.verdict for n, r in by.items()} == {"cafe": "refused", "pipe": "refused", "zero": "refused"}
+    assert by["cafe"].reason == "MJCF file is not UTF-8 text (byte 0xe9 at offset 18)"
+    assert by["pipe"].reason.startswith("the URDF is not a regular file but a FIFO (named pipe)")
+    assert by["zero"].reason.startswith("the URDF is not a regular file but a character device (a symlink to /dev/zero)")
+    assert all(r.loads == {} and "REFUSED" in r.report for r in by.values())
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("where", ["zoo", "check"])
+def test_sigterm_removes_the_temporary_folders(tmp_path, where):
+    """Issue #29: SIGTERM to `harness zoo` while its workers run (or to `harness check` while it
+    loads a model): the process exits 143, its harness-zoo-* / harness-check-* folder is gone and
+    no worker is left."""
+    d = folder(tmp_path)
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    hang = ("z.run_check = lambda *a, **k: time.sleep(120)\n" if where == "zoo" else
+            "import harness.tools.check as c\nc._load_readings = lambda *a, **k: time.sleep(120)\n")
+    command = (["zoo", str(d)] if where == "zoo" else ["check", "--mjcf", str(d / "rod.xml")])
+    script = ("import time, sys\nimport harness.tools.zoo as z\n" + hang + "from harness.cli.main import main\n"
+              f"sys.exit(main({command + ['--out-dir', str(tmp_path / 'out')]!r}))\n")
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            env={**os.environ, "TMPDIR": str(tmp)})
+    workers: set[int] = set()
+    try:
+        deadline = time.monotonic() + 60
+        want = 2 if where == "zoo" else 0
+        while time.monotonic() < deadline and not (list(tmp.glob(f"harness-{where}-*"))
+                                                   and len(workers := _children(proc.pid)) >= want):
+            time.sleep(0.1)
+        assert list(tmp.glob(f"harness-{where}-*")) and len(workers) >= want
+        proc.send_signal(signal.SIGTERM)
+        code = proc.wait(30)
+    finally:
+        proc.kill()
+        proc.wait()
+    assert code == 143, proc.stderr.read().decode()
+    assert list(tmp.iterdir()) == []  # the temporary folder was removed on the way out
+    assert not [w for w in workers if Path(f"/proc/{w}").exists() and "Z" not in _state(w)]
+    assert not (tmp_path / "out").exists()

@@ -14,7 +14,7 @@ import pytest
 from harness.cli.main import main
 from harness.engines.mujoco.engine import MujocoEngine
 from harness.model.scene import MODELS_DIR, available_scenes, load_scene
-from harness.validate import quantities
+from harness.judging import quantities
 from harness.validate.run import model_checks, validate
 
 SHORT = {"t_end": 0.5}
@@ -114,29 +114,31 @@ def test_cli_writes_reports_junit_and_exit_codes(tmp_path, capsys):
     # stamped with the load and the command's wall time (the snapshot's timings are read against them)
     assert re.search(r"load average [0-9.]+ \(1 min, at the end of the run\)\. The run took [0-9]+ s wall on", text)
 
-    tol = tmp_path / "tol.toml"
-    tol.write_text("[heavy_top.energy_drift]\nmujoco = 1e-16\n")
-    code = main(["validate", "--scenes", "heavy_top", "--engines", "mujoco", "--tolerances", str(tol), "--out-dir", str(out)])
+    req = tmp_path / "req.toml"
+    req.write_text("[heavy_top]\nenergy_drift = 1e-16\n")
+    code = main(["validate", "--scenes", "heavy_top", "--engines", "mujoco", "--requirements", str(req), "--out-dir", str(out)])
     assert code == 1
     suite = ET.parse(out / "validation.junit.xml").getroot().find("testsuite")
     failed = [c for c in suite.findall("testcase") if c.find("failure") is not None]
-    assert [(c.get("classname"), c.get("name")) for c in failed] == [("heavy_top.mujoco", "energy_drift")]
-    assert "energy_drift.mujoco: 1e-08 -> 1e-16" in (out / "validation.md").read_text()
+    assert {(c.get("classname"), c.get("name")) for c in failed} == {("heavy_top.reference", "energy_drift"),
+                                                                    ("heavy_top.mujoco", "energy_drift")}
+    assert all(c.find("failure").get("type") == "requirement" for c in failed)
+    assert "energy_drift <= 1e-16 (added)" in (out / "validation.md").read_text()
 
 
 @pytest.mark.parametrize("text,fragment", [
-    ("[heavy_top.energy_drift]\nmujco = 1e-9\n", "has no tolerance 'mujco'"),
-    ("[heavy_top.enrgy]\nmujoco = 1e-9\n", "has no check 'enrgy'"),
-    ("[heavy_tops.energy_drift]\nmujoco = 1e-9\n", "unknown scene 'heavy_tops'"),
-    ("[heavy_top.energy_drift]\nmujoco = -1\n", "must be positive"),
+    ("[heavy_top]\nmujco = 1e-9\n", "the harness has no check 'mujco'"),
+    ("[heavy_top]\nslip = 1e-9\n", "the scene makes no slip check"),
+    ("[heavy_tops]\nexact = 1e-9\n", "unknown scene 'heavy_tops'"),
+    ("[heavy_top]\nexact = -1\n", "must be positive"),
     ("[heavy_top", "malformed TOML"),
 ])
-def test_bad_tolerance_file(tmp_path, capsys, text, fragment):
-    tol = tmp_path / "tol.toml"
-    tol.write_text(text)
-    code = main(["validate", "--scenes", "heavy_top", "--tolerances", str(tol), "--out-dir", str(tmp_path / "r")])
+def test_bad_requirements_file(tmp_path, capsys, text, fragment):
+    req = tmp_path / "req.toml"
+    req.write_text(text)
+    code = main(["validate", "--scenes", "heavy_top", "--requirements", str(req), "--out-dir", str(tmp_path / "r")])
     err = capsys.readouterr().err
-    assert code == 2 and fragment in err and str(tol) in err and err.count("\n") == 1
+    assert code == 2 and fragment in err and str(req) in err and err.count("\n") == 1
     assert not (tmp_path / "r").exists()
 
 
@@ -237,43 +239,42 @@ def test_validate_fails_on_a_wrong_model_file(tmp_path, capsys, edit, engine, ch
     failed = [(c["engine"], c["check"]) for s in data["scenes"] for c in s["checks"] if not c["passed"]]
     assert failed == [(engine, check)]  # the runs load the file with the scene's parameters: they still agree
     head = (out / "validation.md").read_text().split("\n## ")[0]  # the matrix, before the details
-    assert "**FAIL** " in head and f"`{check}`" in head
+    assert "[double_pendulum](#double_pendulum--fail) **✗**" in head and "**✗ model file** · " in head
+    assert f"`{check}`" in head
 
 
-def test_a_check_table_marks_its_regression_bounds():
-    """``regression_only = ["mujoco"]`` in a check table (as rolling_disk's MuJoCo tolerances need:
-    about 4x what soft contact reaches) marks those checks of that engine, and no others."""
-    checks = load_scene("heavy_top").checks
-    assert not any(quantities.regression_only("heavy_top", checks, c, "mujoco") for c in ("energy_drift", "exact"))
-    marked = {**checks, "energy_drift": {**checks["energy_drift"], "regression_only": ["mujoco"]},
-              "trajectory": {**checks["trajectory"], "regression_only": ["mujoco"]}}
-    for check in ("energy_drift", "trajectory.position", "trajectory.angular_velocity"):
-        assert quantities.regression_only("heavy_top", marked, check, "mujoco"), check
-        assert not quantities.regression_only("heavy_top", marked, check, "pinocchio"), check
-    assert quantities.regression_only("heavy_top", marked, "energy_balance", "mujoco")  # the forced form, same table
-    assert not quantities.regression_only("heavy_top", marked, "exact", "mujoco")
-    assert not quantities.regression_only("heavy_top", marked, "engine_energy", "mujoco")  # a fixed 1e-9
-    assert not quantities.regression_only("heavy_top", marked, "model.top.mass", "mujoco")
-    from dataclasses import replace
+def test_a_check_table_holds_no_regression_bound(tmp_path):
+    """Checks are judged by how their error converges (issue #30): a check table's
+    ``regression_only`` (a bound that was what an engine reaches) is refused, and the quantities
+    module has no tolerances left to read."""
+    from harness.model.errors import InputError
 
-    (res,) = validate([replace(short("heavy_top"), checks=marked)], ["mujoco"], jobs=1)
-    flagged = {c.check for c in res.checks if c.regression_only}
-    assert flagged == {"energy_drift", "trajectory.position", "trajectory.orientation", "trajectory.velocity",
-                       "trajectory.angular_velocity"}
-    assert all(c.engine == "mujoco" for c in res.checks if c.regression_only)
+    models = tmp_path / "models"
+    shutil.copytree(MODELS_DIR / "heavy_top", models / "heavy_top")
+    toml = models / "heavy_top" / "scene.toml"
+    toml.write_text(toml.read_text().replace("[checks.energy_drift]\n", '[checks.energy_drift]\nregression_only = ["mujoco"]\n'))
+    with pytest.raises(InputError, match=r"\[checks.energy_drift\] regression_only: a check holds no tolerance"):
+        load_scene("heavy_top", models_dir=models)
+    for gone in ("tolerance", "per_engine", "regression_only", "check_table"):
+        assert not hasattr(quantities, gone), gone
 
 
 def test_trajectory_checks_follow_the_shared_definition():
-    scene = short("heavy_top")
+    """Each ``trajectory.*`` check in its shared unit, bounded by the scene's requirement on it
+    (its own entry over its table's; none: inf) and judged by convergence."""
+    import math
+    from dataclasses import replace
+
+    scene = replace(short("heavy_top"), requirements={"trajectory": 1.0, "trajectory.orientation": 1e-3})
     (res,) = validate([scene], ["pinocchio"], jobs=1)
     by_name = {c.check: c for c in res.checks if c.engine == "pinocchio"}
     for q in quantities.TRAJECTORY:
         c = by_name[q.check]
         assert c.unit == q.judged_unit
-        assert c.tolerance == quantities.tolerance(scene.checks, q, "pinocchio")
+        assert c.tolerance == (1e-3 if q.name == "orientation" else 1.0), q.name
+        assert c.classification == "converges" and c.passed and math.isfinite(c.resolution), q.name
     assert by_name["trajectory.position"].unit == "rel" and by_name["trajectory.orientation"].unit == "rad"
-    velocity = scene.checks["trajectory"]["velocity"]
-    assert by_name["trajectory.angular_velocity"].tolerance == (velocity["pinocchio"] if isinstance(velocity, dict) else velocity)
+    assert by_name["energy_drift"].tolerance == math.inf  # no requirement on it
 
 
 def _spoiled(scene, k, value, field="v_WCm_W"):
@@ -299,7 +300,7 @@ def _spoiled(scene, k, value, field="v_WCm_W"):
 ])
 def test_a_non_finite_sample_is_a_failed_run_check(value, field, what):
     from harness.measure.invariants import first_non_finite
-    from harness.validate.run import check_run
+    from harness.judging.checks import check_run
 
     scene = short("double_pendulum")
     traj, settings = _spoiled(scene, 7, value, field)
@@ -315,7 +316,7 @@ def test_a_non_finite_sample_is_a_failed_run_check(value, field, what):
 
 def test_a_finite_run_has_no_run_check():
     from harness.measure.invariants import first_non_finite
-    from harness.validate.run import check_run
+    from harness.judging.checks import check_run
 
     scene = short("double_pendulum")
     traj, settings = _spoiled(scene, 7, 0.0)
@@ -400,15 +401,25 @@ def test_an_engine_that_drops_the_loop_fails_the_closure_check():
 
     from harness.engines.base import RunSettings
     from harness.engines.inhouse import ENGINE
-    from harness.validate.run import check_run
+    from harness.judging.checks import check_run
+
+    from harness.judging import error_model
+    from harness.judging.verdict import judge
 
     scene = short("four_bar")
-    settings = RunSettings(t_end=0.5, dt=1e-3, save_every=0.01, integrator="rk4")
-    tree = ENGINE.simulate_model(replace(scene.multibody(), loops=()), settings)
-    checks = {c.check: c for c in check_run(scene, "inhouse", "inhouse", tree, None, settings)}
-    assert not checks["closure.position"].passed and checks["closure.position"].value > 1e-3
-    assert "worst: cut" in checks["closure.position"].detail
-    assert checks["constraint.position"].passed  # the tree's own joints still hold
+    levels = []
+    for dt in (1e-3, 2e-3):
+        settings = RunSettings(t_end=0.5, dt=dt, save_every=0.01, integrator="rk4")
+        tree = ENGINE.simulate_model(replace(scene.multibody(), loops=()), settings)
+        checks = {c.check: c for c in check_run(scene, "inhouse", "inhouse", tree, None, settings)}
+        levels.append(error_model.Level(dt, checks["closure.position"].value))
+        if dt == 1e-3:
+            assert checks["closure.position"].value > 1e-3 and "worst: cut" in checks["closure.position"].detail
+            assert checks["constraint.position"].value < 1e-9  # the tree's own joints still hold
+    # the gap does not shrink with the step: a floor no model difference declares -> fails
+    model = error_model.fit("closure.position", "m", 0.45, "fixed", 4, levels, 1e-9)
+    verdict = judge(model)
+    assert model.classification in (error_model.MODEL_DIFFERENCE, error_model.UNRESOLVED_CLASS) and not verdict.passed
     (res,) = validate([scene], ["inhouse", "pinocchio", "exudyn", "drake"], jobs=2)
     closure = [c for c in res.checks if c.check.startswith("closure.")]
     assert {c.engine for c in closure} == {"reference", "inhouse", "pinocchio", "exudyn"} and all(c.passed for c in closure)

@@ -4,7 +4,8 @@ Drake reads the scene's URDF with its own parser (a third importer beside MuJoCo
 Pinocchio's) and integrates the plant's state (reduced coordinates) with the integrators of
 Drake's ``Simulator``, selected as Drake's ``ResetIntegratorFromFlags`` names them
 (``harness.engines.drake.integrators``): error-controlled ones at a target accuracy (the run's
-``rtol``), the way Drake's users run it, and fixed-step ones at ``dt``. The model and the
+``rtol``), the way Drake's users run it, with the run's ``dt`` (s) as their maximum step, and
+fixed-step ones at ``dt``. The model and the
 scene's physics: ``harness.engines.drake.model``.
 
 Maximal coordinates at every saved sample come from Drake's kinematics
@@ -84,7 +85,9 @@ class DrakeEngine:
         system, context = (dm.diagram, dm.diagram_context) if dm.diagram is not None else (dm.plant, dm.context)
         simulator = Simulator(system, context)
         spec = METHODS[method]
-        integ = ResetIntegratorFromFlags(simulator, SCHEMES[method], settings.save_every if spec.adaptive else settings.dt)
+        # the maximum step of an error-controlled method and the step of a fixed one: the run's dt, never the save
+        # interval (``harness.engines.drake.integrators``)
+        integ = ResetIntegratorFromFlags(simulator, SCHEMES[method], settings.dt)
         if spec.adaptive:  # dt is not passed as an initial step: see ``harness.engines.drake.integrators``
             integ.set_target_accuracy(settings.rtol)
         else:
@@ -149,7 +152,7 @@ def _joint_axis(joint) -> np.ndarray:
 
 def _describe(method: str, settings: RunSettings, scene: Scene) -> str:
     spec = METHODS[method]
-    how = (f"target accuracy {settings.rtol:g}, max step {settings.save_every:g} s" if spec.adaptive
+    how = (f"target accuracy {settings.rtol:g}, max step {settings.dt:g} s" if spec.adaptive
            else f"fixed step {settings.dt:g} s")
     return f"Drake {SCHEMES[method]} ({how}) on the continuous MultibodyPlant of {scene.urdf.name}"
 

@@ -15,8 +15,9 @@ from pathlib import Path
 
 from harness.io import atomic
 from harness.io.provenance import made_with
-from harness.studies.loops.run import (IDEAL_CLOSURE, MUJOCO_DEFAULT_SOLIMP, MUJOCO_DEFAULT_SOLREF, VARIANT,
-                                       LoopStudy, SceneStudy, failures, horizon, loglog_slope, series)
+from harness.judging import error_model
+from harness.studies.loops.run import (IDEAL_CLOSURE, MODELLED, MUJOCO_DEFAULT_SOLIMP, MUJOCO_DEFAULT_SOLREF, VARIANT,
+                                       LoopStudy, SceneStudy, error_models, failures, horizon, loglog_slope, series)
 
 NAME = "loop_closure"
 #: A measure's name in the report and JSON key, with its unit.
@@ -175,6 +176,7 @@ def scene_lines(s: SceneStudy, study: LoopStudy) -> list[str]:
         "",
     ]
     lines += table_lines(s)
+    lines += model_lines(s, study)
     lines += published_lines(s)
     lines += [""] + [" ".join(findings(s, study))] + [""]
     return lines
@@ -237,6 +239,54 @@ def table_lines(s: SceneStudy) -> list[str]:
         lines.append(f"| {label} | " + " | ".join(cells) + f" | {wall} | {status} |")
     for key, why in s.not_run.items():
         lines.append(f"| {VARIANT[key].label} | " + " | ".join(["not run"] * n) + f" | — | not run: {why} |")
+    return lines
+
+
+def model_cell(m: error_model.ErrorModel, declared: dict | None = None) -> str:
+    """One error model as its table shows it: ``class (order), floor F unit``, the order and floor
+    left out where not measured; for an engine whose model difference the scene declares
+    (``[model_differences.<engine>]``), whether it is within its declared bound
+    (``harness.judging.verdict.judge``)."""
+    from harness.judging.verdict import ModelDifference, judge
+
+    order = 0.0 if abs(m.observed_order) < 0.005 else m.observed_order  # no "-0.00"
+    text = m.classification + (f" ({order:.2f})" if math.isfinite(order) else "")
+    if math.isfinite(m.floor) and m.floor > 0:
+        text += f", floor {m.floor:.1e}" + (f" {m.unit}" if m.unit not in ("rel", "") else "")
+    if (m.levels and m.classification != error_model.DEFECT and all(lv.step >= m.levels[0].step for lv in m.levels)
+            and error_model.needs_finer_level(list(m.levels), m.formal_order, m.resolution)):
+        text += " (undecided)"
+    if declared and m.classification in (error_model.MODEL_DIFFERENCE, error_model.DEFECT):
+        v = judge(m, ModelDifference(declared["model"], declared["floor"]))
+        text += f" — declared, {'within' if v.passed else 'beyond'} its bound {declared['floor']:g}"
+    return text
+
+
+def model_lines(s: SceneStudy, study: LoopStudy) -> list[str]:
+    """The scene's error models (``harness.studies.loops.run.error_models``): a row per engine /
+    variant, a column per measure, each ``class (order), floor``."""
+    models = error_models(s, horizon(s.scene, study.t_end))
+    if not models:
+        return []
+    names = dict(MEASURES)
+    measures = [m for m, _ in MODELLED if any(k[1] == m for k in models)]
+    heads = [(energy_name(s) if m == "energy" else names[m]) for m in measures]
+    lines = ["", "Error model of each measure against the step (`harness.judging.error_model`, as validate judges "
+             "its checks; the scene's step first, the order of the finest two steps, the floor from Richardson "
+             "extrapolation): converges (falls at about the integrator's order, or sits at the resolution), model "
+             "difference (a floor that does not shrink with the step), defect (an order far below the integrator's, "
+             "or non-finite), unresolved (an error of the motion's own size), not judged (one step only); "
+             "(undecided): no step finer than the scene's, where the finest two leave the class open (a floor read "
+             "at the method's order; validate would add a finer step: the full study runs dt/2 and dt/4). "
+             "MuJoCo's soft loop constraints show as a floor or a low order; where the scene declares MuJoCo's "
+             "model difference, the cell says whether it stays within the declared bound (of each quantity's scale).",
+             "", "| engine / variant | class (order) of " + " | ".join(heads) + " |", "|---|" + "---|" * len(heads)]
+    for key in s.variants():
+        if not any((key, m) in models for m in measures):
+            continue
+        declared = s.scene.model_differences.get(VARIANT[key].engine) if not VARIANT[key].ideal else None
+        cells = [model_cell(models[(key, m)], declared) if (key, m) in models else "—" for m in measures]
+        lines.append(f"| {_label(s, key)} | " + " | ".join(cells) + " |")
     return lines
 
 
@@ -553,6 +603,9 @@ def as_json(study: LoopStudy, prov: dict, command: str) -> dict:
             "mjcf_loop_settings": {name: {"solref": list(ref), "solimp": list(imp)} for name, (ref, imp) in s.written.items()},
             "not_run": s.not_run,
             "findings": findings(s, study),
+            "error_models": [{"variant": k, "measure": q, "class": m.classification, "order": m.observed_order,
+                              "floor": m.floor, "resolution": m.resolution, "unit": m.unit, "reason": m.reason}
+                             for (k, q), m in error_models(s, horizon(s.scene, study.t_end)).items()],
             "runs": s.rows,
         } for s in study.scenes],
     }

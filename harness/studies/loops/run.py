@@ -51,6 +51,7 @@ from typing import Callable
 
 import numpy as np
 
+from harness.judging import error_model
 from harness.model.errors import InputError
 from harness.model.scene import MODELS_DIR, Scene, available_scenes, load_scene
 
@@ -230,6 +231,7 @@ def describe_settings(settings: Settings) -> str:
 def measure(scene: Scene, traj, settings, engine: str) -> dict:
     """The study's measures of one trajectory (module docstring): ``closure_position`` (m),
     ``closure_velocity`` (m/s), ``closure_axis`` (rad), ``closure_axis_rate`` (rad/s),
+    ``length_scale`` (m, ``compare.motion_scales``: the closure gap's scale in its error model),
     ``energy`` (relative), ``energy_quadrature`` (for an energy balance: the estimated
     quadrature error of the work, relative; else NaN), ``exact`` (its ``exact_unit``, rad for the linkages) and
     ``exact_detail``; NaN for what cannot be measured (no samples, no reference)."""
@@ -241,6 +243,7 @@ def measure(scene: Scene, traj, settings, engine: str) -> dict:
     if len(traj.t) < 2:
         return out
     with np.errstate(all="ignore"):
+        out["length_scale"] = float(compare.motion_scales(traj, model)["length"])
         closure = compare.loop_closure(traj, model)
         for key in ("position", "velocity", "axis", "axis_rate"):
             values = [c[key] for c in closure.values() if key in c]
@@ -413,7 +416,7 @@ def measure_nan() -> dict:
     nan = math.nan
     return {"closure_position": nan, "closure_velocity": nan, "closure_axis": nan, "closure_axis_rate": nan,
             "energy": nan, "energy_quadrature": nan, "exact": nan, "exact_unit": "", "exact_detail": "",
-            "published_t": nan, "published_digits_q": nan, "published_digits_v": nan}
+            "published_t": nan, "published_digits_q": nan, "published_digits_v": nan, "length_scale": nan}
 
 
 # ------------------------------------------------------------------------------ verdict and findings
@@ -452,4 +455,57 @@ def series(study: SceneStudy, variant: str, key: str) -> list[float]:
     for dt in study.steps:
         r = study.row(variant, dt)
         out.append(float(r[key]) if r is not None and r["status"] == "ok" else math.nan)
+    return out
+
+
+#: The measures fitted by ``error_models``: (row key, the unit when it is not the row's ``exact_unit``).
+MODELLED = (("closure_position", "m"), ("energy", "rel"), ("exact", None))
+
+
+def error_models(study: SceneStudy, t_end: float) -> dict[tuple[str, str], error_model.ErrorModel]:
+    """Each variant's error model of each measure in ``MODELLED`` (``harness.judging.error_model``,
+    as validate judges its checks), ``{(variant key, measure): model}``: the measure's values at
+    the steps run, the scene's step first, fitted against the step at the integrator's order
+    (``harness.engines.integrator``); a run that blew up is a NaN level (non-finite at the scene's
+    step: a ``defect``), one that timed out, crashed or failed otherwise is left out (at the
+    scene's step: ``not judged``). Scales: the run's length scale for the closure gap (m), 1 for the energy
+    (relative) and the exact error (rad). Resolution: the round-off ``N eps`` of the finest run
+    and ``JUDGING_RESOLUTION`` (each times the scale), and for an energy balance its quadrature's
+    estimated error. A measure a scene does not have (no exact reference) has no model."""
+    from harness.engines import integrator as integrator_record
+
+    out = {}
+    base_dt = study.scene.dt
+    for key in study.variants():
+        rows = [r for r in (study.row(key, dt) for dt in study.steps) if r is not None]
+        if not rows:
+            continue
+        rows.sort(key=lambda r: (abs(r["dt"] - base_dt) > 1e-12 * base_dt, study.steps.index(r["dt"])))
+        ok = [r for r in rows if r["status"] == "ok"]
+        try:
+            order = float(integrator_record(rows[0]["engine"], rows[0]["integrator"]).order)
+        except Exception:  # an integrator the registry does not list: no formal order to judge by
+            continue
+        length = max((r.get("length_scale", math.nan) for r in ok if math.isfinite(r.get("length_scale", math.nan))),
+                     default=1.0)
+        steps = max(t_end / min(r["dt"] for r in rows), 1.0)
+        if rows[0]["status"] not in ("ok", "blowup"):  # a timeout or a crash is no error to model
+            for measure, unit in MODELLED:
+                out[(key, measure)] = error_model.ErrorModel(
+                    measure, unit or "rad", 1.0, "fixed", order, (), math.nan, math.nan, math.nan, math.nan,
+                    error_model.NOT_JUDGED, f"the run at the scene's step: {rows[0]['status']}")
+            continue
+        rows = [r for r in rows if r["status"] in ("ok", "blowup")]
+        for measure, unit in MODELLED:
+            values = [float(r[measure]) if r["status"] == "ok" else math.nan for r in rows]
+            if measure == "exact" and not any(math.isfinite(v) for v in values):
+                continue
+            unit = unit or next((r["exact_unit"] for r in ok if r.get("exact_unit")), "rad")
+            scale = length if unit == "m" else 1.0
+            res = max(error_model.roundoff(steps, scale), error_model.JUDGING_RESOLUTION * scale)
+            if measure == "energy":
+                quad = [r.get("energy_quadrature", math.nan) for r in ok]
+                res = max([res] + [q for q in quad if math.isfinite(q)])
+            levels = [error_model.Level(r["dt"], v) for r, v in zip(rows, values)]
+            out[(key, measure)] = error_model.fit(measure, unit, scale, "fixed", order, levels, res)
     return out

@@ -117,6 +117,7 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool, command: str | N
                      f"{_e(a.get('position'))} | {_e(a.get('orientation'))} | {_e(a.get('lean'))} | {_e(a.get('force'))} | "
                      f"{_e(b.get('slip'))} | {_e(b.get('penetration'))} | {_e(b.get('energy'))} | {_e(b.get('position'))} | "
                      f"{_e(b.get('orientation'))} |")
+    lines += [""] + class_lines(result)
     lines += [
         "",
         "What matters, in order. (1) The contact stiffness `solref`. MuJoCo's default time constant, 0.02 s, lets the "
@@ -173,6 +174,35 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool, command: str | N
     ]
     return "\n".join(lines)
 
+
+
+def class_lines(result) -> list[str]:
+    """Each settings row's steady-circle position error in the judging vocabulary
+    (``harness.studies.rolling.run.setting_models``): its class and why."""
+    from harness.studies.rolling.run import setting_models
+
+    models = setting_models(result)
+    if not models:
+        return []
+    ideal = next(iter(models.values()))["ideal"]
+    lines = ["Each row's steady-circle position error (S position) judged as `harness validate` judges a check "
+             "(`harness.judging.error_model`): where a row has levels (the best settings at the scene's step and at "
+             "finer steps, solref 2 steps each) by its error model against the step (order, floor, class); every "
+             "other RK4 row at the scene's step has one step only, so no order: its error is set against the ideal "
+             f"engines' at the same step ({_e(ideal)}, in-house, Pinocchio, Exudyn: they converge at their order, so "
+             "their error is the step's share), and more than 10× it is a **model difference**: the soft contact "
+             "(MuJoCo has no rolling constraint; the scene declares it: `[model_differences.mujoco]`). First-order "
+             "integrators and other steps are not judged (their step error is not the ideal engines').", "",
+             "| # | setting | S position | class | why |", "|---|---|---|---|---|"]
+    for i, r in enumerate(result.settings, 1):
+        m = models.get(r["setting"])
+        if m is None:
+            continue
+        cls = m["class"] + (f" ({m['order']:.2f})" if math.isfinite(m["order"]) else "")
+        if math.isfinite(m["floor"]) and m["floor"] > 0:
+            cls += f", floor {m['floor']:.1e}"
+        lines.append(f"| {i} | {r['setting']} | {_e(r.get('steady_circle', {}).get('position'))} | {cls} | {m['reason']} |")
+    return lines
 
 
 def threshold_lines(result) -> list[str]:
@@ -275,5 +305,8 @@ def plot_files(result) -> dict[str, bytes]:
 
 
 def as_json(result) -> dict:
+    from harness.studies.rolling.run import setting_models
+
     return {"parameters": result.scene.params, "dt": result.scene.dt, "engines": result.engines,
-            "settings": result.settings, "thresholds": result.thresholds, "threshold_runs": result.threshold}
+            "settings": result.settings, "setting_classes": setting_models(result), "thresholds": result.thresholds,
+            "threshold_runs": result.threshold}

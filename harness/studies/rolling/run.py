@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from harness.judging import error_model
 from harness.measure import compare
 from harness.measure import contact_metrics
 from harness.model import rotations
@@ -101,8 +102,40 @@ def lean(traj: Trajectory) -> np.ndarray:
     return np.arccos(np.clip(R[:, 2, 2], -1.0, 1.0))
 
 
+#: Wall-clock budget of one run (s): each run is made in its own worker process
+#: (``harness.validate.workers.run_cases``); one over it is recorded as "timeout" and the study goes on.
+RUN_TIMEOUT = 300.0
+
+
+def _simulate(engine: str, scene: Scene, settings: RunSettings) -> tuple[Trajectory, float]:
+    """Worker body: one run and its wall time (s), measured around the run alone."""
+    t0 = time.perf_counter()
+    traj = get_engine(engine).simulate(scene, settings)
+    return traj, time.perf_counter() - t0
+
+
+def simulate_in_worker(engine: str, scene: Scene, settings: RunSettings,
+                       timeout: float | None = None) -> tuple[Trajectory, float]:
+    """One run in its own worker process under a wall-clock budget (``RUN_TIMEOUT`` s unless
+    given): a crash, a hang or an error there is that run's failed trajectory, with its reason,
+    and never takes the study down."""
+    from harness.measure.trajectory import failed
+    from harness.validate.workers import run_cases
+
+    outcome = run_cases([("run", _simulate, (engine, scene, settings))], 1, timeout or RUN_TIMEOUT)["run"]
+    if outcome.status == "ok":
+        return outcome.value
+    if outcome.status == "input_error":
+        from harness.model.errors import InputError
+
+        raise InputError(outcome.message)
+    names = [b.name for b in scene.multibody().bodies]
+    why = f"timed out after {timeout or RUN_TIMEOUT:g} s" if outcome.status == "timeout" else f"{outcome.status}: {outcome.message}"
+    return failed(engine, settings.integrator, names, "failed", why), outcome.wall_s
+
+
 def reference(scene: Scene, t_end: float, save: float) -> Trajectory:
-    return get_engine("inhouse").simulate(scene, RunSettings(t_end, save, save, **REFERENCE))
+    return simulate_in_worker("inhouse", scene, RunSettings(t_end, save, save, **REFERENCE))[0]
 
 
 def run_metrics(scene: Scene, traj: Trajectory, ref: Trajectory | None, wall: float) -> dict:
@@ -151,9 +184,7 @@ def run(scene: Scene, engine: str, t_end: float, *, dt: float | None = None, int
     save = save or scene.save_every
     dt = dt or scene.dt
     settings = RunSettings(t_end, dt, save, integrator or scene.integrators[engine])
-    t0 = time.perf_counter()
-    traj = get_engine(engine).simulate(scene, settings)
-    return traj, time.perf_counter() - t0
+    return simulate_in_worker(engine, scene, settings)
 
 
 def mujoco_settings_rows(dt: float) -> list[tuple[str, dict | None]]:
@@ -205,29 +236,43 @@ class StudyResult:
     thresholds: dict = field(default_factory=dict)
 
 
-def engine_study(scene: Scene, case_list: list[Case], result: StudyResult, defaults_options: dict) -> None:
-    """Every case on every engine (MuJoCo as written and at MuJoCo's defaults)."""
+def _tick(progress, label: str, wall: float) -> None:
+    """One finished run on the bar (``harness.io.progress.make_bar``), named, or nothing."""
+    if progress is not None:
+        progress.done(f"{label} {wall:.1f} s")
+
+
+def engine_study(scene: Scene, case_list: list[Case], result: StudyResult, defaults_options: dict,
+                 progress=None) -> None:
+    """Every case on every engine (MuJoCo as written and at MuJoCo's defaults); ``progress``: a
+    bar ticked once per finished run (``harness.io.progress.make_bar``), or None."""
     with tempfile.TemporaryDirectory() as tmp:
         for case in case_list:
             sc = scene.with_params(**case.params)
             ref = reference(sc, case.t_end, sc.save_every)
             result.engines.append({"case": case.name, "engine": "reference (DOP853 1e-12)",
                                    **run_metrics(sc, ref, ref, float(ref.stats.get("wall_s", math.nan)))})
+            _tick(progress, f"{case.name} reference {ref.status}", float(ref.stats.get("wall_s", math.nan)))
             runs = [("inhouse", sc, {}), ("pinocchio", sc, {}), ("exudyn", sc, {}), ("mujoco", sc, {})]
             dsc, dset = mujoco_variant(sc, defaults_options, Path(tmp), "defaults")
             runs.append(("mujoco (MuJoCo defaults)", dsc, {"dt": dset.dt, "integrator": dset.integrator}))
             for label, s, kw in runs:
                 traj, wall = run(s, label.split()[0], case.t_end, **kw)
                 result.engines.append({"case": case.name, "engine": label, **run_metrics(sc, traj, ref, wall)})
+                _tick(progress, f"{case.name} {label} {traj.status}", wall)
                 if case.name in ("steady_circle", "transient"):
                     result.series[(case.name, label)] = (traj.t, lean(traj))
             result.series[(case.name, "reference")] = (ref.t, lean(ref))
 
 
-def settings_study(scene: Scene, case_list: list[Case], result: StudyResult, rows: list[tuple[str, dict | None]]) -> None:
+def settings_study(scene: Scene, case_list: list[Case], result: StudyResult, rows: list[tuple[str, dict | None]],
+                   progress=None) -> None:
     """MuJoCo's settings ``rows`` (``mujoco_settings_rows``) on the steady and transient cases."""
     picked = [c for c in case_list if c.name in ("steady_circle", "transient")]
-    refs = {c.name: reference(scene.with_params(**c.params), c.t_end, scene.save_every) for c in picked}
+    refs = {}
+    for c in picked:
+        refs[c.name] = reference(scene.with_params(**c.params), c.t_end, scene.save_every)
+        _tick(progress, f"{c.name} reference {refs[c.name].status}", float(refs[c.name].stats.get("wall_s", math.nan)))
     with tempfile.TemporaryDirectory() as tmp:
         for label, options in rows:
             row = {"setting": label, "options": options}
@@ -237,11 +282,12 @@ def settings_study(scene: Scene, case_list: list[Case], result: StudyResult, row
                 kw = {} if vset is None else {"dt": vset.dt, "integrator": vset.integrator}
                 traj, wall = run(vs, "mujoco", c.t_end, **kw)
                 row[c.name] = run_metrics(sc, traj, refs[c.name], wall)
+                _tick(progress, f"{c.name} mujoco {label} {traj.status}", wall)
             result.settings.append(row)
 
 
 def threshold_study(scene: Scene, result: StudyResult, speeds: list[float], engines: list[str], t_end: float,
-                    delta: float = 1e-3) -> None:
+                    delta: float = 1e-3, progress=None) -> None:
     """Straight rolling at each speed on each engine (module docstring)."""
     from harness.references.rolling_disk import (
         DiskParams,
@@ -271,6 +317,7 @@ def threshold_study(scene: Scene, result: StudyResult, speeds: list[float], engi
                                      "status": traj.status, "message": traj.message, "w2": w2, "wall_s": wall,
                                      "predicted_stable": w2 > 0, "printed_stable": v > result.thresholds["printed"]})
             result.series[("threshold", engine, v)] = (traj.t, dev)
+            _tick(progress, f"threshold {v:g} m/s {engine} {traj.status}", wall)
 
 
 def threshold_agrees(threshold: list[dict]) -> bool:
@@ -279,19 +326,108 @@ def threshold_agrees(threshold: list[dict]) -> bool:
     return all(r["fell"] != r["predicted_stable"] for r in threshold if r["fell"] is not None)
 
 
-def rolling_study(*, quick: bool = False, engines: list[str] | None = None, models_dir: Path | None = None) -> StudyResult:
-    """Run the whole study (``quick``: short horizons, few settings and speeds, for tests)."""
+def rolling_study(*, quick: bool = False, engines: list[str] | None = None, models_dir: Path | None = None,
+                  progress=None) -> StudyResult:
+    """Run the whole study (``quick``: short horizons, few settings and speeds, for tests).
+    ``progress``: a bar (``harness.io.progress.make_bar``): its total is set to the runs, and it
+    is ticked once per finished run; or None."""
     scene = load_scene("rolling_disk", models_dir=models_dir)
     engines = engines or ["inhouse", "pinocchio", "exudyn", "mujoco"]
     result = StudyResult(scene=scene)
     case_list = cases(scene, quick)
     if quick:
         case_list = case_list[:1]
-    engine_study(scene, case_list, result, {**MUJOCO_DEFAULTS})
     rows = mujoco_settings_rows(scene.dt)
-    if quick:  # MuJoCo's defaults, the best settings, the MJCF as written
-        rows = [r for r in rows if r[0].startswith("MuJoCo defaults") or r[0] == BEST_LABEL or r[1] is None]
-    settings_study(scene, case_list, result, rows)
+    if quick:  # MuJoCo's defaults, the best settings (with its finer steps: its error model), the MJCF as written
+        rows = [r for r in rows if r[0].startswith(("MuJoCo defaults", "as written, step")) or r[0] == BEST_LABEL
+                or r[1] is None]
     speeds = [0.15, 0.26] if quick else [0.10, 0.15, 0.18, 0.20, 0.21, 0.22, 0.23, 0.26, 0.32]
-    threshold_study(scene, result, speeds, engines, 0.3 if quick else 1.0)
+    if progress is not None:  # the reference and 5 runs per case, the settings rows, the threshold runs
+        picked = sum(c.name in ("steady_circle", "transient") for c in case_list)
+        progress.total = 6 * len(case_list) + picked * (1 + len(rows)) + len(speeds) * len(engines)
+        progress.refresh()
+    engine_study(scene, case_list, result, {**MUJOCO_DEFAULTS}, progress)
+    settings_study(scene, case_list, result, rows, progress)
+    threshold_study(scene, result, speeds, engines, 0.3 if quick else 1.0, progress=progress)
     return result
+
+
+#: The engines whose contact is the ideal rolling constraint (the study's comparison for MuJoCo).
+IDEAL_ENGINES = ("inhouse", "pinocchio", "exudyn")
+FIRST_ORDER = ("Euler", "implicit", "implicitfast")  # MuJoCo's first-order integrators
+
+
+def _ladder_key(options: dict) -> tuple:
+    """What a settings row holds besides its step and its contact time constant: rows equal in it
+    whose ``solref`` is 2 steps form one step ladder (the best settings at finer steps)."""
+    return tuple(sorted((k, str(v)) for k, v in options.items() if k not in ("timestep", "solref")))
+
+
+def setting_models(result: StudyResult, case: str = "steady_circle", measure: str = "position") -> dict[str, dict]:
+    """Each MuJoCo settings row's error (``measure`` of ``case``, relative) classified in the
+    judging vocabulary (``harness.judging.error_model``), ``{setting: {"class", "order", "floor",
+    "reason", "ideal"}}`` (``ideal``: the ideal engines' largest error at the scene's step):
+
+    * rows that form a step ladder (the best settings at the scene's step and at finer steps,
+      ``solref`` 2 steps each: ``_ladder_key``) get the error model of their levels, the scene's
+      step first (RK4's order 4; the contact's time constant follows the step, so its order is the
+      soft contact's, not the integrator's), and the verdict ``harness validate`` gives it
+      (``harness.judging.verdict.judge``) with the soft contact the scene declares;
+    * every other RK4 row at the scene's step has one level only: no order; its error is set
+      against the ideal engines' at the same step (``IDEAL_ENGINES``, which converge at their
+      order: their error is the step's share): more than ``NOISE`` times it, the excess is the
+      soft contact's, a ``model difference``; within it, ``not judged``;
+    * first-order rows and rows at another step are ``not judged`` (their step error is not the
+      ideal engines')."""
+    dt = result.scene.dt
+    ideal = [float(r.get(measure, math.nan)) for r in result.engines
+             if r["case"] == case and r["engine"] in IDEAL_ENGINES and r["status"] == "ok"]
+    ideal_err = max((e for e in ideal if math.isfinite(e)), default=math.nan)
+    rows = [r for r in result.settings if case in r]
+    out: dict[str, dict] = {}
+
+    def put(label, cls, reason, order=math.nan, floor=math.nan):
+        out[label] = {"class": cls, "order": order, "floor": floor, "reason": reason, "ideal": ideal_err}
+
+    ladders: dict[tuple, list[dict]] = {}
+    for r in rows:
+        o = r["options"]
+        if o is not None and o.get("integrator") == "RK4" and math.isclose(tuple(o.get("solref", (0.0,)))[0], 2.0 * o["timestep"]):
+            ladders.setdefault(_ladder_key(o), []).append(r)
+    for group in ladders.values():
+        base = [r for r in group if r["options"]["timestep"] == dt]
+        if len(group) < 2 or not base:
+            continue
+        group = base[:1] + sorted((r for r in group if r is not base[0]), key=lambda r: -r["options"]["timestep"])
+        levels = [error_model.Level(r["options"]["timestep"], float(r[case].get(measure, math.nan))
+                                    if r[case].get("status") == "ok" else math.nan) for r in group]
+        t_end = max(float(r[case].get("samples", 2)) - 1.0 for r in group) * result.scene.save_every
+        res = max(error_model.JUDGING_RESOLUTION, error_model.roundoff(t_end / min(lv.step for lv in levels)))
+        m = error_model.fit(measure, "rel", 1.0, "fixed", 4.0, levels, res)
+        reason = f"step ladder {', '.join(f'{lv.step * 1e3:g}' for lv in levels)} ms: {m.reason}"
+        declared = result.scene.model_differences.get("mujoco")
+        if declared:  # the scene's declared soft contact: the verdict validate gives (harness.judging.verdict)
+            from harness.judging.verdict import ModelDifference, judge
+
+            v = judge(m, ModelDifference(declared["model"], declared["floor"]))
+            reason += f"; verdict: {v.label}, {'passes' if v.passed else 'fails'} ({v.detail.split(';')[0]})"
+        for r in group:
+            put(r["setting"], m.classification, reason, m.observed_order, m.floor)
+    for r in rows:
+        if r["setting"] in out:
+            continue
+        o = r["options"] or {"integrator": result.scene.integrators.get("mujoco", "RK4"), "timestep": dt}
+        e = float(r[case].get(measure, math.nan)) if r[case].get("status") == "ok" else math.nan
+        if o.get("timestep") != dt or o.get("integrator") in FIRST_ORDER:
+            put(r["setting"], error_model.NOT_JUDGED, "one step only, a first-order integrator or another step: "
+                "its step error is not the ideal engines'")
+        elif not math.isfinite(e):
+            put(r["setting"], error_model.DEFECT if r[case].get("status") == "blowup" else error_model.NOT_JUDGED,
+                f"the run: {r[case].get('status')}")
+        elif math.isfinite(ideal_err) and e > error_model.NOISE * ideal_err:
+            put(r["setting"], error_model.MODEL_DIFFERENCE, f"soft contact: {e / ideal_err:.3g}x the ideal engines' "
+                f"error at the same step ({ideal_err:.1e}; one step only: no order)")
+        else:
+            put(r["setting"], error_model.NOT_JUDGED, f"within {error_model.NOISE:g}x the ideal engines' error at the "
+                "same step (one step only: no order)")
+    return out

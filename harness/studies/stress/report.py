@@ -16,7 +16,8 @@ import pandas as pd
 
 from harness.io import atomic
 from harness.io.figures import new_figure, png_bytes
-from harness.studies.stress.run import FAILURE_MODES, QUANTITIES, MapRow, StressRun, TrialResult, Variant
+from harness.studies.stress.run import (DIVERGED, FAILURE_MODES, QUANTITIES, MapRow, StressRun, TrialResult, Variant,
+                                        judging_class)
 from harness.validate.workers import effective_jobs, run_cases
 
 PLOT_DIR = "stress"
@@ -72,7 +73,8 @@ def map_frame(run: StressRun) -> pd.DataFrame:
             "unstable_dt": m.unstable_dt, "mode": m.mode, "error_at_stable": m.error, "error_kind": m.error_kind,
             "accurate_at_stable": m.accurate, "mean_step": m.step if m.kind == "adaptive" else np.nan,
             "nominal_dt": n.spec.dt if n else np.nan, "nominal_mode": n.mode if n else "",
-            "nominal_error": n.error if n else np.nan, "nominal_drift": n.drift_class if n else "",
+            "nominal_error": n.error if n else np.nan, "nominal_class": judging_class(n),
+            "nominal_drift": n.drift_class if n else "",
             "nominal_drift_p": n.drift_p if n else np.nan, "not_run": m.unsupported,
         }
         for q in QUANTITIES:
@@ -188,7 +190,12 @@ def markdown(run: StressRun, prov: dict, plots: dict[str, str], command: str | N
         "`dop853_compiled`: the same method with its own step-size control).",
         f"* **Error**: `exact` ({_exact_measures(run)}), else the "
         "largest relative trajectory error against the in-house DOP853 reference (rtol 1e-12), else the energy "
-        "error. **First divergence**: the first saved time a quantity leaves its band, at the nominal step.",
+        "error. **First divergence**: the first saved time a quantity leaves its band, at the nominal step. "
+        "A nominal run that diverged (" + ", ".join(f"`{m}`" for m in DIVERGED) + ") is marked **defect (diverged: "
+        "mode)**, the judging vocabulary of `harness validate` (`harness.judging.error_model`: non-finite at the "
+        "scene's step is a defect); every other outcome keeps this study's own terms (a stable run has one step, "
+        "no error model: its bands judge it; a blow-up above the largest stable step is the stability limit, not "
+        "a defect).",
         "* **Energy drift** at the nominal step: slope p of log max_{s<=t}|E(s) - E(0)| against log t over the "
         "last two decades: `bounded` p < 0.3, `linear` 0.3 <= p <= 1.5 (p ~ 0.5 is a round-off random walk), "
         "`faster` p > 1.5 (`exponential` when log E-error is straighter in t than in log t).",
@@ -395,7 +402,8 @@ def _section_row(label: str, step: str, hr: str, above: str, err: str, n: TrialR
         nominal = ["—", "—", "—", "—"]
     else:
         dt = "adaptive" if n.spec.role in ("adaptive", "reference") else _fmt(n.spec.dt)
-        e = f"{_fmt(n.error)}" + (f" ({n.mode})" if n.mode else "")
+        cls = judging_class(n) if n.spec.role != "reference" else ""
+        e = f"{_fmt(n.error)}" + (f" (**{cls}**)" if cls else f" ({n.mode})" if n.mode else "")
         div = ", ".join(_time(n.divergence.get(q)) for q in cols)
         drift = f"{n.drift_class} (p {n.drift_p:.2f})" if n.drift_class else "—"
         nominal = [dt, e, div, drift]
@@ -410,7 +418,8 @@ def _figure(w: float, h: float):
 
 
 def _png(fig) -> bytes:
-    return png_bytes(fig, dpi=90)
+    """PNG at ``PLOT_DPI``, taking in a legend outside the axes."""
+    return png_bytes(fig, dpi=PLOT_DPI, bbox_inches="tight", pad_inches=0.15)
 
 
 NONE_STABLE, NOT_RUN = "none stable", "not run"
@@ -452,10 +461,28 @@ def map_cells(run: StressRun) -> tuple[list[str], list[str], list[list[str]], np
     return variants, labels, states, z
 
 
-def map_png(run: StressRun) -> bytes | None:
-    """Heat map: variant x engine/integrator, colour log10(h·rate) of the largest stable step
-    (adaptive: of the mean step), ``MAP_COLOURS`` for cells with no stable step and cells not
-    run (a legend says which), text: the map cell."""
+#: The smallest font of the plots a person reads (pt; at the saved ``PLOT_DPI`` 8 pt is 10 px).
+MIN_FONT = 8.0
+PLOT_DPI = 90
+_CHAR_IN = 0.62 * MIN_FONT / 72  # the width of an average character at MIN_FONT (in), generous
+
+
+def _text_width(texts, font: float = MIN_FONT) -> float:
+    """The width (in) of the longest of ``texts`` at ``font`` pt (an estimate that errs wide)."""
+    return max((len(str(t)) for t in texts), default=0) * _CHAR_IN * font / MIN_FONT
+
+
+def map_figure(run: StressRun):
+    """The stability map as a ``Figure`` sized to its content (``map_png``): one cell per
+    variant x engine/integrator, the longer of the two lists down the rows (a row costs less room
+    than a column), each column as wide as its widest text, fonts of at least ``MIN_FONT``, the
+    legend below the axes and their tick labels, the colour bar right of them."""
+    import textwrap
+
+    import matplotlib
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Patch
+
     variants, labels, states, z = map_cells(run)
     if not variants or not labels:
         return None
@@ -467,34 +494,65 @@ def map_png(run: StressRun) -> bytes | None:
                 text[i][j] = map_cell(m).replace("✓", "ok").replace("✗acc", "inacc").replace("≥", ">=")
             else:
                 text[i][j] = "skipped" if name in run.skipped else "not run"
-    fig = _figure(1.25 * len(labels) + 3.5, 0.42 * len(variants) + 2.4)
-    ax = fig.subplots()
-    import matplotlib
-    from matplotlib.colors import to_rgba
-    from matplotlib.patches import Patch
-
+    transpose = len(labels) > len(variants)
+    rows, cols = (labels, variants) if transpose else (variants, labels)
+    if transpose:
+        z = z.T
+        states = [list(r) for r in zip(*states)]
+        text = [list(r) for r in zip(*text)]
+    font = MIN_FONT
+    col_w = max(0.8, _text_width([t for r in text for t in r], font) + 0.3)
+    row_h = 2.4 * font / 72
+    ax_w, ax_h = col_w * len(cols), row_h * len(rows)
+    rotate = _text_width(cols, font) > col_w - 0.1  # column names that do not fit across their column
+    left = _text_width(rows, font) + 0.25
+    bottom = (0.72 * _text_width(cols, font) if rotate else row_h) + 0.3  # 45-degree names: sin 45 of their length
+    top, right = 0.55, 1.4
+    width, height = left + ax_w + right, bottom + ax_h + top
+    fig = new_figure(width, height)
+    ax = fig.add_axes((left / width, bottom / height, ax_w / width, ax_h / height))
     cmap = matplotlib.colormaps["viridis"].with_extremes(bad=(0, 0, 0, 0))
     im = ax.imshow(np.ma.masked_invalid(z), cmap=cmap, aspect="auto", zorder=2)
-    under = np.ones((len(variants), len(labels), 4))  # white: stable but no rate to colour by
-    for i in range(len(variants)):
-        for j in range(len(labels)):
+    under = np.ones((len(rows), len(cols), 4))  # white: stable but no rate to colour by
+    for i in range(len(rows)):
+        for j in range(len(cols)):
             if states[i][j] in MAP_COLOURS:
                 under[i, j] = to_rgba(MAP_COLOURS[states[i][j]])
     ax.imshow(under, aspect="auto", zorder=1)
     finite = z[np.isfinite(z)]
     mid = float(np.mean(finite)) if finite.size else 0.0
-    for i in range(len(variants)):
-        for j in range(len(labels)):
-            ax.text(j, i, text[i][j], ha="center", va="center", fontsize=6.5, zorder=3,
+    for i in range(len(rows)):
+        for j in range(len(cols)):
+            ax.text(j, i, text[i][j], ha="center", va="center", fontsize=font, zorder=3,
                     color="white" if np.isfinite(z[i, j]) and z[i, j] < mid else "black")
-    ax.set_xticks(range(len(labels)), labels, rotation=40, ha="right", fontsize=7)
-    ax.set_yticks(range(len(variants)), variants, fontsize=7)
+    ax.set_xticks(range(len(cols)), cols, fontsize=font, **({"rotation": 45, "ha": "right",
+                                                             "rotation_mode": "anchor"} if rotate else {}))
+    ax.set_yticks(range(len(rows)), rows, fontsize=font)
+    ax.set_xlabel("variant" if transpose else "engine/integrator", fontsize=font)
+    ax.set_ylabel("engine/integrator" if transpose else "variant", fontsize=font)
     if finite.size:
-        fig.colorbar(im, ax=ax, label="log10(stable step x rate)")
-    ax.legend(handles=[Patch(facecolor=MAP_COLOURS[k], edgecolor="0.4", label=MAP_LEGEND[k]) for k in MAP_COLOURS],
-              loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=2, fontsize=6.5, frameon=False)
-    ax.set_title("Largest stable step (s) and failure mode above it", fontsize=9, pad=16)
-    return _png(fig)
+        cax = fig.add_axes(((left + ax_w + 0.2) / width, bottom / height, 0.18 / width, ax_h / height))
+        bar = fig.colorbar(im, cax=cax)
+        bar.set_label("log10(stable step x rate)", fontsize=font)
+        bar.ax.tick_params(labelsize=font)
+    ax.set_title("Largest stable step (s) and failure mode above it", fontsize=font + 1)
+    # the legend below everything the axes draw (their tick labels included), wrapped to the figure's width
+    renderer = fig.canvas.get_renderer()
+    below = ax.get_tightbbox(renderer).transformed(fig.transFigure.inverted()).y0
+    chars = max(30, int((width - 0.6) / _CHAR_IN))
+    handles = [Patch(facecolor=MAP_COLOURS[k], edgecolor="0.4", label=textwrap.fill(MAP_LEGEND[k], chars))
+               for k in MAP_COLOURS]
+    fig.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.1 / width, below - 0.08 / height),
+               fontsize=font, frameon=False, ncol=1)
+    return fig
+
+
+def map_png(run: StressRun) -> bytes | None:
+    """Heat map: variant x engine/integrator, colour log10(h·rate) of the largest stable step
+    (adaptive: of the mean step), ``MAP_COLOURS`` for cells with no stable step and cells not
+    run (a legend, outside the axes, says which), text: the map cell (``map_figure``)."""
+    fig = map_figure(run)
+    return None if fig is None else png_bytes(fig, dpi=PLOT_DPI, bbox_inches="tight", pad_inches=0.15)
 
 
 def variant_png(run: StressRun, v: Variant) -> bytes | None:
@@ -505,14 +563,17 @@ def variant_png(run: StressRun, v: Variant) -> bytes | None:
         return None
     long = "long" in v.tags
     energy_only = not v.references  # the error is the energy error: one panel
+    entries = ([("reference DOP853", ref)] if ref is not None and len(ref.series_t) else []) + [(m.label, m.nominal) for m in rows]
+    # each panel's legend right of it, one entry a line at MIN_FONT: the figure grows with the entries
+    legend_w = _text_width([f"{label} (adaptive) energy_growth: bounded" for label, _ in entries]) + 0.6
+    panel_h = max(3.0, 1.5 * MIN_FONT / 72 * (len(entries) + 1) + 0.4)
     if energy_only:
-        fig = _figure(9, 3.8)
+        fig = _figure(7 + legend_w, panel_h + 0.9)
         ax2 = fig.subplots()
         ax1 = ax2
     else:
-        fig = _figure(9, 6.5)
+        fig = _figure(7 + legend_w, 2 * panel_h + 0.9)
         ax1, ax2 = fig.subplots(2, 1, sharex=True)
-    entries = ([("reference DOP853", ref)] if ref is not None and len(ref.series_t) else []) + [(m.label, m.nominal) for m in rows]
     import matplotlib
 
     colors = matplotlib.colormaps["tab20"]
@@ -540,13 +601,15 @@ def variant_png(run: StressRun, v: Variant) -> bytes | None:
             ax.axhline(b, color="r", lw=0.8, ls="--")
         if long:
             ax.set_xscale("log")
+    outside = {"loc": "upper left", "bbox_to_anchor": (1.02, 1.0), "borderaxespad": 0.0, "fontsize": MIN_FONT,
+               "frameon": False}
     if not energy_only:
         ax1.set_ylabel({"exact": "error vs exact", "trajectory": "max rel. error vs DOP853"}.get(kind, kind))
-        ax1.legend(fontsize=6, ncol=2, loc="best")
+        ax1.legend(**outside)
     ax2.set_ylabel("|E - E0| / E_scale")
     ax2.set_xlabel("t (s)")
     ax1.set_title(f"{v.name}: at the nominal step (red: band)", fontsize=10)
-    ax2.legend(fontsize=6, ncol=2, loc="best")
+    ax2.legend(**outside)
     return _png(fig)
 
 
@@ -560,7 +623,7 @@ def sweep_png(run: StressRun, group: str, variants: list[Variant]) -> bytes | No
                 pts.setdefault(m.label, []).append((v.sweep, m.stable_dt, m.censored))
     if not pts:
         return None
-    fig = _figure(7, 4.5)
+    fig = _figure(6.5 + _text_width(pts) + 0.6, max(4.5, 1.5 * MIN_FONT / 72 * (len(pts) + 1) + 0.9))
     ax = fig.subplots()
     for label, p in pts.items():
         x, y, c = zip(*p)
@@ -573,7 +636,7 @@ def sweep_png(run: StressRun, group: str, variants: list[Variant]) -> bytes | No
     ax.set_yscale("log")
     ax.set_xlabel(next((v.sweep_label for v in variants if v.sweep_label), group))
     ax.set_ylabel("largest stable step (s)")
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize=MIN_FONT, frameon=False)
     ax.set_title(f"{group} (triangle: stable at the largest step tried)", fontsize=10)
     return _png(fig)
 

@@ -5,7 +5,9 @@ the scenes: a scene, parameter overrides, optional body mass scalings, a horizon
 step, the largest step to try, the integrators per engine, the references and tolerance bands.
 For each variant and each engine/integrator, ``run_stress`` finds the largest stable fixed step
 by bisection and reports the error there; at the nominal step it reports the time each quantity
-first leaves its tolerance band and the class of the energy drift. Error-controlled methods (every
+first leaves its tolerance band and the class of the energy drift, and, where the run diverged
+there, its class in the judging vocabulary (``judging_class``: a ``defect``, as
+``harness.judging.error_model`` calls a non-finite value at the scene's step). Error-controlled methods (every
 integrator its engine's table marks adaptive: the in-house SciPy methods, Drake's RK3, RK5 and
 Radau3) are run once at the catalogue's ``rtol`` instead, their largest step the save interval.
 The in-house ``rk4`` and ``DOP853`` runs, and the DOP853 references, run their compiled twins
@@ -50,7 +52,7 @@ Accuracy, per quantity (``QUANTITIES``), as error series over the saved samples:
 * ``position`` / ``velocity`` / ``angular_velocity``: distance to the in-house DOP853 reference
   (rtol = atol = 1e-12) over the reference's motion scales (``compare.motion_scales``);
   ``orientation``: geodesic angle to the reference (rad); each maximised over bodies, per sample:
-  the trajectory quantities of ``harness.measure.quantities``, the very definitions validate's
+  the trajectory quantities of ``harness.judging.quantities``, the very definitions validate's
   ``trajectory.*`` checks and the work-precision study's state error use;
 * ``energy``: |E(t) - E(0)| / E_scale (exact conservation; no reference needed).
 
@@ -108,10 +110,11 @@ import numpy as np
 from harness.measure import compare
 from harness.measure import exact
 from harness.measure import invariants
-from harness.measure import quantities
+from harness.judging import quantities
 from harness.engines import ENGINE_NAMES, get_engine, preload
 from harness.engines import integrator as integrator_record
 from harness.engines.base import RunSettings
+from harness.judging.error_model import DEFECT
 from harness.model.errors import InputError
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene, available_scenes, load_scene
@@ -131,6 +134,9 @@ FAILURE_MODES = {  # mode -> one-letter code of the map
 _COST_PER_STEP = {"mujoco": 1e-5, "pinocchio": 2e-4, "inhouse": 4e-4}  # s, for scheduling only
 SERIES_POINTS = 600  # samples kept per series for the plots
 _MODEL_FAILURES = ("singular constraint", "solver failure", "constraint drift")
+#: Failure modes in which the state diverged: non-finite, MuJoCo's reset guards, speeds or energy
+#: beyond their bounds (``judging_class``).
+DIVERGED = ("nan", "badqacc", "magnitude growth", "energy growth")
 
 _DEFAULT_KEYS = {"rtol", "energy_bound", "magnitude_bound", "constraint_bound", "bisect_iters", "search_factor",
                  "search_steps", "precision", "quick_bisect_iters", "references", "band", "max_steps", "integrators"}
@@ -451,6 +457,20 @@ class Reference:
     trajectory: Trajectory | None
     exact: bool
     band: Mapping[str, float]
+
+
+def judging_class(result: TrialResult | None) -> str:
+    """The nominal run's outcome (the run at the variant's nominal step, or an error-controlled
+    method's one run) in the judging vocabulary (``harness.judging.error_model``) where it fits:
+    a run that diverged there (``DIVERGED``) is a ``defect``, what the error model calls a
+    non-finite value at the scene's step: ``"defect (diverged: <mode>)"``. Every other outcome
+    keeps the study's own semantics and is "": a stable run has one step, so no error model (its
+    bands judge its accuracy); a singular constraint, constraint drift or solver failure, a crash
+    or a timeout is a failure mode of its own, not a class; and above the largest stable step a
+    blow-up is the stability limit the map measures, not a defect."""
+    if result is None or result.mode not in DIVERGED:
+        return ""
+    return f"{DEFECT} (diverged: {result.mode})"
 
 
 def settings_of(spec: TrialSpec) -> RunSettings:
@@ -1092,8 +1112,10 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
                 out.append(((id(s), spec.dt), trial_case, (scenes[name], spec, refs[name], bounds), _cost(spec), timeout))
                 in_flight[id(s)] += 1
             if s.done:
-                if progress is not None:
-                    progress.update(1)
+                if progress is not None:  # one line per finished cell where no bar is drawn
+                    label = f"{name} {s.engine}/{s.integrator} done ({counts['trials']} runs, {time.perf_counter() - start:.0f} s)"
+                    done = getattr(progress, "done", None)
+                    done(label) if done is not None else progress.update(1)
                 left[name] -= 1
                 if left[name] == 0:
                     log(f"{name}: done ({time.perf_counter() - start:.0f} s)")

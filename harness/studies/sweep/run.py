@@ -13,20 +13,31 @@ goes on.
 
 Each point is a case of ``harness validate`` (``harness.validate.run``): the in-house DOP853
 reference run (``reference_case``), then each engine at the scene's default integrator and step
-(``engine_case``), judged by the scene's own ``[checks.*]`` (``check_run``); the ``model.*``
+(``engine_case``), judged by the scene's own ``[checks.*]`` (``check_run``), each check by how its
+error converges (``judge_convergence``: the engine rerun at 2x the step, and half where
+undecided, or at a 100x looser tolerance); the ``model.*``
 checks of the files as written are not repeated (they do not depend on the parameters). Every
 run is made in its own worker process with a timeout (``harness.validate.workers.open_workers``:
 the local pool, or the workers of a Dask scheduler), so a crash or a timeout is that point's
 result. An engine's runs of a point start as soon as that point's reference ends, with the
 exact solution its reference case computed (``harness.measure.solution_cache``).
 
-A point's result, per engine (``PointResult``):
+A point's result, per engine (``PointResult``), from ``validate``'s verdicts (each check judged
+by how its error converges, ``harness.judging.checks.judge_convergence``; ``harness.judging``):
 
-* ``worst_margin``: the largest value / tolerance over the engine's checks (1 = at the
-  tolerance; +inf with ``worst_check`` ``run`` for a run that did not end ok), and
-  ``worst_check``, the check that sets it; a check of a run that ended ok but got no value (e.g.
-  a closed form that does not cover the point) fails the point, is left out of the margin and is
-  named in ``no_value`` (and why, in ``message``);
+* ``passed``: every check of the run passed (``CheckResult.passed``: its class is converges or a
+  declared model difference within its bound, and it meets the scene's requirement if any);
+* ``classification``: the worst class over the run's checks, in the order ``CLASS_ORDER``
+  (defect > not judged > model difference (undeclared) > model difference (declared) >
+  converges); a check of a run that ended ok which got no value (e.g. a closed form that does not
+  cover the point) counts as ``not judged`` (it fails the point and is named in ``no_value``,
+  why in ``message``); "" where the run did not end ok (its ``status`` says how);
+* ``failing``: the failing checks, each ``(check, class, reason)`` (the verdict's one line);
+* ``error``: the largest dimensionless error at the scene's step, the largest value among the
+  checks whose unit is ``rel``, ``rad`` or dimensionless "" (``DIMENSIONLESS``: trajectory errors
+  over the motion scales and in rad, drifts over their scales, the closed form's error; not the
+  checks in m, m/s or rad/s, such as constraint violations), and ``error_check``, the check that
+  sets it: the number the figure plots;
 * ``trajectory_error``: the largest ``trajectory.*`` check value against the reference (positions
   and velocities relative to the reference's motion scales, orientation in rad);
 * ``energy_drift``: the ``energy_drift`` check value (max |E - E0| over the energy scale), or for
@@ -48,8 +59,10 @@ from typing import Any, Callable
 import numpy as np
 
 from harness.engines.base import RunSettings, check_settings
+from harness.judging.error_model import CONVERGES, DEFECT, MODEL_DIFFERENCE, NOT_JUDGED
+from harness.io.progress import case_label
 from harness.model.errors import InputError
-from harness.model.scene import Scene, load_scene
+from harness.model.scene import Scene, check_steps, load_scene
 from harness.validate.run import REFERENCE_METHOD, engine_case, reference_case, save_interval
 from harness.validate.workers import Outcome, effective_jobs, open_workers
 
@@ -193,7 +206,8 @@ def point_overrides(scene: Scene, axes: list[Axis], values: tuple[float, ...]) -
 
 def with_horizon(scene: Scene, t_end: float | None) -> Scene:
     """``scene`` with horizon ``t_end`` (s; None keeps the scene's); InputError when it is not
-    positive or not a whole multiple of the save interval the runs use."""
+    positive, not a whole multiple of the save interval the runs use, or more integration steps
+    at the scene's step than ``harness.model.scene.MAX_STEPS`` (``check_steps``)."""
     if t_end is None:
         return scene
     short = replace(scene, t_end=float(t_end))
@@ -202,15 +216,34 @@ def with_horizon(scene: Scene, t_end: float | None) -> Scene:
         check_settings(RunSettings(short.t_end, save, save, REFERENCE_METHOD), [REFERENCE_METHOD], "inhouse")
     except InputError as err:
         raise InputError(f"--t-end {t_end:g}: {err}") from None
+    check_steps(short.t_end, scene.dt, f"--t-end (at the scene's step dt = {scene.dt:g} s)")
     return short
 
 
 # ------------------------------------------------------------------------------------ results
+DECLARED = f"{MODEL_DIFFERENCE} (declared)"
+#: The classes of ``validate``'s verdicts (``CheckResult.classification``), best first: a point's
+#: class is the last of these that one of its checks has.
+CLASS_ORDER = (CONVERGES, DECLARED, MODEL_DIFFERENCE, NOT_JUDGED, DEFECT)
+#: The units of the checks whose values make a point's ``error`` (dimensionless: over a scale, or an angle).
+DIMENSIONLESS = ("rel", "rad", "")
+
+
+def class_rank(cls: str) -> int:
+    """The place of a class in ``CLASS_ORDER`` (higher is worse); -1 for "" (no class)."""
+    return CLASS_ORDER.index(cls) if cls in CLASS_ORDER else -1
+
+
+def worst_class(classes) -> str:
+    """The worst of ``classes`` (``CLASS_ORDER``), "" when there is none."""
+    return max(classes, key=class_rank, default="")
+
+
 @dataclass(frozen=True)
 class PointResult:
     """One engine at one point (see the module docstring). ``values``: the swept values in axis
     order; ``reference``: how the point's reference run ended; ``wall_s``: the engine run's wall
-    time (s)."""
+    time (s); ``failing``: ``(check, class, reason)`` of each failing check."""
 
     point: int
     values: tuple[float, ...]
@@ -218,8 +251,9 @@ class PointResult:
     integrator: str
     status: str
     passed: bool
-    worst_margin: float
-    worst_check: str
+    classification: str
+    error: float
+    error_check: str
     failed_checks: int
     checks: int
     trajectory_error: float
@@ -227,11 +261,18 @@ class PointResult:
     reference: str
     wall_s: float
     message: str = ""
-    no_value: tuple[str, ...] = ()  # checks of a run that ended ok which got no value (failed, not in the margin)
+    no_value: tuple[str, ...] = ()  # checks of a run that ended ok which got no value (failed, "not judged")
+    failing: tuple[tuple[str, str, str], ...] = ()
 
     @property
     def refused(self) -> bool:
         return self.status.startswith("refused")
+
+    @property
+    def failing_class(self) -> str:
+        """The worst class among the failing checks ("" when none fails, or the run did not end
+        ok): what the figure marks a failing point with."""
+        return worst_class(cls for _, cls, _ in self.failing)
 
 
 @dataclass
@@ -256,30 +297,42 @@ class SweepRun:
         return [r for r in self.rows if r.engine == engine]
 
 
+def _unrun(point: int, values: tuple, engine: str, integrator: str, status: str, reference: str, wall_s: float,
+           message: str, failed: int = 0) -> PointResult:
+    """The result of a run that did not end ok (or was refused, or is not run): no class, no error."""
+    nan = float("nan")
+    failing = (("run", "", " ".join(message.split())),) if failed else ()
+    return PointResult(point, values, engine, integrator, status, False, "", nan, "", failed, failed, nan, nan,
+                       reference, wall_s, message, failing=failing)
+
+
 def summarize(point: int, values: tuple, engine: str, integrator: str, outcome: Outcome, reference: str) -> PointResult:
-    """The ``PointResult`` of one engine case's outcome (``engine_case``'s value when ok)."""
+    """The ``PointResult`` of one engine case's outcome (``engine_case``'s value when ok:
+    ``(trajectory, record, checks, second level)``)."""
     nan = float("nan")
     if outcome.status == "input_error":
-        return PointResult(point, values, engine, integrator, f"refused: {outcome.message}", False, nan, "", 0, 0,
-                           nan, nan, reference, outcome.wall_s, outcome.message)
+        return _unrun(point, values, engine, integrator, f"refused: {outcome.message}", reference, outcome.wall_s,
+                      outcome.message)
     if outcome.status != "ok":
-        return PointResult(point, values, engine, integrator, outcome.status, False, math.inf, "run", 1, 1, nan, nan,
-                           reference, outcome.wall_s, outcome.message)
-    _, record, checks = outcome.value
+        return _unrun(point, values, engine, integrator, outcome.status, reference, outcome.wall_s,
+                      outcome.message, failed=1)
+    record, checks = outcome.value[1], outcome.value[2]
     if record.status != "ok":  # the run's own failure: its only check is a failed "run"
-        return PointResult(point, values, engine, record.integrator, record.status, False, math.inf, "run", 1, 1,
-                           nan, nan, reference, record.wall_s, record.message)
-    judged = [c for c in checks if math.isfinite(c.margin)]
-    worst = max(judged, key=lambda c: c.margin, default=None)
+        return _unrun(point, values, engine, record.integrator, record.status, reference, record.wall_s,
+                      record.message, failed=1)
     no_value = [c for c in checks if not math.isfinite(c.value)]
+    classes = [c.classification or (NOT_JUDGED if not math.isfinite(c.value) else "") for c in checks]
+    failing = tuple((c.check, cls or NOT_JUDGED, " ".join((c.judged or c.detail or "failed").split()))
+                    for c, cls in zip(checks, classes) if not c.passed)
+    sized = [c for c in checks if c.unit in DIMENSIONLESS and math.isfinite(c.value)]
+    largest = max(sized, key=lambda c: c.value, default=None)
     traj = [c.value for c in checks if c.check.startswith("trajectory.")]
     energy = [c.value for c in checks if c.check in ("energy_drift", "energy_balance")]
-    failed = sum(not c.passed for c in checks)
     message = "; ".join(f"{c.check}: no value ({' '.join(c.detail.split())})" for c in no_value) or record.message
-    return PointResult(point, values, engine, record.integrator, record.status, bool(checks) and failed == 0,
-                       worst.margin if worst else nan, worst.check if worst else "", failed, len(checks),
-                       max(traj) if traj else nan, energy[0] if energy else nan, reference, record.wall_s,
-                       message, tuple(c.check for c in no_value))
+    return PointResult(point, values, engine, record.integrator, record.status, bool(checks) and not failing,
+                       worst_class(classes), largest.value if largest else nan, largest.check if largest else "",
+                       len(failing), len(checks), max(traj) if traj else nan, energy[0] if energy else nan, reference,
+                       record.wall_s, message, tuple(c.check for c in no_value), failing)
 
 
 def _reference_status(outcome: Outcome) -> str:
@@ -301,27 +354,31 @@ def run_sweep(scene: Scene, axes: list[Axis], points: list[tuple[float, ...]], e
                    effective_jobs(jobs), timeout, dask)
     scenes: dict[int, Scene] = {}
     results: dict[tuple[int, str], PointResult] = {}
-    nan = float("nan")
 
-    def tick(n: int = 1) -> None:
-        if progress is not None:
+    def tick(n: int = 1, label: str = "") -> None:
+        done = getattr(progress, "done", None)
+        if done is not None:  # a bar of harness.io.progress: one line per finished run where none is drawn
+            done(label, n)
+        elif progress is not None:
             progress.update(n)
+
+    def where(i: int) -> str:
+        return f"{scene.name} [{i + 1}/{len(points)}] " + ", ".join(f"{a.key}={v:.4g}" for a, v in zip(axes, points[i]))
 
     runnable = [e for e in engines if e not in scene.not_run]
     for i, values in enumerate(points):
         for e in engines:
             if e in scene.not_run:
-                results[(i, e)] = PointResult(i, values, e, "", "not run", False, nan, "", 0, 0, nan, nan, "", 0.0,
-                                              scene.not_run[e])
+                results[(i, e)] = _unrun(i, values, e, "", "not run", "", 0.0, scene.not_run[e])
         try:
             s = scene.with_params(**point_overrides(scene, axes, values))
             s.multibody()  # the builder and the physical sanity checks, here: a refused point starts no worker
         except InputError as err:
             why = _reason(scene, err)
             for e in runnable:
-                results[(i, e)] = PointResult(i, values, e, scene.integrators.get(e, ""), f"refused: {why}", False,
-                                              nan, "", 0, 0, nan, nan, f"refused: {why}", 0.0, why)
-            tick(1 + len(runnable))
+                results[(i, e)] = _unrun(i, values, e, scene.integrators.get(e, ""), f"refused: {why}",
+                                         f"refused: {why}", 0.0, why)
+            tick(1 + len(runnable), f"{where(i)} refused: {why}")
             continue
         scenes[i] = s
 
@@ -340,14 +397,13 @@ def run_sweep(scene: Scene, axes: list[Axis], points: list[tuple[float, ...]], e
                     workers.start(key, engine_case, (scenes[i], kind, traj, True, solutions), timeout)
             for key, outcome in workers.wait():
                 kind, i = key
-                tick()
+                tick(1, f"{where(i)} {case_label(kind, outcome)}")
                 if kind == "reference" and outcome.status == "input_error":  # the point is refused: no engine runs it
                     why = _reason(scene, outcome.message)
                     for e in runnable:
-                        results[(i, e)] = PointResult(i, points[i], e, scenes[i].integrators.get(e, ""),
-                                                      f"refused: {why}", False, nan, "", 0, 0, nan, nan,
-                                                      f"refused: {why}", 0.0, why)
-                    tick(len(runnable))
+                        results[(i, e)] = _unrun(i, points[i], e, scenes[i].integrators.get(e, ""),
+                                                 f"refused: {why}", f"refused: {why}", 0.0, why)
+                    tick(len(runnable), f"{where(i)} refused: {why}")
                     continue
                 if kind == "reference":
                     refs[i] = outcome
@@ -375,12 +431,14 @@ def _reason(scene: Scene, err) -> str:
 
 
 def point_line(run: SweepRun, i: int, rows: list[PointResult]) -> str:
-    """One line per finished point: its values and each engine's worst margin or status."""
+    """One line per finished point: its values and each engine's largest error, worst class and
+    failing checks, or status."""
     where = ", ".join(f"{a.key}={v:.4g}" for a, v in zip(run.axes, run.points[i]))
     cells = []
     for r in rows:
         if r.status == "ok":
-            cells.append(f"{r.engine} {r.worst_margin:.2g} ({r.worst_check})")
+            fails = f", FAIL {', '.join(c for c, _, _ in r.failing)}" if r.failing else ""
+            cells.append(f"{r.engine} {r.error:.2g} ({r.error_check}), {r.classification or '-'}{fails}")
         else:
             cells.append(f"{r.engine} {r.status.split(':')[0]}")
     return f"sweep {run.scene} [{i + 1}/{len(run.points)}] {where}: " + "; ".join(cells)

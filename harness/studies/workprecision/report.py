@@ -7,8 +7,9 @@ run, the command that made it, its wall time and the machine's load.
 over MuJoCo RK4's at equal state error, from the head to head, and the batched throughput over
 ``mujoco.rollout``'s, each "met", "not met", "not reached by MuJoCo" or "not run (why)"), then how
 the sweep was run, the interpolated times, the head to head, the batch, where the time went
-(``walls_section``), and one section per scene (figure, times to each target, observed orders
-with each curve's wall time and why it stopped).
+(``walls_section``), and one section per scene (figure, times to each target, each curve's error
+model: its class (converges, model difference, defect, unresolved, not judged), observed order and floor, with
+its wall time and why it stopped).
 
 The figures are laid out with fixed margins, not ``tight_layout``: it measured every tick label
 again and took 1.0 of the 2.4 s a figure took (18 figures: 0.9 s each now)."""
@@ -139,6 +140,13 @@ def plot_scene(sweep: SceneSweep, provenance: dict) -> bytes:
     return png_bytes(fig, dpi=110)
 
 
+def class_cell(model) -> str:
+    """A curve's class and observed order as its table shows them: ``converges (3.98)``; the
+    order left out where none was measured (``converges`` at the resolution, ``not judged``)."""
+    order = model.observed_order
+    return f"{model.classification} ({order:.2f})" if math.isfinite(order) else model.classification
+
+
 def _saves(sweep: SceneSweep) -> range:
     return range(int(round(sweep.t_end / sweep.save_every)) + 1)
 
@@ -221,18 +229,27 @@ def markdown(results: list[SceneSweep], provenance: dict, options: SweepOptions,
         for r in sorted(rows, key=lambda r: (not math.isfinite(r[f"t({TARGETS[0]:g})"]), r[f"t({TARGETS[0]:g})"])):
             body.append(f"| {r['label']} | " + " | ".join(f"{_fmt(r[f't({t:g})'])} | {_fmt(r[f'ratio({t:g})'], '.1f')}"
                                                         for t in TARGETS) + " |")
-        body += ["", "Observed order of convergence (fixed step: slope of log error vs log dt; adaptive: effective "
-                 "order -slope vs log accepted steps, and the slope vs log tolerance):", "",
-                 "| curve | nominal | observed | points | range (dt or tol) | slope vs tol | best state error | runs failed "
-                 "| wall (s) | stopped |",
+        body += ["", "Error model of each curve (`harness.judging.error_model`, as validate judges its checks): the state "
+                 "error at the curve's finest resolved points (up to three, above 10x the resolution: the reference's "
+                 f"accuracy {options.error_floor:g} or the round-off N·eps), fitted as C·h^p + F against the step "
+                 "(adaptive: against the tolerance, order 1). Class: converges (the error falls at about the method's "
+                 "order, or sits at the resolution), model difference (a floor F that does not shrink with the step: "
+                 "soft constraints or contact), defect (an order far below the method's, an error growing with "
+                 "refinement), unresolved (an error of the motion's own size: nothing to fit), not judged (one sound "
+                 "point or none). Order: the observed order of the "
+                 "finest two levels; effective order (adaptive): -slope of log error against log accepted steps.", "",
+                 "| curve | nominal | class (order) | floor | levels (dt or tol) | effective order | best state error "
+                 "| runs failed | wall (s) | stopped |",
                  "|---|---|---|---|---|---|---|---|---|---|"]
         for label, pts in by_curve(sweep.points).items():
             o = observed_order(pts, options.error_floor)
             best = min((p.state_max for p in pts if p.ok), default=float("nan"))
             bad = sum(not p.ok for p in pts)
             log = sweep.curves.get(label, {})
-            body.append(f"| {label} | {pts[0].nominal_order} | {_fmt(o['order'], '.2f')} | {o['n']} | {o['range'] or '—'} | "
-                        f"{_fmt(o.get('tol_slope', float('nan')), '.2f')} | {_fmt(best, '.1e')} | {bad} | "
+            m = o["model"]
+            floor = _fmt(m.floor, ".1e") if m.floor > 0 else ("0" if m.floor == 0 else "—")
+            body.append(f"| {label} | {pts[0].nominal_order} | {class_cell(m)} | {floor} | {o['range'] or '—'} | "
+                        f"{_fmt(o.get('steps_order', float('nan')), '.2f')} | {_fmt(best, '.1e')} | {bad} | "
                         f"{_fmt(log.get('wall_s', float('nan')), '.2f')} | {log.get('stop', '—')} |")
         over = overhead_rows(sweep)
         if over:

@@ -14,7 +14,8 @@ What is swept, per scene (``curves``):
   saved sample back; ``time_total_s`` includes compiling the model).
 * Pinocchio: each harness integrator (rkmk4, euler) over timesteps (loop time).
 * Drake: RK3, RK5 and Radau3 with Drake's error control over target accuracies (as the in-house
-  SciPy methods over tolerances), RK3_fixed and RK2 over timesteps, through
+  SciPy methods over tolerances; their maximum step ``adaptive_step``, where the fixed-step
+  ladders start, never the save interval), RK3_fixed and RK2 over timesteps, through
   ``DrakeEngine.simulate`` (the engine's whole run: parsing the URDF, building the plant,
   integrating, reading every sample); the rolling disk is not run on Drake (unsupported).
 * Exudyn: GeneralizedAlpha and TrapezoidalIndex2 (implicit, every scene) and RK44, RK67
@@ -31,6 +32,17 @@ What is swept, per scene (``curves``):
 Every curve except MuJoCo's ``rollout`` variant runs through its engine's ``simulate`` (the
 registry's ``get_engine``); whether a method is adaptive and its nominal order come from the
 engine's ``Integrator`` records (``harness.engines.integrator``).
+
+Every point (its warm-up and timed repeats) runs in its own worker process
+(``measure_in_worker``: ``harness.validate.workers``, as validate runs its cases), forked from
+the sweep's process after the engines' imports and the compiled kernels are loaded, under a
+wall-clock budget (``run_timeout_s``, default 60 s, ``--run-timeout``): a point over it is killed
+and recorded as failed, "timed out after N s", its curve stops there (a finer step or a tighter
+tolerance only takes longer) and the sweep goes on. The times stay the runs' own: each is
+measured inside the worker around the run alone (``measure``), and a point's wall time, which
+the curve budgets count, around ``measure`` in the worker (the process's start is not in it).
+Before any run, the finest step of every ladder is held to ``harness.model.scene.MAX_STEPS``
+integration steps over the horizon (``check_step_budget``).
 
 Timesteps are ``dt = save / 2^k`` (whole steps per saved interval), from the first level at or
 below ``coarsest_dt`` times the scene's own dt down to ``save / 2^(dt_levels - 1)``;
@@ -115,7 +127,7 @@ E; ``compare.momentum_scales`` p and Lm):
 
 * state error at a sample = max over bodies of max( |dp_WCm_W| / L, geodesic angle of
   quat_WB^-1 quat_ref (rad), |dv_WCm_W| / V, |dw_WB_W| / Omega ): the largest of the trajectory
-  quantities of ``harness.measure.quantities`` (``state_error``), as validate judges its
+  quantities of ``harness.judging.quantities`` (``state_error``), as validate judges its
   ``trajectory.*`` checks and the stress study its bands;
 * energy error = |E - E_ref| / E (the harness's energy recomputed from the common state);
 * momentum error = max( |p_W - p_ref| / p, |L_W - L_ref| / Lm ) (linear and angular momentum
@@ -141,12 +153,30 @@ capped at save / 10, 1.7e-11; at save / 25 (500 steps), 3.5e-13 (also at save / 
 Where the scene's reference module has an exact check that needs no runs of its own, the
 reference's own error against it is reported (``harness.measure.exact``).
 
-Observed order of convergence (``observed_order``): least-squares slope of log(state error max)
-against log(dt) over the asymptotic range (the four smallest timesteps whose errors lie between
-``100 x error_floor`` and 1e-2; at least three points), to compare with the method's nominal
-order; for adaptive methods the slope against log(tolerance) (nominal 1: tolerance
-proportionality) and the effective order -slope against log(accepted steps), over all points in
-that error range.
+Error model of each curve (``curve_model``; ``harness.judging.error_model``, as validate judges
+its checks): the curve's state error (max over the saved samples, relative: scale 1) at its
+steps (fixed step, the method's order) or tolerances (kind ``adaptive``, order 1 in the
+tolerance) is fitted by ``error_model.fit`` from its finest points: the (up to) three finest
+sound points whose errors are resolved (above ``NOISE`` times the resolution), the finest first,
+else the three finest (at the resolution: ``converges`` there). The resolution is the larger
+of ``error_floor`` (the reference's accuracy, 1e-12: the reference is integrated at 1e-13, not
+``JUDGING_RESOLUTION``'s 1e-9, which would hide the 1e-10 target) and the round-off floor
+``N eps`` of the finest run's steps. The model gives the observed order of the finest two levels,
+the floor (the part that does not vanish with the step or tolerance: MuJoCo's soft loop and
+contact constraints) and the class (``converges``, ``model difference``, ``defect``,
+``unresolved``: an error of the motion's own size at the finest point, ``not judged``: one
+sound point, or none: a ladder's blow-ups are beyond the method's stability, at steps coarser
+than the scene's, and read as no defect). ``observed_order``
+reports it with, for adaptive methods, the effective order -slope of log(state error max)
+against log(accepted steps) (least squares over the points between ``100 x error_floor`` and
+1e-2: the order in the work, which the error model does not measure).
+
+The stop rule "error stalled" (``stop_reason``) stays a budget rule on three points (the best
+of the last three not twice better than the best before, below 1e-2: one noisy halving must not
+end a curve), and stops only where the error model of those three points does not say
+``converges``; its reason names the model's class and floor. ``converging`` (whether a target
+curve gets ``reach_budget_s``) also stays its own: it is a deliberately permissive budget test
+(half the nominal order over the last halving), not a classification.
 """
 
 from __future__ import annotations
@@ -160,9 +190,10 @@ import numpy as np
 
 from harness.measure import compare
 from harness.measure import invariants
-from harness.measure import quantities
+from harness.judging import quantities
 from harness.engines import get_engine, integrator
 from harness.engines.base import RunSettings
+from harness.judging import error_model
 from harness.model.scene import Scene
 from harness.measure.trajectory import UNSUPPORTED, Trajectory
 
@@ -203,6 +234,9 @@ class SweepOptions:
         batch: most initial conditions of the batched-throughput benchmark (0: skip it).
         batch_steps: steps of each trajectory in that benchmark.
         batch_budget_s: about the time (s) of that benchmark's timed runs (None: always ``batch``).
+        run_timeout_s: wall-clock budget (s) of one point (its warm-up and timed repeats), which
+            runs in its own worker process (``measure_in_worker``): a point over it is recorded
+            as failed, "timed out after N s", its curve stops and the sweep goes on.
         progress: draw the progress bar on stderr (only ever when stderr is a terminal).
     """
 
@@ -226,6 +260,7 @@ class SweepOptions:
     batch: int = 1000
     batch_steps: int = 100
     batch_budget_s: float | None = 3.0
+    run_timeout_s: float = 60.0
     progress: bool = True
 
 
@@ -523,10 +558,27 @@ def compiled_covers(scene: Scene) -> tuple[bool, str]:
 Run = Callable[[], tuple[Trajectory, float, float, float, float]]
 
 
-def _settings(curve: Curve, t_end: float, save: float, param: float) -> RunSettings:
+def _settings(curve: Curve, t_end: float, save: float, param: float, max_dt: float | None = None) -> RunSettings:
+    """The settings of one point: a fixed-step curve at step ``param`` (s); an adaptive one at
+    rtol = atol = ``param`` with ``dt`` the largest ``save / 2^k`` at or below ``max_dt`` (s,
+    ``adaptive_step``; the save interval when None): the first-step hint of the in-house
+    methods and Drake's maximum step, which comes from the scene's step, never the save interval
+    (with the 1 s save interval of ``--quick`` as its maximum step Drake's RK5 did not return on
+    heavy_top; ``harness.engines.drake.integrators``)."""
     if curve.adaptive:
-        return RunSettings(t_end, save, save, curve.integrator, rtol=param, atol=param)
+        dt = save
+        if max_dt is not None and 0 < max_dt < save:
+            dt = save / 2 ** math.ceil(math.log2(save / max_dt) - 1e-9)
+        return RunSettings(t_end, dt, save, curve.integrator, rtol=param, atol=param)
     return RunSettings(t_end, param, save, curve.integrator)
+
+
+def adaptive_step(scene: Scene, options: SweepOptions) -> float:
+    """The largest ``dt`` (s) of an adaptive curve's runs (``_settings``): where the fixed-step
+    ladders start, ``coarsest_dt`` times the scene's step (the scene's step when None). Measured
+    on heavy_top (save 0.25 s): Drake's RK3, RK5 and Radau3 at 1e-3..1e-10 with a 0.0156 s
+    maximum step end in 0.8-10 s each."""
+    return (options.coarsest_dt or 1.0) * scene.dt
 
 
 def _runner(scene: Scene, curve: Curve, settings: RunSettings) -> Run:
@@ -609,6 +661,43 @@ def measure(scene: Scene, curve: Curve, settings: RunSettings, ref: Trajectory, 
                                   **{k: nan for k in ERROR_KEYS})
 
 
+TIMED_OUT = "timed out after"  # the message of a point over its wall-clock budget (``measure_in_worker``)
+
+
+def _timed_measure(scene: Scene, curve: Curve, settings: RunSettings, ref: Trajectory, model,
+                   options: SweepOptions) -> tuple[WorkPrecisionPoint, float]:
+    """Worker body of ``measure_in_worker``: the point and its wall time (s, ``_clock``), both
+    measured inside the worker (the process's start and the result's way back are not in it)."""
+    t0 = _clock()
+    point = measure(scene, curve, settings, ref, model, options)
+    return point, _clock() - t0
+
+
+def measure_in_worker(scene: Scene, curve: Curve, settings: RunSettings, ref: Trajectory, model,
+                      options: SweepOptions) -> tuple[WorkPrecisionPoint, float]:
+    """``measure`` in its own worker process (``harness.validate.workers.run_cases``: forked, so
+    that it starts with this process's imports and compiled kernels; killed at the end of its
+    budget), limited to ``options.run_timeout_s`` wall-clock seconds. Returns the point and its
+    wall time (s, measured in the worker around ``measure``; the run times inside the point are
+    ``measure``'s own, around each run alone). A point over its budget, or whose worker died or
+    raised, is a failed point saying so ("timed out after N s"); every other point goes on."""
+    from harness.validate.workers import run_cases
+
+    timeout = float(options.run_timeout_s)
+    outcome = run_cases([("point", _timed_measure, (scene, curve, settings, ref, model, options))], 1, timeout)["point"]
+    if outcome.status == "ok":
+        return outcome.value
+    param = settings.rtol if curve.adaptive else settings.dt
+    nan = float("nan")
+    why = {"timeout": f"{TIMED_OUT} {timeout:g} s (the wall-clock budget of a point, --run-timeout)"}.get(
+        outcome.status, f"{outcome.status}: {outcome.message}")
+    point = WorkPrecisionPoint(scene=scene.name, engine=curve.engine, integrator=curve.integrator, variant=curve.variant,
+                               param=float(param), status="failed", message=why, time_s=nan, time_min_s=nan,
+                               time_total_s=nan, repeats=0, steps=nan, rhs_evals=nan, nominal_order=curve.nominal_order,
+                               **{k: nan for k in ERROR_KEYS})
+    return point, outcome.wall_s
+
+
 def curves(engines) -> list[Curve]:
     """The curves of a sweep over ``engines`` (see the module docstring)."""
     out: list[Curve] = []
@@ -635,10 +724,27 @@ def _ladder(curve: Curve, save: float, options: SweepOptions, scene_dt: float | 
     interval when either is None) down to ``save / 2^(dt_levels - 1)``, at least three of them."""
     if curve.adaptive:
         return list(options.tolerances)
+    return _step_ladder(save, options, scene_dt)
+
+
+def _step_ladder(save: float, options: SweepOptions, scene_dt: float | None = None) -> list[float]:
+    """The timesteps (s) of every fixed-step curve, coarse to fine (``_ladder``)."""
     k0 = 0
     if options.coarsest_dt is not None and scene_dt is not None and scene_dt > 0:
         k0 = max(0, math.ceil(math.log2(save / (options.coarsest_dt * scene_dt)) - 1e-9))
     return [save / 2**k for k in range(k0, max(options.dt_levels, k0 + 3))]
+
+
+def check_step_budget(scenes: list[Scene], options: SweepOptions) -> None:
+    """InputError, before any run, when the finest timestep of a scene's ladder (``_ladder``)
+    would take more integration steps over the sweep's horizon than
+    ``harness.model.scene.MAX_STEPS`` (``check_steps``)."""
+    from harness.model.scene import check_steps
+
+    for scene in scenes:
+        t_end, save = horizon(scene, options)
+        finest = min(_step_ladder(save, options, scene.dt))
+        check_steps(t_end, finest, f"{scene.name}: the sweep's finest step (--saves, --t-end)")
 
 
 KEY, LOOP, ORDINARY = "key", "loop", "ordinary"  # roles of a curve (its budget)
@@ -683,8 +789,12 @@ def stop_reason(history: list[tuple[WorkPrecisionPoint, float]], options: SweepO
     """Why a curve stops after its last point (module docstring), or "" to go on: a run slower
     than ``max_run_s``, a state error below ``stop_error``, a stalled error (fixed steps only:
     an adaptive method's error may sit flat over tolerances its step control does not see, then
-    fall; its budget decides), failing runs."""
+    fall; its budget decides; and only where the error model of the last three points,
+    ``curve_model``, does not say it converges: "error stalled (<class>, floor F)"), failing runs, a point over its wall-clock budget
+    (``run_timeout_s``: "timed out after N s")."""
     last = history[-1][0]
+    if last.message.startswith(TIMED_OUT):  # a finer step or tolerance only takes longer
+        return last.message
     if math.isfinite(last.time_s) and last.time_s > options.max_run_s:
         return f"a run took more than {options.max_run_s:g} s"
     if last.ok and last.state_max < options.stop_error:
@@ -694,7 +804,10 @@ def stop_reason(history: list[tuple[WorkPrecisionPoint, float]], options: SweepO
     if not adaptive and len(points) >= 4 and all(p.ok for p in points[-3:]):
         before = [p.state_max for p in points[:-3] if p.ok]
         if before and min(before) < 1e-2 and min(p.state_max for p in points[-3:]) > 0.5 * min(before):
-            return "error stalled"
+            m = curve_model(points[-3:], options.error_floor)
+            if m.classification != error_model.CONVERGES:
+                floor = f", floor {m.floor:.1e}" if m.floor > 0 else ""
+                return f"error stalled ({m.classification}{floor})"
     if len(points) >= 4 and not any(p.ok for p in points[-3:]) and any(p.ok for p in points[:-3]):
         return "runs fail"
     return ""
@@ -745,6 +858,21 @@ def reach(curve: Curve, role: str, mujoco_best: float | None, targets=TARGETS) -
     return min(reached) if reached else None
 
 
+def _prepare_workers(scene: Scene, curve_list: list[Curve], ref: Trajectory | None, model) -> None:
+    """What every point's worker (``measure_in_worker``, forked from this process) would
+    otherwise load or compute again at its start: the engines' lazy imports
+    (``harness.engines.preload``), the compiled in-house kernels (``warm_kernels``) and the
+    reference's side of the errors (``_reference_side``)."""
+    from harness.engines import preload
+
+    engines = list(dict.fromkeys(c.engine for c in curve_list))
+    preload(engines)
+    if any(c.engine == "inhouse" and c.variant == "compiled" for c in curve_list):
+        warm_kernels([scene])
+    if isinstance(ref, Trajectory):
+        _reference_side(ref, model)
+
+
 def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), progress: Progress | None = None,
                 curve_list: list[Curve] | None = None) -> SceneSweep:
     """Sweep one scene (see the module docstring): the reference, then each curve under its
@@ -760,6 +888,7 @@ def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), p
     covered = compiled_covers(scene)[0] if "inhouse" in engines else True
     if curve_list is None:
         curve_list, result.omitted = scene_curves(engines, options, covered)
+    _prepare_workers(scene, curve_list, ref, model)
     start = _clock()
     mujoco_best = None  # best state error of MuJoCo RK4's target curve
     for curve in curve_list:
@@ -776,9 +905,8 @@ def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), p
             if history and spent + next_cost(history, curve.adaptive, options) > budget:
                 stop = f"budget {budget:g} s" + (f" (longer to reach {goal:g})" if budget != base else "")
                 break
-            t0 = _clock()
-            point = measure(scene, curve, _settings(curve, t_end, save, param), ref, model, options)
-            wall = _clock() - t0
+            settings = _settings(curve, t_end, save, param, adaptive_step(scene, options))
+            point, wall = measure_in_worker(scene, curve, settings, ref, model, options)
             spent += wall
             if point.status == UNSUPPORTED:  # not this method's scene: no points, say why
                 result.skipped[curve.label] = point.message
@@ -852,7 +980,8 @@ def head_to_head(scene: Scene, sweep: SceneSweep, options: SweepOptions, targets
                 f"mujoco RK4 ({side})": (mj, Curve("mujoco", "RK4", side))}
         if side == "rollout":  # the harness's loop at the same dt: its overhead at equal error
             runs["mujoco RK4 (loop)"] = (mj, Curve("mujoco", "RK4", "loop"))
-        runners = {key: _runner(scene, c, _settings(c, sweep.t_end, sweep.save_every, p.param))
+        max_dt = adaptive_step(scene, options)
+        runners = {key: _runner(scene, c, _settings(c, sweep.t_end, sweep.save_every, p.param, max_dt))
                    for key, (p, c) in runs.items()}
         times = _alternate(runners, rounds, options.h2h_budget_s)
         for key, (p, c) in runs.items():
@@ -892,33 +1021,51 @@ def _fit(x: np.ndarray, y: np.ndarray) -> float:
     return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
-def observed_order(points: list[WorkPrecisionPoint], error_floor: float = 1e-12, upper: float = 1e-2) -> dict:
-    """Observed order of one curve (see the module docstring): ``{"order", "range", "n"}`` for
-    fixed-step methods, plus ``{"tol_slope", "steps_order"}`` for adaptive ones (NaN where fewer
-    than three points are in the asymptotic range)."""
-    good = [p for p in points if p.ok and 100 * error_floor < p.state_max < upper]
-    out = {"n": len(good), "order": float("nan"), "range": ""}
+def curve_model(points: list[WorkPrecisionPoint], error_floor: float = 1e-12) -> error_model.ErrorModel:
+    """The error model of one curve's state error (module docstring; ``harness.judging.error_model``):
+    fitted from its finest resolved sound points (up to three, the finest first), kind
+    ``adaptive`` with order 1 for an error-controlled method; ``not judged`` where no run ended
+    sound (a ladder's blow-ups are at steps beyond the method's stability, not at the scene's: no
+    defect is read from them)."""
+    nan = float("nan")
     if not points:
+        return error_model.ErrorModel("state_max", "rel", 1.0, "fixed", nan, (), nan, nan, nan, error_floor,
+                                      error_model.NOT_JUDGED, "no points")
+    method = integrator(points[0].engine, points[0].integrator)
+    kind, formal = ("adaptive", 1.0) if method.adaptive else ("fixed", float(method.order))
+    ok = sorted((p for p in points if p.ok), key=lambda p: p.param)
+    steps = max((p.steps for p in ok if math.isfinite(p.steps)), default=1.0)
+    resolution = max(error_floor, error_model.roundoff(steps))
+    if not ok:
+        levels = tuple(error_model.Level(p.param, nan) for p in sorted(points, key=lambda p: p.param))
+        blew = [p.param for p in points if p.status == "blowup"]
+        why = (f"every run failed, {len(blew)} blew up (down to {min(blew):.2g}): the ladder has no sound point"
+               if blew else "no run ended")
+        return error_model.ErrorModel("state_max", "rel", 1.0, kind, formal, levels, nan, nan, nan, resolution,
+                                      error_model.NOT_JUDGED, why)
+    resolved = [p for p in ok if p.state_max > error_model.NOISE * resolution]
+    chosen = resolved[:3] if len(resolved) >= 2 else ok[:3]
+    return error_model.fit("state_max", "rel", 1.0, kind, formal,
+                           [error_model.Level(p.param, p.state_max) for p in chosen], resolution)
+
+
+def observed_order(points: list[WorkPrecisionPoint], error_floor: float = 1e-12, upper: float = 1e-2) -> dict:
+    """One curve's error model (``curve_model``) as the report shows it: ``{"model", "order" (its
+    observed order: in the step, or in the tolerance), "n" (levels fitted), "range" (their steps or
+    tolerances)}``, plus for adaptive methods ``"tol_slope"`` (the same order in the tolerance)
+    and ``"steps_order"`` (the effective order: -slope of log error against log accepted steps
+    over the points between ``100 x error_floor`` and ``upper``; NaN with fewer than three)."""
+    m = curve_model(points, error_floor)
+    params = [lv.step for lv in m.levels if math.isfinite(lv.error)]
+    out = {"model": m, "order": m.observed_order, "n": len(params),
+           "range": f"{min(params):.2g}..{max(params):.2g}" if len(params) >= 2 else ""}
+    if not points or m.kind != "adaptive":
         return out
-    adaptive = integrator(points[0].engine, points[0].integrator).adaptive
-    if not adaptive:  # the asymptotic range is the fine end: the (up to) four smallest steps
-        good = sorted(good, key=lambda p: p.param)[:4]
-        out["n"] = len(good)
-    if adaptive:
-        out.update(tol_slope=float("nan"), steps_order=float("nan"))
-    if len(good) < 3:
-        return out
-    x = np.array([p.param for p in good])
-    y = np.array([p.state_max for p in good])
-    out["range"] = f"{x.min():.2g}..{x.max():.2g}"
-    if adaptive:
-        out["tol_slope"] = _fit(x, y)
-        steps = np.array([p.steps for p in good])
-        if len(set(steps)) >= 3:
-            out["steps_order"] = -_fit(steps, y)
-        out["order"] = out["steps_order"]
-    else:
-        out["order"] = _fit(x, y)
+    out.update(tol_slope=m.observed_order, steps_order=float("nan"))
+    good = [p for p in points if p.ok and 100 * error_floor < p.state_max < upper and math.isfinite(p.steps)]
+    steps = np.array([p.steps for p in good])
+    if len(good) >= 3 and len(set(steps)) >= 3:
+        out["steps_order"] = -_fit(steps, np.array([p.state_max for p in good]))
     return out
 
 
@@ -1190,13 +1337,17 @@ def run_sweep(scenes: list[Scene], engines, options: SweepOptions = SweepOptions
 
 
 def points_table(results: list[SceneSweep]):
-    """All points as a pandas DataFrame (the CSV)."""
+    """All points as a pandas DataFrame (the CSV), each with its curve's error model: ``curve_class``,
+    ``curve_order``, ``curve_floor`` (``curve_model`` at the default ``error_floor``)."""
     import pandas as pd
 
     rows = []
     for r in results:
+        models = {label: curve_model(pts) for label, pts in by_curve(r.points).items()}
         for p in r.points:
             d = asdict(p)
             d["label"] = p.label
+            m = models[p.label]  # the curve's error model (``curve_model``), on each of its points
+            d.update(curve_class=m.classification, curve_order=m.observed_order, curve_floor=m.floor)
             rows.append(d)
     return pd.DataFrame(rows)

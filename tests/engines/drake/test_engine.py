@@ -79,12 +79,13 @@ def test_fixed_step_methods_reach_their_order(method, dts):
 @pytest.mark.parametrize("method", ["RK3", "RK5", "Radau3"])
 def test_error_controlled_methods_follow_the_target_accuracy(method):
     """Tightening Drake's target accuracy 1e-4 -> 1e-8 lowers the state error against the
-    reference at least 100-fold, and costs more steps."""
+    reference at least 100-fold, and costs more steps (at a maximum step, the run's dt, of the
+    whole save interval, which the error control then decides below)."""
     scene = load_scene("heavy_top")
     ref = _reference(scene, 1.0, 0.05)
     err, steps = {}, {}
     for acc in (1e-4, 1e-8):
-        tr = ENGINE.simulate(scene, RunSettings(1.0, 1e-3, 0.05, method, rtol=acc))
+        tr = ENGINE.simulate(scene, RunSettings(1.0, 0.05, 0.05, method, rtol=acc))
         assert tr.ok, tr.message
         err[acc] = compare.trajectory_error(tr, ref)["orientation_max"]
         steps[acc] = tr.stats["steps"]
@@ -94,7 +95,7 @@ def test_error_controlled_methods_follow_the_target_accuracy(method):
 def test_a_large_first_step_hint_does_not_hang():
     """Drake 1.51's error control never returns from ``AdvanceTo`` when asked for an initial
     step of 0.1 s on the heavy top; the engine leaves the first step to Drake, so a run whose
-    dt (the hint) is 0.2 s finishes (in a subprocess, so that a regression fails instead of
+    dt (its maximum step, never passed as a first-step hint) is 0.2 s finishes (in a subprocess, so that a regression fails instead of
     hanging the suite)."""
     code = ("from harness.model.scene import load_scene; from harness.engines import get_engine; "
             "from harness.engines.base import RunSettings; "
@@ -151,3 +152,15 @@ def test_preload_imports_every_pydrake_module_a_run_imports():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_the_maximum_step_is_the_runs_step_never_the_save_interval():
+    """Drake's error-controlled RK5 takes the run's dt as its maximum step: saved once over the
+    horizon (a save interval of the whole horizon, which as a maximum step made heavy_top's run
+    never return) it takes at least t_end / dt steps and ends ok."""
+    scene = load_scene("heavy_top")
+    t_end = 0.1
+    tr = get_engine("drake").simulate(scene, RunSettings(t_end, scene.dt, t_end, "RK5"))
+    assert tr.ok, tr.message
+    assert tr.stats["steps"] >= round(t_end / scene.dt)
+    assert f"max step {scene.dt:g} s" in tr.stats["settings"]

@@ -5,6 +5,8 @@ looped and rolling scenes."""
 from __future__ import annotations
 
 import numpy as np
+
+from harness.judging.error_model import JUDGING_RESOLUTION
 import pytest
 from scipy.spatial.transform import Rotation
 
@@ -147,20 +149,24 @@ def test_the_dexpinv_correction_is_what_makes_it_fourth_order(monkeypatch):
 
 @pytest.mark.parametrize("scene_name", ["heavy_top", "double_pendulum", "slider_crank", "rolling_disk"])
 def test_rkmk4_agrees_with_rk4_on_jointed_looped_and_rolling_scenes(scene_name):
-    # Ball and hinge joints, a closed loop, a rolling contact: both fourth-order methods at the
-    # scene's step agree within the scene's trajectory tolerance (the full horizons and every
-    # scene: run validate on a copy of the models with inhouse = "rkmk4").
+    # Ball and hinge joints, a closed loop, a rolling contact: both fourth-order methods converge
+    # to the same motion: their difference is their truncation errors, so it falls at about the
+    # fourth order when the step halves, or sits below what the harness resolves
+    # (``JUDGING_RESOLUTION``: slider_crank's projections leave 1.6e-12 rad).
     scene = load_scene(scene_name)
     t_end = 0.1
-    runs = {m: ENGINE.simulate(scene, RunSettings(t_end=t_end, dt=scene.dt, save_every=scene.dt * round(0.02 / scene.dt),
-                                                  integrator=m)) for m in ("rkmk4", "rk4")}
-    assert all(r.ok for r in runs.values()), {m: r.message for m, r in runs.items()}
-    a, b = runs["rkmk4"], runs["rk4"]
-    tol = {k: v["inhouse"] if isinstance(v, dict) else v for k, v in scene.checks["trajectory"].items()}
-    assert np.max(np.abs(a.p_WCm_W - b.p_WCm_W)) < 0.1 * tol["position"]
-    assert np.max(rotations.geodesic_angle(a.quat_WB, b.quat_WB)) < 0.1 * tol["orientation"]
-    np.testing.assert_allclose(np.linalg.norm(a.quat_WB, axis=-1), 1.0, atol=1e-15)
-    assert "rkmk4" in a.stats["settings"] and "projection" in a.stats["settings"]
+    diffs = []
+    for dt in (2 * scene.dt, scene.dt):
+        runs = {m: ENGINE.simulate(scene, RunSettings(t_end=t_end, dt=dt, save_every=2 * scene.dt * round(0.01 / scene.dt),
+                                                      integrator=m)) for m in ("rkmk4", "rk4")}
+        assert all(r.ok for r in runs.values()), {m: r.message for m, r in runs.items()}
+        a, b = runs["rkmk4"], runs["rk4"]
+        diffs.append((np.max(np.abs(a.p_WCm_W - b.p_WCm_W)), np.max(rotations.geodesic_angle(a.quat_WB, b.quat_WB))))
+        np.testing.assert_allclose(np.linalg.norm(a.quat_WB, axis=-1), 1.0, atol=1e-15)
+        assert "rkmk4" in a.stats["settings"] and "projection" in a.stats["settings"]
+    length = max(float(np.max(np.abs(b.p_WCm_W))), 1.0)
+    for coarse, fine, scale in zip(diffs[0], diffs[1], (length, 1.0)):
+        assert fine <= JUDGING_RESOLUTION * scale or coarse / fine > 2 ** 3.5, (scene_name, diffs)
 
 
 def test_rkmk_step_of_a_vector_only_rhs_is_the_rk4_step_on_the_vectors():

@@ -1,4 +1,4 @@
-"""One definition of each trajectory quantity (``harness.measure.quantities``): validate's
+"""One definition of each trajectory quantity (``harness.judging.quantities``): validate's
 ``trajectory.*`` checks, ``harness debug``, the stress study's bands and the work-precision
 study's state error name and compute the same quantity the same way."""
 
@@ -8,9 +8,11 @@ import numpy as np
 import pytest
 
 from harness.engines import get_engine
-from harness.measure import compare, quantities
+from harness.judging import quantities
+from harness.measure import compare
 from harness.model.scene import load_scene
-from harness.validate.run import check_run, default_settings, reference_settings
+from harness.judging.checks import check_run
+from harness.validate.run import default_settings, reference_settings
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +37,7 @@ def test_every_tool_names_the_same_quantities():
     from harness.studies.stress.run import TRAJECTORY_QUANTITIES
     from harness.tools.debug import QUANTITIES as DEBUG_QUANTITIES
     from harness.tools.debug import UNITS
-    from harness.validate import quantities as validate_quantities
+    from harness.judging import checks
 
     names = tuple(q.name for q in quantities.TRAJECTORY)
     assert names == quantities.NAMES == ("position", "orientation", "velocity", "angular_velocity")
@@ -43,7 +45,7 @@ def test_every_tool_names_the_same_quantities():
     assert DEBUG_QUANTITIES[: len(names)] == names
     assert {n: UNITS[n] for n in names} == {"position": "rel", "orientation": "rad", "velocity": "rel",
                                             "angular_velocity": "rel"}
-    assert validate_quantities.TRAJECTORY is quantities.TRAJECTORY  # validate judges by the same records
+    assert checks.TRAJECTORY is quantities.TRAJECTORY  # validate judges by the same records
 
 
 def test_validate_debug_stress_and_workprecision_compute_the_same_values(pair):

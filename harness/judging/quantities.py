@@ -1,22 +1,22 @@
-"""The one definition of each trajectory quantity: name, unit, relative or absolute, and how it
-is computed. Shared by ``harness validate`` (its ``trajectory.*`` checks,
-``harness.validate.run.check_run``), ``harness debug`` (``harness.tools.debug``), the stress study
+"""The one definition of each trajectory quantity: name, unit, relative or absolute, its scale, and
+how it is computed. Shared by ``harness validate`` (its ``trajectory.*`` checks,
+``harness.judging.checks.check_run``), ``harness debug`` (``harness.tools.debug``), the stress study
 (its ``position`` ... ``angular_velocity`` bands, ``harness.studies.stress.run``) and the
-work-precision study (its state error, ``harness.studies.workprecision.run``). Tolerances are not
-here: each tool takes its own (validate and debug the scene's ``[checks.trajectory]`` through
-``harness.validate.quantities``; the stress study its catalogue's bands).
+work-precision study (its state error, ``harness.studies.workprecision.run``). No tolerance is
+here: validate and debug judge each quantity by how its error converges (``harness.judging``), the
+stress study by its catalogue's bands.
 
 A trajectory quantity is a difference between a run and the run that judges it, at each saved
 sample both reached, maximised over bodies (world frame):
 
-========================  ==========  =====================  ===============  ======================
-quantity                  raw unit    scale (motion_scales)  judged as        tolerance key
-========================  ==========  =====================  ===============  ======================
-``position``              m           ``length`` (m)         rel              ``position``
-``orientation``           rad         none                   rad (absolute)   ``orientation``
-``velocity``              m/s         ``velocity`` (m/s)     rel              ``velocity``
-``angular_velocity``      rad/s       ``angular_velocity``   rel              ``velocity``
-========================  ==========  =====================  ===============  ======================
+========================  ==========  =====================  ===============
+quantity                  raw unit    scale (motion_scales)  judged as
+========================  ==========  =====================  ===============
+``position``              m           ``length`` (m)         rel
+``orientation``           rad         none                   rad (absolute)
+``velocity``              m/s         ``velocity`` (m/s)     rel
+``angular_velocity``      rad/s       ``angular_velocity``   rel
+========================  ==========  =====================  ===============
 
 ``position``: |p_WCm_W(a) - p_WCm_W(b)| of each body's centre of mass; ``orientation``: the
 geodesic angle on SO(3) between the two body->world orientations; ``velocity``: the difference of
@@ -57,14 +57,12 @@ class Quantity:
             stress catalogue's band and the work-precision study use the same name.
         unit: unit of the raw difference.
         scale: key of ``compare.motion_scales`` the difference is divided by, None for absolute.
-        tolerance_key: key of the scene's ``[checks.trajectory]`` table.
         what: what is measured, for the report.
     """
 
     name: str
     unit: str
     scale: str | None
-    tolerance_key: str
     what: str
 
     @property
@@ -90,10 +88,10 @@ class Quantity:
 
 
 TRAJECTORY = (
-    Quantity("position", "m", "length", "position", "centre of mass"),
-    Quantity("orientation", "rad", None, "orientation", "geodesic angle on SO(3)"),
-    Quantity("velocity", "m/s", "velocity", "velocity", "centre-of-mass velocity"),
-    Quantity("angular_velocity", "rad/s", "angular_velocity", "velocity", "world frame"),
+    Quantity("position", "m", "length", "centre of mass"),
+    Quantity("orientation", "rad", None, "geodesic angle on SO(3)"),
+    Quantity("velocity", "m/s", "velocity", "centre-of-mass velocity"),
+    Quantity("angular_velocity", "rad/s", "angular_velocity", "world frame"),
 )
 BY_NAME = {q.name: q for q in TRAJECTORY}
 NAMES = tuple(q.name for q in TRAJECTORY)
