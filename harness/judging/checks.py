@@ -311,10 +311,14 @@ def judge_convergence(scene: Scene, label: str, engine: str, settings: RunSettin
         if name.startswith(AGAINST_REFERENCE) or name == "exact":
             res = max(res, float(accuracy.get(name, 0.0)) * (1.0 if c.unit in ("rel", "rad") else scale))
         resolutions[name] = res
-    if finer and any(error_model.needs_finer_level(lv, method.order_of(name), resolutions[name]) for name, lv in levels.items()):
-        measure(refinement.scaled_step(settings, finer[0]))
     declared = scene.model_differences.get(engine)
-    declared = None if declared is None or label == REFERENCE_LABEL else ModelDifference(declared["model"], declared["floor"])
+    declared = None if declared is None or label == REFERENCE_LABEL else ModelDifference(declared["model"], declared["bound"])
+    # a finer level where the class is undecided; not for an engine whose model the scene declares
+    # different: its soft model follows the step (its order is not the integrator's), so a finer
+    # level decides nothing its verdict needs (the size of its floor, or of its error, against the bound)
+    if finer and declared is None and any(error_model.needs_finer_level(lv, method.order_of(name), resolutions[name])
+                                          for name, lv in levels.items()):
+        measure(refinement.scaled_step(settings, finer[0]))
     closed_form = exact.declared_floor(scene)
     closed_form = None if closed_form is None else ModelDifference(closed_form[1], closed_form[0])
     out = []

@@ -8,8 +8,9 @@ A scene states only what is the same for every engine:
   judge by convergence alone.
 * its **model differences** (``[model_differences.<engine>]``): an engine whose model is not the
   ideal one the scene describes (MuJoCo's soft loop constraints and soft contact), with what
-  differs (``model``) and a physical bound on the size of the difference (``floor``, relative
-  to each quantity's scale: the motion's length for m, its speed for m/s, 1 for rad and rel).
+  differs (``model``) and a bound on the size of the difference (``bound``: on each check's
+  error at the scene's step, relative to the quantity's scale: the motion's length for m, its
+  speed for m/s, 1 for rad and rel).
   A closed form that is itself an approximation (a small-oscillation theory) declares its
   floor in its reference module (``EXACT_FLOOR``: a bound and why).
 
@@ -18,13 +19,13 @@ The verdict (``judge``):
 * ``converges``: passes (the engine agrees with the physics; its error at the scene's step is
   reported in units, and bounded only by a requirement if the scene states one);
 * ``model difference``: passes where it is declared (for the engine, or for the closed form on
-  ``exact``) and its floor is within the declared bound; fails where it is not declared, or
-  above its bound;
+  ``exact``) and its error at the scene's step is within the declared bound (relative to the
+  quantity's scale); fails where it is not declared, or beyond its bound;
 * ``defect`` (an order far below the method's, an error growing with refinement, non-finite):
   fails, except where the engine's model difference is declared: a soft constraint's stiffness
   follows the step (MuJoCo's ``solref`` time constant is at least two steps), so its error's
-  order is not the integrator's; there the error at the scene's step is held to the declared
-  bound instead;
+  order is not the integrator's, and its whole error at the scene's step is the model
+  difference's footprint there; that error is held to the declared bound;
 * ``unresolved`` (an error of the motion's own size at the scene's step: a chaotic motion past
   its predictability, a step too large for its rates): fails, naming that cause;
 * ``not judged`` (no other level ran to the end): fails, with the reason.
@@ -41,10 +42,11 @@ from harness.judging.error_model import CONVERGES, DEFECT, MODEL_DIFFERENCE, NOT
 @dataclass(frozen=True)
 class ModelDifference:
     """A declared model difference: ``model`` says what differs from the scene's ideal model,
-    ``floor`` bounds its size relative to each quantity's scale (dimensionless)."""
+    ``bound`` bounds its size, each check's error at the scene's step relative to its quantity's
+    scale (dimensionless)."""
 
     model: str
-    floor: float
+    bound: float
 
 
 @dataclass(frozen=True)
@@ -75,17 +77,16 @@ def _by_class(model: ErrorModel, declared: ModelDifference | None) -> Verdict:
         return Verdict(False, cls, model.reason)
     if declared is None:
         return Verdict(False, cls, model.reason + ("" if cls == DEFECT else "; not declared by the scene"))
-    if cls == MODEL_DIFFERENCE:
-        size = model.relative_floor
-        what = "floor"
-    else:  # a soft model whose order is not the integrator's: its whole error at the scene's step
-        size = model.error / model.scale if model.scale > 0 else math.inf
-        what = "error"
+    # the whole error at the scene's step is the declared model's footprint there: a soft model
+    # follows the step (MuJoCo's solref time constant is two steps), so the part of its error that
+    # vanishes with refinement vanishes only as the model itself stiffens
+    size = model.error / model.scale if model.scale > 0 else math.inf
+    what = "error"
     label = f"{MODEL_DIFFERENCE} (declared)"
-    if size <= declared.floor:
-        return Verdict(True, label, f"{declared.model}: {what} {size:.1e} of scale within its bound {declared.floor:.0e}; "
+    if size <= declared.bound:
+        return Verdict(True, label, f"{declared.model}: {what} {size:.1e} of scale within its bound {declared.bound:.0e}; "
                                     f"{model.reason}")
-    return Verdict(False, label, f"{declared.model}: {what} {size:.1e} of scale beyond its bound {declared.floor:.0e}; "
+    return Verdict(False, label, f"{declared.model}: {what} {size:.1e} of scale beyond its bound {declared.bound:.0e}; "
                                  f"{model.reason}")
 
 

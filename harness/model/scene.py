@@ -68,9 +68,9 @@ CHECKS: dict[str, tuple[str, ...]] = {
 }
 
 #: The keys a ``[model_differences.<engine>]`` table holds: ``model`` (what differs from the
-#: scene's ideal model, one line) and ``floor`` (a bound on the size of the difference relative
-#: to each quantity's scale, a positive number; ``harness.judging.verdict``).
-MODEL_DIFFERENCE_KEYS = ("model", "floor")
+#: scene's ideal model, one line) and ``bound`` (a bound on each check's error at the scene's step
+#: relative to its quantity's scale, a positive number; ``harness.judging.verdict``).
+MODEL_DIFFERENCE_KEYS = ("model", "bound")
 
 #: The checks a scene without code may declare besides ``exact`` (which needs its closed forms,
 #: ``references/<scene>.py``): those that need no builder (no loop, no rolling contact).
@@ -163,7 +163,7 @@ class Scene:
         requirements: check name (``closure.position``) or check table (``closure``) -> a bound
             on its value at the scene's step that every engine must meet, in the check's unit
             (``[requirements]``; a project's ``--requirements`` file adds to it).
-        model_differences: engine -> ``{"model": what differs, "floor": bound}``: an engine whose
+        model_differences: engine -> ``{"model": what differs, "bound": its size}``: an engine whose
             model differs from the scene's ideal one (``[model_differences.<engine>]``,
             ``harness.judging.verdict``).
         not_run: engine -> why it does not run this scene (``[not_run]``: a model the engine
@@ -465,7 +465,7 @@ def check_description(data: dict, path: Path) -> None:
         _known_keys(table, MODEL_DIFFERENCE_KEYS, path, where)
         if not (isinstance(table.get("model"), str) and table["model"].strip()):
             raise InputError(f"{path}: {where} model must say what differs (a string)")
-        _positive(table.get("floor"), path, f"{where} floor", "a bound relative to the quantity's scale")
+        _positive(table.get("bound"), path, f"{where} bound", "the error's bound relative to the quantity's scale")
     _check_code_or_data(data, path)
 
 
@@ -564,7 +564,7 @@ def _scene_from_toml(data: dict, path: Path) -> Scene:
         integrators=dict(data.get("integrators", {})),
         checks=dict(data.get("checks", {})),
         requirements={k: float(v) for k, v in data.get("requirements", {}).items()},
-        model_differences={e: {"model": str(d["model"]), "floor": float(d["floor"])}
+        model_differences={e: {"model": str(d["model"]), "bound": float(d["bound"])}
                            for e, d in data.get("model_differences", {}).items()},
         not_run=dict(data.get("not_run", {})),
         builder=str(data.get("builder", "")),

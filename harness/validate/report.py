@@ -666,16 +666,27 @@ def payload(results: list[SceneValidation], prov: dict) -> dict:
             "scenes": [as_dict(v) for v in results]}
 
 
+#: Wall-clock budget (s) of drawing the convergence figure in its worker.
+FIGURE_TIMEOUT = 300.0
+
+
 def write_reports(results: list[SceneValidation], prov: dict, out_dir: Path) -> list[Path]:
-    """Write the report set (``FILES``) into ``out_dir`` as one set; returns their paths."""
-    files = {
-        "validation.md": markdown(results, prov),
-        "validation.csv": checks_frame(results).to_csv(index=False),
-        "validation.json": json.dumps(payload(results, prov), indent=2, default=_json_default, allow_nan=True),
-        "validation.junit.xml": junit_xml(results, prov),
-        MATRIX_PNG: matrix_png(results),
-        CONVERGENCE_PNG: convergence_png(results),
-    }
+    """Write the report set (``FILES``) into ``out_dir`` as one set; returns their paths. The
+    convergence figure is drawn in a worker process beside the rest (``harness.validate.workers``:
+    it dies with this process), the slowest part of the report."""
+    from harness.validate.workers import open_workers
+
+    with open_workers(2) as workers:
+        workers.start("convergence", convergence_png, (results,), FIGURE_TIMEOUT)
+        matrix = matrix_png(results)
+        text = {"validation.md": markdown(results, prov),
+                "validation.csv": checks_frame(results).to_csv(index=False),
+                "validation.json": json.dumps(payload(results, prov), indent=2, default=_json_default, allow_nan=True),
+                "validation.junit.xml": junit_xml(results, prov)}
+        ((_, drawn),) = workers.wait()
+    if drawn.status != "ok":
+        raise RuntimeError(f"drawing {CONVERGENCE_PNG}: {drawn.status}: {drawn.message}")
+    files = {**text, MATRIX_PNG: matrix, CONVERGENCE_PNG: drawn.value}
     assert tuple(files) == FILES
     return atomic.write_set(Path(out_dir), files)
 

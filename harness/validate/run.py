@@ -51,6 +51,7 @@ solution is computed once, in parallel with the other scenes' reference runs.
 
 from __future__ import annotations
 
+import collections
 import os
 import time
 from dataclasses import asdict, dataclass, field, replace
@@ -61,6 +62,7 @@ import numpy as np
 from harness.engines import get_engine, integrator
 from harness.engines.base import ERROR_CONTROL_ATOL, ERROR_CONTROL_TOL, RunSettings  # one set of defaults (simulate's too)
 from harness.engines.inhouse import run_method
+from harness.judging import refinement
 from harness.judging.checks import (REFERENCE_ENGINE, REFERENCE_LABEL, CheckResult, check_run, extrapolated_difference,
                                     judge_convergence)
 from harness.measure import compare, contact_metrics, exact, solution_cache
@@ -69,7 +71,7 @@ from harness.measure.trajectory import Trajectory
 from harness.model import forces
 from harness.model.errors import InputError
 from harness.model.scene import MODELS_DIR, Scene
-from harness.validate.workers import Outcome, run_cases
+from harness.validate.workers import Outcome
 
 REFERENCE_METHOD = "DOP853"
 REFERENCE_TOL = 1e-12
@@ -157,6 +159,12 @@ def reference_case(scene: Scene, fast: bool = True) -> tuple[Trajectory, RunReco
         checks = check_run(scene, "reference", REFERENCE_ENGINE, traj, None, settings)
         if traj.ok and "exact" in scene.checks:
             exact.prepare(scene, traj)  # what the engines' exact checks need, if the reference's did not compute it
+            # and at the engines' coarser level's saved times (a subset of these), once here rather than in every
+            # engine's worker (the Andrews squeezer's, saved at every step: its DAE again per engine)
+            coarse = refinement.scaled_step(RunSettings(scene.t_end, scene.dt, save_interval(scene), "rk4"), 2.0)
+            grid = None if coarse is None else refinement.on_grid(traj, np.arange(coarse.n_saves + 1) * coarse.save_every)
+            if grid is not None and len(grid.t) != len(traj.t):
+                exact.prepare(scene, grid)
         checks, _ = judge_convergence(scene, "reference", REFERENCE_ENGINE, settings, traj, None, checks)
     return traj, record, checks, solutions
 
@@ -190,16 +198,7 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
     jobs = jobs or os.cpu_count() or 1
     defaults = {s.name: _defaults(s) for s in scenes}
     models = {s.name: model_checks(s, engines, defaults[s.name]) for s in scenes}
-    tick = None if progress is None else (lambda key, outcome: _tick(progress, key, outcome))
-    refs = run_cases([(s.name, reference_case, (s, fast)) for s in scenes], jobs, timeout, on_done=tick, dask=dask)
-    _raise_input_errors(refs)
-    cases = []
-    for s in scenes:
-        ref_outcome = refs[s.name]
-        ref, solutions = (ref_outcome.value[0], ref_outcome.value[3]) if ref_outcome.status == "ok" else (None, None)
-        cases += [((s.name, e), engine_case, (s, e, ref, fast, solutions)) for e in engines if e not in s.not_run]
-    outcomes = run_cases(cases, jobs, timeout, on_done=tick, dask=dask)
-    _raise_input_errors(outcomes)
+    refs, outcomes = _run_reference_then_engines(scenes, engines, jobs, timeout, progress, dask, fast)
 
     results = []
     for s in scenes:
@@ -235,6 +234,40 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
                     v.cross_extrapolated[f"{a} vs {b}"] = found
         results.append(v)
     return results
+
+
+def _run_reference_then_engines(scenes: list[Scene], engines: list[str], jobs: int, timeout: float, progress,
+                                dask: str | None, fast: bool) -> tuple[dict, dict]:
+    """Every scene's reference case, and each scene's engine cases as soon as its reference case
+    has ended (they need its trajectory and exact solutions), on one pool of workers: no core
+    waits for the slowest reference before the engines start. Returns ``(refs, outcomes)``:
+    ``{scene: Outcome}`` and ``{(scene, engine): Outcome}``. Raises InputError where a case
+    reports bad input (the workers still running are killed on the way out)."""
+    from harness.validate.workers import open_workers
+
+    pending = collections.deque((s.name, reference_case, (s, fast)) for s in scenes)
+    by_name = {s.name: s for s in scenes}
+    refs: dict = {}
+    outcomes: dict = {}
+    with open_workers(jobs, dask) as workers:
+        while pending or len(workers):
+            while pending and workers.free():
+                key, fn, args = pending.popleft()
+                workers.start(key, fn, args, timeout)
+            for key, outcome in workers.wait():
+                if outcome.status == "input_error":
+                    raise InputError(outcome.message)
+                if progress is not None:
+                    _tick(progress, key, outcome)
+                if isinstance(key, tuple):
+                    outcomes[key] = outcome
+                    continue
+                refs[key] = outcome
+                s = by_name[key]
+                ref, solutions = (outcome.value[0], outcome.value[3]) if outcome.status == "ok" else (None, None)
+                pending.extend(((s.name, e), engine_case, (s, e, ref, fast, solutions))
+                               for e in engines if e not in s.not_run)
+    return refs, outcomes
 
 
 def _tick(progress, key, outcome) -> None:
@@ -314,12 +347,6 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
                 detail += f"; {hint} shows more"
             out.append(CheckResult(scene.name, engine, name, float(d.value), float(d.tolerance), d.unit, d.passed, detail))
     return out
-
-
-def _raise_input_errors(outcomes: dict[Any, Outcome]) -> None:
-    for outcome in outcomes.values():
-        if outcome.status == "input_error":
-            raise InputError(outcome.message)
 
 
 def _collect(v: SceneValidation, scene: Scene, label: str, outcome: Outcome, settings: RunSettings) -> None:

@@ -49,7 +49,7 @@ def _mujoco_case(scene, andrews):
 @pytest.mark.slow
 def test_mujocos_soft_loop_constraints_are_a_declared_model_difference_within_its_bound(andrews):
     scene, _ = andrews
-    bound = scene.model_differences["mujoco"]["floor"]
+    bound = scene.model_differences["mujoco"]["bound"]
     judged = _mujoco_case(scene, andrews)
     assert all(c.passed for c in judged.values()), [(c.check, c.judged) for c in judged.values() if not c.passed]
     soft = {n: c for n, c in judged.items() if c.classification == DECLARED}
@@ -72,7 +72,7 @@ def test_an_armature_on_one_hinge_is_a_model_difference_beyond_the_soft_constrai
     assert text.count(hinge) == 1
     mjcf.write_text(text.replace(hinge, hinge + ' armature="1e-9"'))
     scene = load_scene("andrews_squeezer", models_dir=tmp_path)
-    bound = scene.model_differences["mujoco"]["floor"]
+    bound = scene.model_differences["mujoco"]["bound"]
     assert bound == 2e-4  # the scene's bound, unchanged
     # the model files' checks read masses, inertias, joints and axes: not an armature (the
     # dynamics verdict below is what catches it, whichever way those checks go)

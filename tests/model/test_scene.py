@@ -131,11 +131,11 @@ MISTAKES = {
                                 "[requirements] exact must be a number"),
     "requirement of no check": ("[checks.energy_drift]", "[requirements]\nslip = 1e-6\n\n[checks.energy_drift]",
                                 "[requirements] slip: names no check the scene makes"),
-    "model difference of no engine": ("[checks.energy_drift]", '[model_differences.bullet]\nmodel = "x"\nfloor = 1e-3\n\n[checks.energy_drift]',
+    "model difference of no engine": ("[checks.energy_drift]", '[model_differences.bullet]\nmodel = "x"\nbound = 1e-3\n\n[checks.energy_drift]',
                                       "[model_differences.bullet]: unknown engine"),
     "model difference without a bound": ("[checks.energy_drift]", '[model_differences.mujoco]\nmodel = "soft"\n\n[checks.energy_drift]',
-                                         "[model_differences.mujoco] floor must be a number"),
-    "model difference without a model": ("[checks.energy_drift]", '[model_differences.mujoco]\nfloor = 1e-3\n\n[checks.energy_drift]',
+                                         "[model_differences.mujoco] bound must be a number"),
+    "model difference without a model": ("[checks.energy_drift]", '[model_differences.mujoco]\nbound = 1e-3\n\n[checks.energy_drift]',
                                          "[model_differences.mujoco] model must say what differs"),
     "not_run reason not a string": ("[integrators]", "[not_run]\ndrake = 5\n\n[integrators]",
                                     "[not_run] drake must say why the engine does not run this scene"),
@@ -426,4 +426,4 @@ def test_no_scene_holds_a_per_engine_number():
         numbers = len(data.get("requirements", {})) + len(data.get("model_differences", {}))
         assert numbers <= 5, (name, numbers)
         for engine, declared in data.get("model_differences", {}).items():
-            assert set(declared) == {"model", "floor"} and declared["model"].strip(), (name, engine)
+            assert set(declared) == {"model", "bound"} and declared["model"].strip(), (name, engine)

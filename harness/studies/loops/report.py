@@ -257,8 +257,8 @@ def model_cell(m: error_model.ErrorModel, declared: dict | None = None) -> str:
             and error_model.needs_finer_level(list(m.levels), m.formal_order, m.resolution)):
         text += " (undecided)"
     if declared and m.classification in (error_model.MODEL_DIFFERENCE, error_model.DEFECT):
-        v = judge(m, ModelDifference(declared["model"], declared["floor"]))
-        text += f" — declared, {'within' if v.passed else 'beyond'} its bound {declared['floor']:g}"
+        v = judge(m, ModelDifference(declared["model"], declared["bound"]))
+        text += f" — declared, {'within' if v.passed else 'beyond'} its bound {declared['bound']:g}"
     return text
 
 

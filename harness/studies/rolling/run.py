@@ -409,7 +409,7 @@ def setting_models(result: StudyResult, case: str = "steady_circle", measure: st
         if declared:  # the scene's declared soft contact: the verdict validate gives (harness.judging.verdict)
             from harness.judging.verdict import ModelDifference, judge
 
-            v = judge(m, ModelDifference(declared["model"], declared["floor"]))
+            v = judge(m, ModelDifference(declared["model"], declared["bound"]))
             reason += f"; verdict: {v.label}, {'passes' if v.passed else 'fails'} ({v.detail.split(';')[0]})"
         for r in group:
             put(r["setting"], m.classification, reason, m.observed_order, m.floor)
