@@ -196,8 +196,8 @@ def fit(quantity: str, unit: str, scale: float, kind: str, formal_order: float, 
     fine, mid = ordered[0], ordered[1]
     rho = mid.step / fine.step
     order = _order(fine.error, mid.error, rho)
-    if max(fine.error, mid.error) <= NOISE * resolution:
-        return model(order, base.error, 0.0, CONVERGES, f"within {NOISE:g}x the resolution ({resolution:.1e} {unit})")
+    if max(fine.error, mid.error) <= NOISE * resolution:  # noise about the resolution: no order to read
+        return model(float("nan"), base.error, 0.0, CONVERGES, f"within {NOISE:g}x the resolution ({resolution:.1e} {unit})")
     if mid.error < fine.error and fine.error > 2.0 * mid.error:
         return model(order, float("nan"), float("nan"), DEFECT,
                      f"grows with refinement: {mid.error:.2e} at {mid.step:g} s, {fine.error:.2e} at {fine.step:g} s")
@@ -238,5 +238,6 @@ def _fit_adaptive(base: Level, loose: Level, model, resolution: float, unit: str
         return model(q, base.error - floor, floor, MODEL_DIFFERENCE,
                      f"a floor of {floor:.2e} {unit} that does not follow the tolerance "
                      f"({base.error:.2e} at {base.step:g}, {loose.error:.2e} at {loose.step:g})")
-    return model(q, base.error, 0.0, CONVERGES, f"order {q:.2f} in the tolerance, no floor resolved")
+    return model(float("nan"), base.error, 0.0, CONVERGES,
+                 f"no floor resolved: within {NOISE:g}x the resolution ({resolution:.1e} {unit}), flat in the tolerance")
 

@@ -337,6 +337,10 @@ def _exudyn_rows(mb, rtol: float, size: float) -> list[ModelRow]:
 # --------------------------------------------------------------------------- free motion
 
 
+#: Wall-clock budget (s) of one witness run (``free_motion``), made in its own worker process.
+WITNESS_TIMEOUT = 120.0
+
+
 def free_motion(w: Witnesses, m: mujoco.MjModel, jmap: dc.JointMap, q0: np.ndarray, v0: np.ndarray, k: int, *,
                 t_end: float, dt: float, save_every: float, rigid: mujoco.MjModel) -> list[WitnessFree]:
     """Both witnesses from common state (q0, v0) against MuJoCo's rigid model ``rigid`` (module
@@ -344,6 +348,7 @@ def free_motion(w: Witnesses, m: mujoco.MjModel, jmap: dc.JointMap, q0: np.ndarr
     from harness.engines.base import RunSettings
     from harness.engines.exudyn.engine import ExudynEngine
     from harness.engines.inhouse import InhouseEngine
+    from harness.validate.workers import run_cases
 
     mf = w.model_file
     mb = mf.multibody
@@ -387,12 +392,14 @@ def free_motion(w: Witnesses, m: mujoco.MjModel, jmap: dc.JointMap, q0: np.ndarr
     for label, engine, rs, tol in settings:
         from harness.tools.check import FREE_MOTION_TOL
         tol = tol or {key: FREE_MOTION_TOL[key] for key in ("position", "orientation", "velocity")}
-        try:
-            traj = engine.simulate_model(model, rs)
-        except Exception as err:  # noqa: BLE001 - a witness that cannot run is reported, not a crash
-            out.append(WitnessFree(label, k, float("nan"), float("nan"), float("nan"), "", tol,
-                                   f"error: {' '.join(str(err).split())}"))
+        # in its own worker under a wall-clock budget: a hang or a crash is that witness's result
+        outcome = run_cases([("witness", engine.simulate_model, (model, rs))], 1, WITNESS_TIMEOUT)["witness"]
+        if outcome.status != "ok":  # a witness that cannot run is reported, not a crash
+            why = (f"timed out after {WITNESS_TIMEOUT:g} s" if outcome.status == "timeout"
+                   else f"{outcome.status}: {' '.join(outcome.message.split())}")
+            out.append(WitnessFree(label, k, float("nan"), float("nan"), float("nan"), "", tol, why))
             continue
+        traj = outcome.value
         if traj.status != "ok" or len(traj.t) != n_saves + 1:
             out.append(WitnessFree(label, k, float("nan"), float("nan"), float("nan"), "", tol,
                                    f"{traj.status}: {traj.message}"))

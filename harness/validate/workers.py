@@ -339,6 +339,110 @@ class Workers:
         return []
 
 
+def in_worker() -> bool:
+    """Whether this process is itself a worker (a daemonic process, which may start none of its
+    own): cases then run in this process, under the enclosing worker's budget (a zoo model's
+    ``check``, a scene of ``workprecision`` on a Dask worker)."""
+    return bool(mp.current_process().daemon)
+
+
+def _in_process(fn: Callable, args: tuple, on_done, key) -> Outcome:
+    """``fn(*args)`` in this process, as an ``Outcome`` (``run_cases`` inside a worker)."""
+    start = time.monotonic()
+    try:
+        outcome = Outcome("ok", fn(*args), "", time.monotonic() - start)
+    except InputError as err:
+        outcome = Outcome("input_error", None, str(err), time.monotonic() - start)
+    except Exception as err:  # noqa: BLE001 - the case's failure, as a worker would report it
+        outcome = Outcome("error", None, f"{type(err).__name__}: {err}", time.monotonic() - start)
+    if on_done is not None:
+        on_done(key, outcome)
+    return outcome
+
+
+def _stream_worker(conn, fn, args):
+    """Body of a streaming worker: send ``("item", x)`` for each item ``fn(*args)`` yields, then
+    ``("end", None)``; an exception is ``("error", message)`` (``_worker``'s isolation)."""
+    _die_with_parent()
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1, user_api="blas")
+    try:
+        for item in fn(*args):
+            conn.send(("item", item))
+        conn.send(("end", None))
+    except InputError as err:
+        conn.send(("input_error", str(err)))
+    except BaseException as err:  # anything else is this stream's failure
+        last = traceback.extract_tb(err.__traceback__)[-1] if err.__traceback__ else None
+        where = f" ({os.path.basename(last.filename)}:{last.lineno})" if last else ""
+        conn.send(("error", f"{type(err).__name__}: {err}{where}"))
+    finally:
+        conn.close()
+
+
+def stream_case(fn: Callable, args: tuple, item_timeout: float):
+    """Run the generator ``fn(*args)`` in one worker process and yield ``Outcome``s as it goes:
+    ``ok`` with each item it yields, as soon as it yields it, each within ``item_timeout``
+    wall-clock seconds of the one before (or of the start); then nothing more. A worker that is
+    silent for longer is killed and the stream ends with ``timeout``; one that dies or raises
+    ends it with ``crashed`` or ``error`` (``input_error`` for bad input). One process for a whole
+    sequence of runs, each under its own budget: a curve of points, where forking a worker per
+    point would cost more than the points (a hang still ends in ``item_timeout``). The worker dies
+    with this process (``_die_with_parent``) and is killed if the caller stops iterating. Inside a
+    worker (``in_worker``) the generator runs in this process, under the enclosing budget."""
+    if in_worker():  # in a worker already: in this process, under the enclosing worker's budget
+        last = time.monotonic()
+        try:
+            for item in fn(*args):
+                yield Outcome("ok", item, "", time.monotonic() - last)
+                last = time.monotonic()
+        except InputError as err:
+            yield Outcome("input_error", None, str(err), time.monotonic() - last)
+        except Exception as err:  # noqa: BLE001 - the stream's failure, as a worker would report it
+            yield Outcome("error", None, f"{type(err).__name__}: {err}", time.monotonic() - last)
+        return
+    ctx = _context()
+    _prctl()
+    parent, child = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_stream_worker, args=(child, fn, args), daemon=True)
+    proc.start()
+    _LIVE.add(proc)
+    child.close()
+    last = time.monotonic()
+    try:
+        while True:
+            ready = mpc.wait([parent, proc.sentinel], timeout=max(0.0, last + item_timeout - time.monotonic()))
+            if not ready:
+                yield Outcome("timeout", message=f"no result within {item_timeout:g} s",
+                              wall_s=time.monotonic() - last)
+                return
+            if parent.poll():
+                try:
+                    kind, value = parent.recv()
+                except (EOFError, OSError):
+                    proc.join(1.0)
+                    yield Outcome("crashed", message=_died(proc), wall_s=time.monotonic() - last)
+                    return
+                now = time.monotonic()
+                if kind == "item":
+                    yield Outcome("ok", value, "", now - last)
+                    last = time.monotonic()
+                    continue
+                if kind != "end":
+                    yield Outcome(kind, None, value, now - last)
+                return
+            proc.join(1.0)
+            yield Outcome("crashed", message=_died(proc), wall_s=time.monotonic() - last)
+            return
+    finally:
+        if proc.is_alive():
+            proc.kill()
+        proc.join(5.0)
+        _LIVE.discard(proc)
+        parent.close()
+
+
 def open_workers(jobs: int | None = None, dask: str | None = None):
     """The executor of a sweep: the local pool ``Workers(jobs)``, or with ``dask`` (a scheduler
     address, ``tcp://host:port``) ``harness.validate.dask_workers.DaskWorkers(dask, jobs)``, which
@@ -363,7 +467,11 @@ def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, t
     ``dask``: the address of a ``dask.distributed`` scheduler (``tcp://host:port``): the cases run
     there instead, each in its own process on a Dask worker, at most as many at once as the
     cluster has worker threads (``jobs`` caps it), with the same outcomes
-    (``harness.validate.dask_workers``)."""
+    (``harness.validate.dask_workers``). Inside a worker (``in_worker``: a daemonic process may
+    start none of its own) the cases run in this process, one after the other, under the
+    enclosing worker's budget."""
+    if dask is None and in_worker():
+        return {key: _in_process(fn, args, on_done, key) for key, fn, args in cases}
     pending = collections.deque(cases)
     results: dict[Hashable, Outcome] = {}
     with open_workers(jobs, dask) as workers:

@@ -204,3 +204,53 @@ def test_a_worker_runs_its_blas_on_one_thread():
     assert outcome.value and all(n == 1 for n in outcome.value)
     if (os.cpu_count() or 1) > 1 and "OPENBLAS_NUM_THREADS" not in os.environ:
         assert max(parent) > 1  # the limit is the worker's, not inherited: the parent keeps its threads
+
+
+def _three_then_hang(hang: float):
+    import time as _time
+
+    for k in range(3):
+        yield k
+    _time.sleep(hang)
+    yield 99
+
+
+def _raises_after_one():
+    yield 1
+    raise ValueError("bad point")
+
+
+def test_a_stream_yields_each_item_as_it_comes_and_ends_a_hang_at_its_budget():
+    """``stream_case``: one worker for a sequence of items, each under its own budget: the items
+    before a hang arrive, the hang ends as ``timeout`` within the budget, the worker is gone."""
+    import time
+
+    from harness.validate.workers import _LIVE, stream_case
+
+    start = time.monotonic()
+    outcomes = list(stream_case(_three_then_hang, (30.0,), 0.5))
+    assert [o.value for o in outcomes[:3]] == [0, 1, 2] and all(o.status == "ok" for o in outcomes[:3])
+    assert outcomes[3].status == "timeout" and len(outcomes) == 4
+    assert time.monotonic() - start < 10 and not _LIVE
+    assert [o.value for o in stream_case(_three_then_hang, (0.0,), 5.0)] == [0, 1, 2, 99]
+    errors = list(stream_case(_raises_after_one, (), 5.0))
+    assert [o.status for o in errors] == ["ok", "error"] and "ValueError: bad point" in errors[1].message
+
+
+def _nested(x):
+    from harness.validate.workers import in_worker, run_cases, stream_case
+
+    inner = run_cases([("inner", abs, (x,))], 1, 5.0)["inner"]
+    streamed = [o.value for o in stream_case(_three_then_hang, (0.0,), 5.0)]
+    return in_worker(), inner.status, inner.value, streamed
+
+
+def test_cases_started_inside_a_worker_run_in_it():
+    """A worker is a daemonic process, which may start none of its own: ``run_cases`` and
+    ``stream_case`` called inside one (a zoo model's check, its witnesses' runs) run the cases in
+    that worker, under its budget, instead of failing."""
+    from harness.validate.workers import in_worker, run_cases
+
+    outcome = run_cases([("outer", _nested, (-3,))], 1, 30.0)["outer"]
+    assert outcome.status == "ok", outcome.message
+    assert outcome.value == (True, "ok", 3, [0, 1, 2, 99]) and not in_worker()

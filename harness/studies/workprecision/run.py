@@ -33,14 +33,16 @@ Every curve except MuJoCo's ``rollout`` variant runs through its engine's ``simu
 registry's ``get_engine``); whether a method is adaptive and its nominal order come from the
 engine's ``Integrator`` records (``harness.engines.integrator``).
 
-Every point (its warm-up and timed repeats) runs in its own worker process
-(``measure_in_worker``: ``harness.validate.workers``, as validate runs its cases), forked from
-the sweep's process after the engines' imports and the compiled kernels are loaded, under a
-wall-clock budget (``run_timeout_s``, default 60 s, ``--run-timeout``): a point over it is killed
-and recorded as failed, "timed out after N s", its curve stops there (a finer step or a tighter
-tolerance only takes longer) and the sweep goes on. The times stay the runs' own: each is
-measured inside the worker around the run alone (``measure``), and a point's wall time, which
-the curve budgets count, around ``measure`` in the worker (the process's start is not in it).
+Every curve runs in its own worker process (``_curve_points`` through
+``harness.validate.workers.stream_case``), forked from the sweep's process after the engines'
+imports and the compiled kernels are loaded, which sends each point (its warm-up and timed
+repeats) back as it is measured, each under a wall-clock budget (``run_timeout_s``, default
+60 s, ``--run-timeout``): a point over it is killed with its worker and recorded as failed,
+"timed out after N s", its curve stops there (a finer step or a tighter tolerance only takes
+longer) and the sweep goes on. One worker per curve, not per point: forking a worker for each
+point cost more than many points (heavy_top's sweep 19 s against 13 s in-process). The times
+stay the runs' own: each is measured inside the worker around the run alone (``measure``), and
+a point's wall time, which the curve budgets count, around ``measure`` in the worker.
 Before any run, the finest step of every ladder is held to ``harness.model.scene.MAX_STEPS``
 integration steps over the horizon (``check_step_budget``).
 
@@ -235,7 +237,7 @@ class SweepOptions:
         batch_steps: steps of each trajectory in that benchmark.
         batch_budget_s: about the time (s) of that benchmark's timed runs (None: always ``batch``).
         run_timeout_s: wall-clock budget (s) of one point (its warm-up and timed repeats), which
-            runs in its own worker process (``measure_in_worker``): a point over it is recorded
+            runs in its curve's worker process (``sweep_scene``): a point over it is recorded
             as failed, "timed out after N s", its curve stops and the sweep goes on.
         progress: draw the progress bar on stderr (only ever when stderr is a terminal).
     """
@@ -661,41 +663,7 @@ def measure(scene: Scene, curve: Curve, settings: RunSettings, ref: Trajectory, 
                                   **{k: nan for k in ERROR_KEYS})
 
 
-TIMED_OUT = "timed out after"  # the message of a point over its wall-clock budget (``measure_in_worker``)
-
-
-def _timed_measure(scene: Scene, curve: Curve, settings: RunSettings, ref: Trajectory, model,
-                   options: SweepOptions) -> tuple[WorkPrecisionPoint, float]:
-    """Worker body of ``measure_in_worker``: the point and its wall time (s, ``_clock``), both
-    measured inside the worker (the process's start and the result's way back are not in it)."""
-    t0 = _clock()
-    point = measure(scene, curve, settings, ref, model, options)
-    return point, _clock() - t0
-
-
-def measure_in_worker(scene: Scene, curve: Curve, settings: RunSettings, ref: Trajectory, model,
-                      options: SweepOptions) -> tuple[WorkPrecisionPoint, float]:
-    """``measure`` in its own worker process (``harness.validate.workers.run_cases``: forked, so
-    that it starts with this process's imports and compiled kernels; killed at the end of its
-    budget), limited to ``options.run_timeout_s`` wall-clock seconds. Returns the point and its
-    wall time (s, measured in the worker around ``measure``; the run times inside the point are
-    ``measure``'s own, around each run alone). A point over its budget, or whose worker died or
-    raised, is a failed point saying so ("timed out after N s"); every other point goes on."""
-    from harness.validate.workers import run_cases
-
-    timeout = float(options.run_timeout_s)
-    outcome = run_cases([("point", _timed_measure, (scene, curve, settings, ref, model, options))], 1, timeout)["point"]
-    if outcome.status == "ok":
-        return outcome.value
-    param = settings.rtol if curve.adaptive else settings.dt
-    nan = float("nan")
-    why = {"timeout": f"{TIMED_OUT} {timeout:g} s (the wall-clock budget of a point, --run-timeout)"}.get(
-        outcome.status, f"{outcome.status}: {outcome.message}")
-    point = WorkPrecisionPoint(scene=scene.name, engine=curve.engine, integrator=curve.integrator, variant=curve.variant,
-                               param=float(param), status="failed", message=why, time_s=nan, time_min_s=nan,
-                               time_total_s=nan, repeats=0, steps=nan, rhs_evals=nan, nominal_order=curve.nominal_order,
-                               **{k: nan for k in ERROR_KEYS})
-    return point, outcome.wall_s
+TIMED_OUT = "timed out after"  # the message of a point over its wall-clock budget (``sweep_scene``)
 
 
 def curves(engines) -> list[Curve]:
@@ -859,7 +827,7 @@ def reach(curve: Curve, role: str, mujoco_best: float | None, targets=TARGETS) -
 
 
 def _prepare_workers(scene: Scene, curve_list: list[Curve], ref: Trajectory | None, model) -> None:
-    """What every point's worker (``measure_in_worker``, forked from this process) would
+    """What every curve's worker (``stream_case``, forked from this process) would
     otherwise load or compute again at its start: the engines' lazy imports
     (``harness.engines.preload``), the compiled in-house kernels (``warm_kernels``) and the
     reference's side of the errors (``_reference_side``)."""
@@ -871,6 +839,46 @@ def _prepare_workers(scene: Scene, curve_list: list[Curve], ref: Trajectory | No
         warm_kernels([scene])
     if isinstance(ref, Trajectory):
         _reference_side(ref, model)
+
+
+def failed_point(scene: Scene, curve: Curve, param: float, why: str) -> WorkPrecisionPoint:
+    """A point that has no run to show: failed, saying why (its budget, its worker's end)."""
+    nan = float("nan")
+    return WorkPrecisionPoint(scene=scene.name, engine=curve.engine, integrator=curve.integrator, variant=curve.variant,
+                              param=float(param), status="failed", message=why, time_s=nan, time_min_s=nan,
+                              time_total_s=nan, repeats=0, steps=nan, rhs_evals=nan, nominal_order=curve.nominal_order,
+                              **{k: nan for k in ERROR_KEYS})
+
+
+def _curve_points(scene: Scene, curve: Curve, ladder: list[float], t_end: float, save: float, ref: Trajectory,
+                  model, options: SweepOptions, goal, base: float, longer: float):
+    """Worker body (``harness.validate.workers.stream_case``): one curve's points down its ladder,
+    each yielded as it is measured as ``(point, wall s, stop so far, budget s)``, under the
+    curve's budget (``next_cost``) and stop rules (``stop_reason``); last ``(None, 0, stop,
+    budget)``. Every point of a curve is measured in this one process, each within the
+    stream's per-point budget (``run_timeout_s``); the wall time is measured here, around the
+    point alone."""
+    history: list[tuple[WorkPrecisionPoint, float]] = []
+    spent, stop, budget = 0.0, "end of the ladder", base
+    for param in ladder:
+        best = min((p.state_max for p, _ in history if p.ok), default=math.inf)
+        budget = longer if goal is not None and best > goal and converging(history, curve) else base
+        if history and spent + next_cost(history, curve.adaptive, options) > budget:
+            stop = f"budget {budget:g} s" + (f" (longer to reach {goal:g})" if budget != base else "")
+            break
+        settings = _settings(curve, t_end, save, param, adaptive_step(scene, options))
+        t0 = _clock()
+        point = measure(scene, curve, settings, ref, model, options)
+        wall = _clock() - t0
+        spent += wall
+        yield point, wall, stop, budget
+        if point.status == UNSUPPORTED:
+            return
+        history.append((point, wall))
+        stop = stop_reason(history, options) or stop
+        if stop != "end of the ladder":
+            break
+    yield None, 0.0, stop, budget
 
 
 def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), progress: Progress | None = None,
@@ -888,6 +896,8 @@ def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), p
     covered = compiled_covers(scene)[0] if "inhouse" in engines else True
     if curve_list is None:
         curve_list, result.omitted = scene_curves(engines, options, covered)
+    from harness.validate.workers import stream_case
+
     _prepare_workers(scene, curve_list, ref, model)
     start = _clock()
     mujoco_best = None  # best state error of MuJoCo RK4's target curve
@@ -899,14 +909,22 @@ def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), p
         ladder = _ladder(curve, save, options, scene.dt)
         history: list[tuple[WorkPrecisionPoint, float]] = []
         spent, stop = 0.0, "end of the ladder"
-        for i, param in enumerate(ladder):
-            best = min((p.state_max for p, _ in history if p.ok), default=math.inf)
-            budget = longer if goal is not None and best > goal and converging(history, curve) else base
-            if history and spent + next_cost(history, curve.adaptive, options) > budget:
-                stop = f"budget {budget:g} s" + (f" (longer to reach {goal:g})" if budget != base else "")
+        stream = stream_case(_curve_points, (scene, curve, ladder, t_end, save, ref, model, options, goal, base, longer),
+                             float(options.run_timeout_s))
+        for outcome in stream:
+            if outcome.status != "ok":  # the point being measured: over its budget, or its worker died
+                param = ladder[len(history)] if len(history) < len(ladder) else ladder[-1]
+                why = ({"timeout": f"{TIMED_OUT} {float(options.run_timeout_s):g} s (the wall-clock budget of a point, "
+                                   "--run-timeout)"}.get(outcome.status, f"{outcome.status}: {outcome.message}"))
+                point = failed_point(scene, curve, param, why)
+                result.points.append(point)
+                history.append((point, outcome.wall_s))
+                spent += outcome.wall_s
+                stop = why
                 break
-            settings = _settings(curve, t_end, save, param, adaptive_step(scene, options))
-            point, wall = measure_in_worker(scene, curve, settings, ref, model, options)
+            point, wall, stop, budget = outcome.value
+            if point is None:  # the curve's last word: why it stopped
+                break
             spent += wall
             if point.status == UNSUPPORTED:  # not this method's scene: no points, say why
                 result.skipped[curve.label] = point.message
@@ -915,10 +933,7 @@ def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), p
             result.points.append(point)
             history.append((point, wall))
             if progress is not None:
-                progress.advance(1, f"{scene.name}: {curve.label} {param:.1e}")
-            stop = stop_reason(history, options) or stop
-            if stop != "end of the ladder":
-                break
+                progress.advance(1, f"{scene.name}: {curve.label} {point.param:.1e}")
         if progress is not None:
             progress.advance(len(ladder) - len(history), f"{scene.name}: {curve.label} done")
         if role == KEY and curve.engine == "mujoco":
