@@ -42,7 +42,10 @@ repeats) back as it is measured, each under a wall-clock budget (``run_timeout_s
 longer) and the sweep goes on. One worker per curve, not per point: forking a worker for each
 point cost more than many points (heavy_top's sweep 19 s against 13 s in-process). The times
 stay the runs' own: each is measured inside the worker around the run alone (``measure``), and
-a point's wall time, which the curve budgets count, around ``measure`` in the worker.
+a point's wall time, which the curve budgets count, around ``measure`` in the worker. A scene's
+reference run, its head-to-head timing and its batch benchmark each run in a worker of their
+own too (``in_worker``, under ``STAGE_TIMEOUT``), recorded as failed with the reason if they
+do not end.
 Before any run, the finest step of every ladder is held to ``harness.model.scene.MAX_STEPS``
 integration steps over the horizon (``check_step_budget``).
 
@@ -890,7 +893,7 @@ def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), p
     t_end, save = horizon(scene, options)
     model = scene.multibody()
     start = _clock()
-    ref, how = reference(scene, t_end, save)
+    ref, how = in_worker(reference, (scene, t_end, save), "the reference run")
     result = SceneSweep(scene.name, t_end, save, how, reference_checks(scene, ref, t_end, save))
     result.walls["reference"] = _clock() - start
     covered = compiled_covers(scene)[0] if "inhouse" in engines else True
@@ -1269,7 +1272,7 @@ def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
             progress.advance(0, f"{scene.name}: head to head")
         t0 = time.perf_counter()
         try:
-            res.head_to_head = head_to_head(scene, res, options)
+            res.head_to_head = in_worker(head_to_head, (scene, res, options), "the head-to-head timing")
         except Exception as err:  # recorded, not raised
             res.head_to_head = [{"status": f"failed: {type(err).__name__}: {err}"}]
         res.walls["head_to_head"] = time.perf_counter() - t0
@@ -1278,7 +1281,8 @@ def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
             progress.advance(0, f"{scene.name}: batch of up to {options.batch}")
         t0 = time.perf_counter()
         try:
-            res.batch = batch_benchmark(scene, options.batch, options.batch_steps, min(3, options.repeats), options)
+            res.batch = in_worker(batch_benchmark, (scene, options.batch, options.batch_steps, min(3, options.repeats),
+                                                    options), "the batch benchmark")
         except Exception as err:  # recorded, not raised
             res.batch = {"scene": scene.name, "status": f"failed: {type(err).__name__}: {err}"}
         res.walls["batch"] = time.perf_counter() - t0
@@ -1286,6 +1290,30 @@ def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
             progress.advance(1, f"{scene.name}: batch done")
     res.walls["total"] = time.perf_counter() - start
     return res
+
+
+#: Wall-clock budget (s) of a scene's reference run, its head-to-head timing and its batch
+#: benchmark, each made in its own worker process (``in_worker``).
+STAGE_TIMEOUT = 600.0
+
+
+def in_worker(fn, args: tuple, what: str):
+    """``fn(*args)`` in its own worker process (``harness.validate.workers.run_cases``, forked from
+    this one: its imports and compiled kernels come along) under ``STAGE_TIMEOUT``; its value, or
+    RuntimeError saying why there is none ("timed out after N s", a crash, the error), which the
+    callers record instead of the stage's result. Times are measured inside, around each run."""
+    from harness.validate.workers import run_cases
+
+    outcome = run_cases([("stage", fn, args)], 1, STAGE_TIMEOUT)["stage"]
+    if outcome.status == "ok":
+        return outcome.value
+    if outcome.status == "input_error":
+        from harness.model.errors import InputError
+
+        raise InputError(outcome.message)
+    if outcome.status == "timeout":
+        raise RuntimeError(f"{what} {TIMED_OUT} {STAGE_TIMEOUT:g} s")
+    raise RuntimeError(f"{what}: {outcome.status}: {outcome.message}")
 
 
 def warm_kernels(scenes: list[Scene]) -> float:
