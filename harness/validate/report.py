@@ -48,6 +48,7 @@ from harness.judging.error_model import (
     NOISE,
     NOT_JUDGED,
 )
+from harness.judging.error_model import UNRESOLVED_CLASS as UNRESOLVED
 from harness.judging.quantities import TRAJECTORY, judged_max
 from harness.judging.checks import CheckResult
 from harness.validate.run import RunRecord, SceneValidation, as_dict
@@ -62,12 +63,13 @@ DECLARED = f"{MODEL_DIFFERENCE} (declared)"
 RUN_FAILED = "run failed"    # a run that crashed, hung or blew up (its ``run`` check): nothing to judge
 MODEL_FILE = "model file"    # a model file that disagrees with its scene (a failing ``model.*`` check)
 #: The matrix's order of the classes, worst first (a cell shows its worst check's).
-RANK = {DEFECT: 5, RUN_FAILED: 4, MODEL_FILE: 4, NOT_JUDGED: 3, MODEL_DIFFERENCE: 2, DECLARED: 1, CONVERGES: 0}
+RANK = {DEFECT: 5, RUN_FAILED: 4, MODEL_FILE: 4, UNRESOLVED: 3, NOT_JUDGED: 3, MODEL_DIFFERENCE: 2, DECLARED: 1,
+        CONVERGES: 0}
 #: How a class reads in a matrix cell.
 SHORT = {CONVERGES: "converges", DECLARED: "declared model diff.", MODEL_DIFFERENCE: "model diff.", DEFECT: "defect",
-         NOT_JUDGED: "not judged", RUN_FAILED: "run failed", MODEL_FILE: "model file"}
+         UNRESOLVED: "unresolved", NOT_JUDGED: "not judged", RUN_FAILED: "run failed", MODEL_FILE: "model file"}
 #: The matrix PNG's colour of each class.
-COLOURS = {CONVERGES: "#a6d96a", DECLARED: "#abd9e9", MODEL_DIFFERENCE: "#fdae61", NOT_JUDGED: "#c2a5cf",
+COLOURS = {CONVERGES: "#a6d96a", DECLARED: "#abd9e9", MODEL_DIFFERENCE: "#fdae61", NOT_JUDGED: "#c2a5cf", UNRESOLVED: "#9e9ac8",
            DEFECT: "#d73027", RUN_FAILED: "#a50026", MODEL_FILE: "#f46d43"}
 #: Each engine's colour in the convergence figure (the same in every report).
 ENGINE_COLOURS = {"reference": "#000000", "inhouse": "#1f77b4", "mujoco": "#d62728", "pinocchio": "#2ca02c",
@@ -595,7 +597,9 @@ def markdown(results: list[SceneValidation], prov: dict) -> str:
         "and the resolution below which nothing is resolved. *converges*: the error falls at about the method's order "
         "or sits at the resolution; *model difference*: a floor, which passes only where the scene declares the "
         "engine's model different (declared) and within its bound; *defect*: an order far below the method's, an "
-        "error that grows with refinement, a non-finite value; *not judged*: no second level ran to the end. A "
+        "error that grows with refinement, a non-finite value; *unresolved*: an error of the motion's own size at the "
+        "scene's step (a chaotic or fast motion the step does not resolve); *not judged*: no second level ran to the "
+        "end. A "
         "requirement (the scene's `[requirements]` or `--requirements`) bounds a check's value at the scene's step. "
         "Trajectories are judged against the in-house solver with SciPy DOP853 at rtol = atol = 1e-12 (row "
         "`reference`, itself judged against the exact solution). Units: `rel` a ratio (drifts over the energy or "

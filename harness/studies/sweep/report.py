@@ -23,9 +23,11 @@ from harness.studies.sweep.run import CLASS_ORDER, DECLARED, DIMENSIONLESS, Poin
 MAX_TABLE_ROWS = 400  # rows of the markdown table; the CSV always has them all
 _LETTER = {"crashed": "X", "timeout": "T", "error": "!", "blowup": "B", "failed": "F", "unsupported": "U",
            "not run": "-", "refused": "R"}
-#: The letter of a failing point's worst failing class: a defect, not judged, an undeclared model
+#: The letter of a failing point's worst failing class: a defect, unresolved (L: the run lost the
+#: motion), not judged, an undeclared model
 #: difference, a declared one beyond its bound, and a converging check beyond the scene's requirement.
-CLASS_LETTER = {"defect": "D", "not judged": "N", "model difference": "M", DECLARED: "Md", "converges": "Q"}
+CLASS_LETTER = {"defect": "D", "unresolved": "L", "not judged": "N", "model difference": "M", DECLARED: "Md",
+                "converges": "Q"}
 FAIL_COLOR = "red"
 
 

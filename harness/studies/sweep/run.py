@@ -28,7 +28,7 @@ by how its error converges, ``harness.judging.checks.judge_convergence``; ``harn
 * ``passed``: every check of the run passed (``CheckResult.passed``: its class is converges or a
   declared model difference within its bound, and it meets the scene's requirement if any);
 * ``classification``: the worst class over the run's checks, in the order ``CLASS_ORDER``
-  (defect > not judged > model difference (undeclared) > model difference (declared) >
+  (defect > unresolved > not judged > model difference (undeclared) > model difference (declared) >
   converges); a check of a run that ended ok which got no value (e.g. a closed form that does not
   cover the point) counts as ``not judged`` (it fails the point and is named in ``no_value``,
   why in ``message``); "" where the run did not end ok (its ``status`` says how);
@@ -59,7 +59,7 @@ from typing import Any, Callable
 import numpy as np
 
 from harness.engines.base import RunSettings, check_settings
-from harness.judging.error_model import CONVERGES, DEFECT, MODEL_DIFFERENCE, NOT_JUDGED
+from harness.judging.error_model import CONVERGES, DEFECT, MODEL_DIFFERENCE, NOT_JUDGED, UNRESOLVED_CLASS
 from harness.io.progress import case_label
 from harness.model.errors import InputError
 from harness.model.scene import Scene, check_steps, load_scene
@@ -224,7 +224,7 @@ def with_horizon(scene: Scene, t_end: float | None) -> Scene:
 DECLARED = f"{MODEL_DIFFERENCE} (declared)"
 #: The classes of ``validate``'s verdicts (``CheckResult.classification``), best first: a point's
 #: class is the last of these that one of its checks has.
-CLASS_ORDER = (CONVERGES, DECLARED, MODEL_DIFFERENCE, NOT_JUDGED, DEFECT)
+CLASS_ORDER = (CONVERGES, DECLARED, MODEL_DIFFERENCE, NOT_JUDGED, UNRESOLVED_CLASS, DEFECT)
 #: The units of the checks whose values make a point's ``error`` (dimensionless: over a scale, or an angle).
 DIMENSIONLESS = ("rel", "rad", "")
 
