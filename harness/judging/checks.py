@@ -253,6 +253,8 @@ def judge_convergence(scene: Scene, label: str, engine: str, settings: RunSettin
     against its looser level (``stats["accuracy"]``, and its own ``exact`` value: how far the
     closed form as computed can be trusted), the resolution of every check made against it.
 
+    A run whose every check sits at its resolution already converges: no second level is made.
+
     Returns the checks with their classes and verdicts, and the run of the second level (2 h, or
     the looser tolerance; None where it did not run), from which ``validate`` extrapolates the
     engines' differences from one another."""
@@ -293,12 +295,6 @@ def judge_convergence(scene: Scene, label: str, engine: str, settings: RunSettin
         runs.append(other)
         return True
 
-    finer = [0.5, 0.25]  # finer levels, taken in turn where the class is undecided
-    if method.adaptive:
-        measure(refinement.looser(settings))
-        finer = []
-    elif not measure(refinement.scaled_step(settings, 2.0)) and measure(refinement.scaled_step(settings, 0.5)):
-        finer = [0.25]
     steps = float(traj.stats.get("steps") or settings.t_end / settings.dt)
     scales = compare.motion_scales(ref if ref is not None and ref.ok else traj, model)
     accuracy = ref.stats.get("accuracy", {}) if ref is not None else {}
@@ -311,6 +307,17 @@ def judge_convergence(scene: Scene, label: str, engine: str, settings: RunSettin
         if name.startswith(AGAINST_REFERENCE) or name == "exact":
             res = max(res, float(accuracy.get(name, 0.0)) * (1.0 if c.unit in ("rel", "rad") else scale))
         resolutions[name] = res
+    # a run whose every check already sits at its resolution converges whatever a second level
+    # shows (``error_model.fit``): none is made (the reference always makes one: its accuracy)
+    at_resolution = label != REFERENCE_LABEL and all(c.value <= resolutions[name] for name, c in judged.items())
+    finer = [0.5, 0.25]  # finer levels, taken in turn where the class is undecided
+    if at_resolution:
+        finer = []
+    elif method.adaptive:
+        measure(refinement.looser(settings))
+        finer = []
+    elif not measure(refinement.scaled_step(settings, 2.0)) and measure(refinement.scaled_step(settings, 0.5)):
+        finer = [0.25]
     declared = scene.model_differences.get(engine)
     declared = None if declared is None or label == REFERENCE_LABEL else ModelDifference(declared["model"], declared["bound"])
     # a finer level where the class is undecided; not for an engine whose model the scene declares
@@ -343,10 +350,10 @@ def extrapolated_difference(scene: Scene, a: tuple, b: tuple, ref: Trajectory | 
     ``2^order``, error-controlled at ``LOOSER``), and the two extrapolated runs compared: the
     largest difference of each judged trajectory quantity (``TRAJECTORY``, over the
     reference's motion scales), what remains between the two engines' physics once their steps
-    are gone (a floor of one of them: its model difference). Empty where a second level or a
-    common grid is missing."""
+    are gone (a floor of one of them: its model difference). A run without a second level (it sat
+    at its resolution) is taken as it is. Empty where a common grid is missing."""
     (ea, a1, a2), (eb, b1, b2) = a, b
-    if a2 is None or b2 is None or ref is None or not ref.ok:
+    if ref is None or not ref.ok:
         return {}
     model = scene.multibody()
     scales = compare.motion_scales(ref, model)
@@ -354,6 +361,9 @@ def extrapolated_difference(scene: Scene, a: tuple, b: tuple, ref: Trajectory | 
     for method, first, second in ((ea, a1, a2), (eb, b1, b2)):
         rate = error_model.LOOSER if method.adaptive else 2.0 ** method.order
         # the second level is coarser (2 h, a looser tolerance), or the finer h / 2 where 2 h could not run
+        if second is None:  # no second level: the run was at its resolution (or its second level failed)
+            runs.append(first)
+            continue
         fine, coarse = (second, first) if _finer(second, first) else (first, second)
         runs.append(refinement.richardson(fine, coarse, rate))
     x, y = runs

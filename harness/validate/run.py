@@ -51,7 +51,6 @@ solution is computed once, in parallel with the other scenes' reference runs.
 
 from __future__ import annotations
 
-import collections
 import os
 import time
 from dataclasses import asdict, dataclass, field, replace
@@ -243,30 +242,27 @@ def _run_reference_then_engines(scenes: list[Scene], engines: list[str], jobs: i
     waits for the slowest reference before the engines start. Returns ``(refs, outcomes)``:
     ``{scene: Outcome}`` and ``{(scene, engine): Outcome}``. Raises InputError where a case
     reports bad input (the workers still running are killed on the way out)."""
-    from harness.validate.workers import open_workers
+    from harness.validate.workers import run_cases
 
-    pending = collections.deque((s.name, reference_case, (s, fast)) for s in scenes)
     by_name = {s.name: s for s in scenes}
-    refs: dict = {}
-    outcomes: dict = {}
-    with open_workers(jobs, dask) as workers:
-        while pending or len(workers):
-            while pending and workers.free():
-                key, fn, args = pending.popleft()
-                workers.start(key, fn, args, timeout)
-            for key, outcome in workers.wait():
-                if outcome.status == "input_error":
-                    raise InputError(outcome.message)
-                if progress is not None:
-                    _tick(progress, key, outcome)
-                if isinstance(key, tuple):
-                    outcomes[key] = outcome
-                    continue
-                refs[key] = outcome
-                s = by_name[key]
-                ref, solutions = (outcome.value[0], outcome.value[3]) if outcome.status == "ok" else (None, None)
-                pending.extend(((s.name, e), engine_case, (s, e, ref, fast, solutions))
-                               for e in engines if e not in s.not_run)
+
+    def tick(key, outcome) -> None:
+        if outcome.status == "input_error":
+            raise InputError(outcome.message)
+        if progress is not None:
+            _tick(progress, key, outcome)
+
+    def engines_of(key, outcome) -> list:
+        if isinstance(key, tuple):
+            return []
+        s = by_name[key]
+        ref, solutions = (outcome.value[0], outcome.value[3]) if outcome.status == "ok" else (None, None)
+        return [((s.name, e), engine_case, (s, e, ref, fast, solutions)) for e in engines if e not in s.not_run]
+
+    found = run_cases([(s.name, reference_case, (s, fast)) for s in scenes], jobs, timeout, on_done=tick, dask=dask,
+                      follow=engines_of)
+    refs = {k: o for k, o in found.items() if not isinstance(k, tuple)}
+    outcomes = {k: o for k, o in found.items() if isinstance(k, tuple)}
     return refs, outcomes
 
 

@@ -346,7 +346,7 @@ def in_worker() -> bool:
     return bool(mp.current_process().daemon)
 
 
-def _in_process(fn: Callable, args: tuple, on_done, key) -> Outcome:
+def _in_process(fn: Callable, args: tuple) -> Outcome:
     """``fn(*args)`` in this process, as an ``Outcome`` (``run_cases`` inside a worker)."""
     start = time.monotonic()
     try:
@@ -355,8 +355,6 @@ def _in_process(fn: Callable, args: tuple, on_done, key) -> Outcome:
         outcome = Outcome("input_error", None, str(err), time.monotonic() - start)
     except Exception as err:  # noqa: BLE001 - the case's failure, as a worker would report it
         outcome = Outcome("error", None, f"{type(err).__name__}: {err}", time.monotonic() - start)
-    if on_done is not None:
-        on_done(key, outcome)
     return outcome
 
 
@@ -456,7 +454,8 @@ def open_workers(jobs: int | None = None, dask: str | None = None):
 
 def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, timeout: float,
               on_done: Callable[[Hashable, Outcome], None] | None = None,
-              dask: str | None = None) -> dict[Hashable, Outcome]:
+              dask: str | None = None,
+              follow: Callable[[Hashable, Outcome], list] | None = None) -> dict[Hashable, Outcome]:
     """Run each ``fn(*args)`` in its own process, at most ``effective_jobs(jobs)`` at a time,
     each limited to ``timeout`` wall-clock seconds from its own start. Returns ``{key: Outcome}``
     for every case, in the order of ``cases``; ``on_done(key, outcome)``, if given, is called in
@@ -467,20 +466,33 @@ def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, t
     ``dask``: the address of a ``dask.distributed`` scheduler (``tcp://host:port``): the cases run
     there instead, each in its own process on a Dask worker, at most as many at once as the
     cluster has worker threads (``jobs`` caps it), with the same outcomes
-    (``harness.validate.dask_workers``). Inside a worker (``in_worker``: a daemonic process may
+    (``harness.validate.dask_workers``). ``follow(key, outcome)``, if given, returns further
+    cases to run once that case has ended (cases that need its result: a scene's engine runs after
+    its reference run), queued behind the others and returned with them. Inside a worker (``in_worker``: a daemonic process may
     start none of its own) the cases run in this process, one after the other, under the
     enclosing worker's budget."""
-    if dask is None and in_worker():
-        return {key: _in_process(fn, args, on_done, key) for key, fn, args in cases}
     pending = collections.deque(cases)
+    order = [key for key, _, _ in cases]
     results: dict[Hashable, Outcome] = {}
+
+    def ended(key, outcome) -> None:
+        results[key] = outcome
+        if on_done is not None:
+            on_done(key, outcome)
+        more = follow(key, outcome) if follow is not None else ()
+        pending.extend(more)
+        order.extend(k for k, _, _ in more)
+
+    if dask is None and in_worker():
+        while pending:
+            key, fn, args = pending.popleft()
+            ended(key, _in_process(fn, args))
+        return {key: results[key] for key in order}
     with open_workers(jobs, dask) as workers:
         while pending or len(workers):
             while pending and workers.free():
                 key, fn, args = pending.popleft()
                 workers.start(key, fn, args, timeout)
             for key, outcome in workers.wait():
-                results[key] = outcome
-                if on_done is not None:
-                    on_done(key, outcome)
-    return {key: results[key] for key, _, _ in cases}
+                ended(key, outcome)
+    return {key: results[key] for key in order}
