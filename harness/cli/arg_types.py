@@ -116,21 +116,21 @@ def check_samples(t_end: float, save_every: float, bodies: int = 1, options: str
 
 def require_utf8(path: Path, what: str) -> None:
     """InputError naming ``path`` when it exists but is not a regular file of at most
-    ``harness.io.input_files.MAX_INPUT_BYTES`` (a FIFO, a device, a folder) or not UTF-8 text (an
+    ``harness.model.input_files.MAX_INPUT_BYTES`` (a FIFO, a device, a folder) or not UTF-8 text (an
     XML model file the loaders would fail on with a decoding error); a missing file is the
     loaders' to report. Checked before any loader opens the file."""
-    from harness.io.input_files import check_input_file, read_input_text
+    from harness.model.input_files import check_input_file, read_input_text
 
     if check_input_file(path, what, missing_ok=True):
         read_input_text(path, what)
 
 
 def require_scene_files_utf8(scene) -> None:
-    """``harness.io.input_files.check_model_file`` for the model files a scene names: its MJCF
+    """``harness.model.input_files.check_model_file`` for the model files a scene names: its MJCF
     and URDF, or the one it has (``Scene.mjcf`` and ``Scene.urdf`` are then the same file):
     regular files of bounded size, UTF-8 text, their includes and assets inside the scene's
     folder. A missing file is the loaders' to report."""
-    from harness.io.input_files import check_model_file
+    from harness.model.input_files import check_model_file
 
     for path in dict.fromkeys((scene.mjcf, scene.urdf)):
         check_model_file(path, missing_ok=True)

@@ -36,7 +36,7 @@ def read_requirements(path: Path) -> dict:
     where one is wrong) if it is missing, not a regular file, not UTF-8, not TOML, or not tables
     ``[<scene>]`` of ``check = bound`` with known checks (``harness.model.scene.CHECKS``, or a
     ``<check>.<quantity>``) and positive finite bounds."""
-    from harness.io.input_files import check_input_file
+    from harness.model.input_files import check_input_file
 
     path = Path(path)
     check_input_file(path, "requirements file")

@@ -126,12 +126,12 @@ def read_spec(path: Path, *, root_joint: str = "none"):
     """Parse an MJCF file, or a URDF (``*.urdf``: MuJoCo's URDF importer) with the root joint a
     scene's ``urdf_root_joint`` names added to its root link (``add_urdf_root_joint``), into a
     ``mujoco.MjSpec``; raise InputError (one line, naming the file) if it cannot be read, or if
-    it is not a file MuJoCo may be given (``harness.io.input_files.check_model_file``: a regular
+    it is not a file MuJoCo may be given (``harness.model.input_files.check_model_file``: a regular
     file of bounded size, UTF-8, its includes and assets inside its folder).
     ``root_joint`` is ignored for an MJCF (it states its own)."""
     import mujoco
 
-    from harness.io.input_files import check_model_file
+    from harness.model.input_files import check_model_file
 
     path = Path(path)
     fmt = file_format(path)

@@ -309,7 +309,7 @@ def load_scene(name: str, overrides: Mapping[str, Any] | None = None, *, models_
         scene = apply_overrides(_scene_from_toml(data, path), overrides or {})
     except (KeyError, TypeError) as err:  # pragma: no cover - check_description catches these first
         raise InputError(f"{path}: scene description lacks or misstates {err}") from None
-    from harness.io.input_files import check_model_file
+    from harness.model.input_files import check_model_file
 
     for model_file in dict.fromkeys((scene.mjcf, scene.urdf)):  # before any engine opens them; missing: theirs to say
         check_model_file(model_file, missing_ok=True)
@@ -318,9 +318,9 @@ def load_scene(name: str, overrides: Mapping[str, Any] | None = None, *, models_
 
 def read_toml(path: Path) -> dict:
     """Parse a TOML file; InputError naming the file if it is not a regular file of bounded size
-    (``harness.io.input_files``: a FIFO or a device is refused unread), not UTF-8 text or not
+    (``harness.model.input_files``: a FIFO or a device is refused unread), not UTF-8 text or not
     valid TOML."""
-    from harness.io.input_files import read_input_bytes
+    from harness.model.input_files import read_input_bytes
 
     try:
         text = read_input_bytes(Path(path), "TOML file").decode("utf-8")

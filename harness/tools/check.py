@@ -112,9 +112,9 @@ the summary, never printed on stderr; Drake's parser warnings (Python logging) a
 the notes.
 
 Before any loader opens a file, it must be a regular file (symlinks resolved) of at most
-``harness.io.input_files.MAX_INPUT_BYTES``, UTF-8 text, whose ``<include>``s, meshes, textures and
+``harness.model.input_files.MAX_INPUT_BYTES``, UTF-8 text, whose ``<include>``s, meshes, textures and
 height fields lie inside its folder or a folder given with ``--allow-dir`` (``allowed_dirs``;
-``harness.io.input_files.check_model_file``); a FIFO, a device, an include outside is bad input.
+``harness.model.input_files.check_model_file``); a FIFO, a device, an include outside is bad input.
 The copies live in a temporary folder ``harness-check-*``, removed on SIGTERM too
 (``atomic.sigterm_exits``). When MuJoCo refuses the file, its own reason is the message (Pinocchio
 is asked for a second opinion only on a body's mass or inertia).
@@ -143,7 +143,7 @@ import numpy as np
 import pinocchio as pin
 
 from harness.io import atomic
-from harness.io.input_files import check_input_file, check_model_file, parse_xml, read_input_text
+from harness.model.input_files import check_input_file, check_model_file, parse_xml, read_input_text
 from harness.io.provenance import drake_version
 from harness.tools import dynamics_terms as dc
 from harness.tools import witnesses as wit
@@ -215,7 +215,7 @@ def file_format(path: Path) -> str:
 
 
 def _require_file(path: Path) -> Path:
-    """``path`` if it is a regular file of bounded size (``harness.io.input_files``: a FIFO or a
+    """``path`` if it is a regular file of bounded size (``harness.model.input_files``: a FIFO or a
     device would block or flood the loader), else InputError naming it (``... file not found``)."""
     path = Path(path)
     check_input_file(path, file_format(path))
@@ -999,7 +999,7 @@ def load_models(mjcf: Path | None, urdf: Path | None, *, floating_base: bool = F
     model only MuJoCo loads, or a joint map naming joints the files do not have. Before any
     loader opens them, each file must be a regular file of bounded size and UTF-8 text whose
     includes and assets lie in its folder or one of ``allowed_dirs``
-    (``harness.io.input_files.check_model_file``)."""
+    (``harness.model.input_files.check_model_file``)."""
     if mjcf is None and urdf is None:
         raise InputError("check needs --mjcf MODEL.xml, --urdf MODEL.urdf, or both")
     mj_file = Path(mjcf) if mjcf is not None else Path(urdf)

@@ -656,7 +656,7 @@ def load_drake(path, *, root_joint: str = "none") -> DrakeLoad:
 
     Raises ``DrakeRefusal`` (one line: Drake's reason) when Drake does not load the file, and
     ``InputError`` when ``path`` is not a file Drake may be given: a regular file of at most
-    ``harness.io.input_files.MAX_INPUT_BYTES`` (a FIFO would block its parser, a device flood it).
+    ``harness.model.input_files.MAX_INPUT_BYTES`` (a FIFO would block its parser, a device flood it).
     """
     import logging
 
@@ -664,7 +664,7 @@ def load_drake(path, *, root_joint: str = "none") -> DrakeLoad:
     from pydrake.multibody.plant import MultibodyPlant
     from pydrake.multibody.tree import QuaternionFloatingJoint
 
-    from harness.io.input_files import check_input_file, model_format
+    from harness.model.input_files import check_input_file, model_format
 
     path = Path(path)
     check_input_file(path, model_format(path))

@@ -51,8 +51,8 @@ One row per model (``ModelRow``):
   not), ``refused`` (``check`` rejects the model as bad input: a file MuJoCo does not load, a
   non-physical body, no moving joint, only MuJoCo loads it, a comparison that diverged; or,
   before any engine is given the file, one that is not a regular file, is larger than
-  ``harness.io.input_files.MAX_INPUT_BYTES``, is not UTF-8 or includes a file outside its folder:
-  ``harness.io.input_files.check_model_file``) with ``check``'s one line, ``crashed`` (the worker died, timed out, or ``check`` raised an
+  ``harness.model.input_files.MAX_INPUT_BYTES``, is not UTF-8 or includes a file outside its folder:
+  ``harness.model.input_files.check_model_file``) with ``check``'s one line, ``crashed`` (the worker died, timed out, or ``check`` raised an
   unexpected exception) with how;
 * the largest discrepancy (``Discrepancy``): the one largest relative to its tolerance among
   the counted model quantities on which the loaders disagree (the cause in the file) or, when
@@ -115,7 +115,7 @@ import mujoco
 import numpy as np
 
 from harness.io import atomic
-from harness.io.input_files import check_model_file, parse_xml
+from harness.model.input_files import check_model_file, parse_xml
 from harness.io.provenance import made_with
 from harness.model.errors import InputError
 from harness.model.joints import FREE, JOINTS, TRANSLATIONAL

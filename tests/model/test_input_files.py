@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.io import input_files as inp
+from harness.model import input_files as inp
 from harness.model.errors import InputError
 
 ROD = ('<mujoco model="rod"><worldbody><body name="rod"><joint name="h" type="hinge"/>'

@@ -1,7 +1,7 @@
 """The files a user gives, checked before anything reads them.
 
 A model file (an MJCF or a URDF given to ``harness check``, found by ``harness zoo`` in a folder,
-or named by a scene's ``scene.toml``), a ``scene.toml``, a ``--tolerances`` file and a
+or named by a scene's ``scene.toml``), a ``scene.toml``, a ``--requirements`` file and a
 ``--joint-map`` file are opened by path, by the harness and by the loaders it calls (MuJoCo,
 Pinocchio, Drake), and read whole: a FIFO would block the reader forever, a device (a symlink to
 ``/dev/zero``) would be read until memory runs out. So, before any of them is read:
@@ -78,7 +78,7 @@ def _judge(path: Path, st: os.stat_result, what: str, limit: int | None) -> None
                          "only a regular file is read")
     if limit is not None and st.st_size > limit:
         raise InputError(f"{path}: the {what} is {_mib(st.st_size)}, more than the {_mib(limit)} a file given to "
-                         "the harness may be (harness.io.input_files.MAX_INPUT_BYTES)")
+                         "the harness may be (harness.model.input_files.MAX_INPUT_BYTES)")
 
 
 def _os_error(path: Path, err: OSError, what: str) -> InputError:
@@ -124,7 +124,7 @@ def read_input_bytes(path: Path, what: str, *, limit: int = MAX_INPUT_BYTES) -> 
             size += len(chunk)
         if size > limit:  # it grew while read (a file being written, /proc)
             raise InputError(f"{path}: the {what} is more than the {_mib(limit)} a file given to the harness may be "
-                             "(harness.io.input_files.MAX_INPUT_BYTES)")
+                             "(harness.model.input_files.MAX_INPUT_BYTES)")
         return b"".join(chunks)
     except OSError as err:
         raise _os_error(path, err, what) from None
