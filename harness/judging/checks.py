@@ -75,16 +75,6 @@ class CheckResult:
     judged: str = ""
     levels: tuple = ()  # ((step s, or tolerance), value) of each level, the scene's first
 
-    @property
-    def margin(self) -> float:
-        """value / tolerance (1 = at the tolerance); 0 for a zero value, inf for a nonzero value
-        against a zero tolerance, NaN for a missing value."""
-        if not np.isfinite(self.value):
-            return float("nan")
-        if self.value == 0.0:
-            return 0.0
-        return self.value / self.tolerance if self.tolerance > 0 else float("inf")
-
 
 def check_run(scene: Scene, label: str, engine: str, traj: Trajectory, ref: Trajectory | None,
               settings: RunSettings) -> list[CheckResult]:
@@ -267,6 +257,7 @@ def judge_convergence(scene: Scene, label: str, engine: str, settings: RunSettin
     base = refinement.level_of(settings, method.adaptive)
     levels = {name: [error_model.Level(base, c.value)] for name, c in judged.items()}
     runs: list[Trajectory] = []
+    scales = compare.motion_scales(ref if ref is not None and ref.ok else traj, model)
     if label == REFERENCE_LABEL and "exact" in judged:
         traj.stats.setdefault("accuracy", {})["exact"] = judged["exact"].value
 
@@ -286,7 +277,6 @@ def judge_convergence(scene: Scene, label: str, engine: str, settings: RunSettin
         values = {c.check: c.value for c in check_run(scene, label, engine, other, grid, s)}
         if label == REFERENCE_LABEL and method.adaptive:  # the reference against its looser self
             diff = compare.trajectory_error(other, traj)
-            scales = compare.motion_scales(traj, model)
             traj.stats.setdefault("accuracy", {}).update(
                 {q.check: float(q.judged(diff[f"{q.name}_max"], scales)) / np.sqrt(error_model.LOOSER)
                  for q in TRAJECTORY})
@@ -296,11 +286,11 @@ def judge_convergence(scene: Scene, label: str, engine: str, settings: RunSettin
         return True
 
     steps = float(traj.stats.get("steps") or settings.t_end / settings.dt)
-    scales = compare.motion_scales(ref if ref is not None and ref.ok else traj, model)
     accuracy = ref.stats.get("accuracy", {}) if ref is not None else {}
+    unit_scales = {name: _unit_scale(c.unit, scales) for name, c in judged.items()}
     resolutions = {}
     for name, c in judged.items():
-        scale = _unit_scale(c.unit, scales)
+        scale = unit_scales[name]
         res = max(error_model.roundoff(steps, scale), error_model.JUDGING_RESOLUTION * scale)
         if np.isfinite(c.resolution):  # what the check's own measurement resolves (a quadrature)
             res = max(res, c.resolution)
@@ -333,7 +323,7 @@ def judge_convergence(scene: Scene, label: str, engine: str, settings: RunSettin
         if c.check not in judged:
             out.append(c)
             continue
-        m = error_model.fit(c.check, c.unit, _unit_scale(c.unit, scales), method.kind,
+        m = error_model.fit(c.check, c.unit, unit_scales[c.check], method.kind,
                             1.0 if method.adaptive else method.order_of(c.check), levels[c.check], resolutions[c.check])
         expected = closed_form if c.check == "exact" and closed_form is not None else declared
         v = judge(m, expected, c.tolerance)
@@ -366,16 +356,13 @@ def extrapolated_difference(scene: Scene, a: tuple, b: tuple, ref: Trajectory | 
             continue
         fine, coarse = (second, first) if _finer(second, first) else (first, second)
         runs.append(refinement.richardson(fine, coarse, rate))
-    x, y = runs
-    if x is None or y is None:
+    if None in runs:
         return {}
-    y = refinement.on_grid(y, x.t)
-    if y is None:
-        x = refinement.on_grid(runs[0], runs[1].t) if runs[0] is not None else None
-        y = runs[1]
-        if x is None:
-            return {}
-    d = compare.trajectory_error(x, y)
+    coarse, fine = sorted(runs, key=lambda r: len(r.t))  # compared on the coarser run's saved times
+    fine = refinement.on_grid(fine, coarse.t)
+    if fine is None:
+        return {}
+    d = compare.trajectory_error(coarse, fine)
     return {q.check: float(q.judged(d[f"{q.name}_max"], scales)) for q in TRAJECTORY if f"{q.name}_max" in d}
 
 

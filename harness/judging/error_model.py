@@ -165,6 +165,15 @@ def _order(fine: float, coarse: float, rho: float) -> float:
     return math.log(coarse / fine) / math.log(rho)
 
 
+def not_judged(quantity: str, unit: str, kind: str, formal_order: float, reason: str, levels=(),
+               resolution: float = float("nan"), scale: float = 1.0) -> ErrorModel:
+    """The model of a quantity that has nothing to fit (no run ended at the scene's level, or none
+    at all): class ``not judged``, ``reason`` saying why."""
+    nan = float("nan")
+    return ErrorModel(quantity, unit, scale, kind, formal_order, tuple(levels), nan, nan, nan, resolution, NOT_JUDGED,
+                      reason)
+
+
 def fit(quantity: str, unit: str, scale: float, kind: str, formal_order: float, levels: list[Level],
         resolution: float) -> ErrorModel:
     """The error model of ``levels`` (the scene's level first; for ``fixed``, steps of ratio 2

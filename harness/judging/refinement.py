@@ -9,7 +9,6 @@ at ``LOOSER`` times its tolerances.
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -63,10 +62,6 @@ def on_grid(judge: Trajectory | None, times: np.ndarray) -> Trajectory | None:
                    v_WCm_W=judge.v_WCm_W[idx], w_WB_W=judge.w_WB_W[idx],
                    engine_energy={k: v[idx] for k, v in judge.engine_energy.items()},
                    reactions={n: (f[idx], m[idx]) for n, (f, m) in judge.reactions.items()})
-
-
-def finite(value: float) -> bool:
-    return isinstance(value, float) and math.isfinite(value)
 
 
 def richardson(fine: Trajectory, coarse: Trajectory, rate: float) -> Trajectory | None:

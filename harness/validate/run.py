@@ -160,7 +160,7 @@ def reference_case(scene: Scene, fast: bool = True) -> tuple[Trajectory, RunReco
             exact.prepare(scene, traj)  # what the engines' exact checks need, if the reference's did not compute it
             # and at the engines' coarser level's saved times (a subset of these), once here rather than in every
             # engine's worker (the Andrews squeezer's, saved at every step: its DAE again per engine)
-            coarse = refinement.scaled_step(RunSettings(scene.t_end, scene.dt, save_interval(scene), "rk4"), 2.0)
+            coarse = refinement.scaled_step(RunSettings(scene.t_end, scene.dt, save_interval(scene), settings.integrator), 2.0)
             grid = None if coarse is None else refinement.on_grid(traj, np.arange(coarse.n_saves + 1) * coarse.save_every)
             if grid is not None and len(grid.t) != len(traj.t):
                 exact.prepare(scene, grid)
@@ -222,13 +222,13 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
         if refs[s.name].status == "ok" and refs[s.name].value[0].ok:
             v.scales = compare.motion_scales(refs[s.name].value[0], s.multibody())
         names = list(trajectories)
+        methods = {e: integrator(e, default_settings(s, e, fast).integrator) for e in names}
         for i, a in enumerate(names):
             for b in names[i + 1:]:
                 v.cross[f"{a} vs {b}"] = compare.trajectory_error(trajectories[a], trajectories[b])
-                found = extrapolated_difference(
-                    s, (integrator(a, default_settings(s, a, fast).integrator), trajectories[a], seconds.get(a)),
-                    (integrator(b, default_settings(s, b, fast).integrator), trajectories[b], seconds.get(b)),
-                    refs[s.name].value[0] if refs[s.name].status == "ok" else None)
+                found = extrapolated_difference(s, (methods[a], trajectories[a], seconds.get(a)),
+                                                (methods[b], trajectories[b], seconds.get(b)),
+                                                refs[s.name].value[0] if refs[s.name].status == "ok" else None)
                 if found:
                     v.cross_extrapolated[f"{a} vs {b}"] = found
         results.append(v)

@@ -168,20 +168,31 @@ def _worker(conn, fn, args):
     Measured on 2 cores: three concurrent in-house runs of ``bricard`` (1 s at 1 ms) took 13-15 s
     each with OpenBLAS's default threads, 0.8-1.1 s with one; a run alone takes 0.65 s either
     way. NumPy is loaded before the fork, so ``OPENBLAS_NUM_THREADS`` would come too late."""
-    _die_with_parent()
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(limits=1, user_api="blas")
+    _start_worker()
     try:
         conn.send(("ok", fn(*args), ""))
     except InputError as err:
         conn.send(("input_error", None, str(err)))
     except BaseException as err:  # anything else is this case's failure
-        last = traceback.extract_tb(err.__traceback__)[-1] if err.__traceback__ else None
-        where = f" ({os.path.basename(last.filename)}:{last.lineno})" if last else ""
-        conn.send(("error", None, f"{type(err).__name__}: {err}{where}"))
+        conn.send(("error", None, _failure(err)))
     finally:
         conn.close()
+
+
+def _start_worker() -> None:
+    """What every worker process does first: die with its parent (``_die_with_parent``) and run
+    its BLAS on one thread (``_worker``'s docstring says why)."""
+    _die_with_parent()
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1, user_api="blas")
+
+
+def _failure(err: BaseException) -> str:
+    """A case's exception in one line: its type, its text and where it was raised."""
+    last = traceback.extract_tb(err.__traceback__)[-1] if err.__traceback__ else None
+    where = f" ({os.path.basename(last.filename)}:{last.lineno})" if last else ""
+    return f"{type(err).__name__}: {err}{where}"
 
 
 # ------------------------------------------------------------------------------------ parent side
@@ -354,17 +365,14 @@ def _in_process(fn: Callable, args: tuple) -> Outcome:
     except InputError as err:
         outcome = Outcome("input_error", None, str(err), time.monotonic() - start)
     except Exception as err:  # noqa: BLE001 - the case's failure, as a worker would report it
-        outcome = Outcome("error", None, f"{type(err).__name__}: {err}", time.monotonic() - start)
+        outcome = Outcome("error", None, _failure(err), time.monotonic() - start)
     return outcome
 
 
 def _stream_worker(conn, fn, args):
     """Body of a streaming worker: send ``("item", x)`` for each item ``fn(*args)`` yields, then
     ``("end", None)``; an exception is ``("error", message)`` (``_worker``'s isolation)."""
-    _die_with_parent()
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(limits=1, user_api="blas")
+    _start_worker()
     try:
         for item in fn(*args):
             conn.send(("item", item))
@@ -372,9 +380,7 @@ def _stream_worker(conn, fn, args):
     except InputError as err:
         conn.send(("input_error", str(err)))
     except BaseException as err:  # anything else is this stream's failure
-        last = traceback.extract_tb(err.__traceback__)[-1] if err.__traceback__ else None
-        where = f" ({os.path.basename(last.filename)}:{last.lineno})" if last else ""
-        conn.send(("error", f"{type(err).__name__}: {err}{where}"))
+        conn.send(("error", _failure(err)))
     finally:
         conn.close()
 
@@ -398,7 +404,7 @@ def stream_case(fn: Callable, args: tuple, item_timeout: float):
         except InputError as err:
             yield Outcome("input_error", None, str(err), time.monotonic() - last)
         except Exception as err:  # noqa: BLE001 - the stream's failure, as a worker would report it
-            yield Outcome("error", None, f"{type(err).__name__}: {err}", time.monotonic() - last)
+            yield Outcome("error", None, _failure(err), time.monotonic() - last)
         return
     ctx = _context()
     _prctl()

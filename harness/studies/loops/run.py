@@ -491,9 +491,8 @@ def error_models(study: SceneStudy, t_end: float) -> dict[tuple[str, str], error
         steps = max(t_end / min(r["dt"] for r in rows), 1.0)
         if rows[0]["status"] not in ("ok", "blowup"):  # a timeout or a crash is no error to model
             for measure, unit in MODELLED:
-                out[(key, measure)] = error_model.ErrorModel(
-                    measure, unit or "rad", 1.0, "fixed", order, (), math.nan, math.nan, math.nan, math.nan,
-                    error_model.NOT_JUDGED, f"the run at the scene's step: {rows[0]['status']}")
+                out[(key, measure)] = error_model.not_judged(measure, unit or "rad", "fixed", order,
+                                                             f"the run at the scene's step: {rows[0]['status']}")
             continue
         rows = [r for r in rows if r["status"] in ("ok", "blowup")]
         for measure, unit in MODELLED:

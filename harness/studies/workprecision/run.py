@@ -44,7 +44,7 @@ point cost more than many points (heavy_top's sweep 19 s against 13 s in-process
 stay the runs' own: each is measured inside the worker around the run alone (``measure``), and
 a point's wall time, which the curve budgets count, around ``measure`` in the worker. A scene's
 reference run, its head-to-head timing and its batch benchmark each run in a worker of their
-own too (``in_worker``, under ``STAGE_TIMEOUT``), recorded as failed with the reason if they
+own too (``run_stage``, under ``STAGE_TIMEOUT``), recorded as failed with the reason if they
 do not end.
 Before any run, the finest step of every ladder is held to ``harness.model.scene.MAX_STEPS``
 integration steps over the horizon (``check_step_budget``).
@@ -893,7 +893,7 @@ def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), p
     t_end, save = horizon(scene, options)
     model = scene.multibody()
     start = _clock()
-    ref, how = in_worker(reference, (scene, t_end, save), "the reference run")
+    ref, how = run_stage(reference, (scene, t_end, save), "the reference run")
     result = SceneSweep(scene.name, t_end, save, how, reference_checks(scene, ref, t_end, save))
     result.walls["reference"] = _clock() - start
     covered = compiled_covers(scene)[0] if "inhouse" in engines else True
@@ -1047,8 +1047,7 @@ def curve_model(points: list[WorkPrecisionPoint], error_floor: float = 1e-12) ->
     defect is read from them)."""
     nan = float("nan")
     if not points:
-        return error_model.ErrorModel("state_max", "rel", 1.0, "fixed", nan, (), nan, nan, nan, error_floor,
-                                      error_model.NOT_JUDGED, "no points")
+        return error_model.not_judged("state_max", "rel", "fixed", nan, "no points", resolution=error_floor)
     method = integrator(points[0].engine, points[0].integrator)
     kind, formal = ("adaptive", 1.0) if method.adaptive else ("fixed", float(method.order))
     ok = sorted((p for p in points if p.ok), key=lambda p: p.param)
@@ -1059,8 +1058,7 @@ def curve_model(points: list[WorkPrecisionPoint], error_floor: float = 1e-12) ->
         blew = [p.param for p in points if p.status == "blowup"]
         why = (f"every run failed, {len(blew)} blew up (down to {min(blew):.2g}): the ladder has no sound point"
                if blew else "no run ended")
-        return error_model.ErrorModel("state_max", "rel", 1.0, kind, formal, levels, nan, nan, nan, resolution,
-                                      error_model.NOT_JUDGED, why)
+        return error_model.not_judged("state_max", "rel", kind, formal, why, levels, resolution)
     resolved = [p for p in ok if p.state_max > error_model.NOISE * resolution]
     chosen = resolved[:3] if len(resolved) >= 2 else ok[:3]
     return error_model.fit("state_max", "rel", 1.0, kind, formal,
@@ -1272,7 +1270,7 @@ def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
             progress.advance(0, f"{scene.name}: head to head")
         t0 = time.perf_counter()
         try:
-            res.head_to_head = in_worker(head_to_head, (scene, res, options), "the head-to-head timing")
+            res.head_to_head = run_stage(head_to_head, (scene, res, options), "the head-to-head timing")
         except Exception as err:  # recorded, not raised
             res.head_to_head = [{"status": f"failed: {type(err).__name__}: {err}"}]
         res.walls["head_to_head"] = time.perf_counter() - t0
@@ -1281,7 +1279,7 @@ def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
             progress.advance(0, f"{scene.name}: batch of up to {options.batch}")
         t0 = time.perf_counter()
         try:
-            res.batch = in_worker(batch_benchmark, (scene, options.batch, options.batch_steps, min(3, options.repeats),
+            res.batch = run_stage(batch_benchmark, (scene, options.batch, options.batch_steps, min(3, options.repeats),
                                                     options), "the batch benchmark")
         except Exception as err:  # recorded, not raised
             res.batch = {"scene": scene.name, "status": f"failed: {type(err).__name__}: {err}"}
@@ -1293,11 +1291,11 @@ def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
 
 
 #: Wall-clock budget (s) of a scene's reference run, its head-to-head timing and its batch
-#: benchmark, each made in its own worker process (``in_worker``).
+#: benchmark, each made in its own worker process (``run_stage``).
 STAGE_TIMEOUT = 600.0
 
 
-def in_worker(fn, args: tuple, what: str):
+def run_stage(fn, args: tuple, what: str):
     """``fn(*args)`` in its own worker process (``harness.validate.workers.run_cases``, forked from
     this one: its imports and compiled kernels come along) under ``STAGE_TIMEOUT``; its value, or
     RuntimeError saying why there is none ("timed out after N s", a crash, the error), which the
