@@ -390,7 +390,7 @@ def free_motion(w: Witnesses, m: mujoco.MjModel, jmap: dc.JointMap, q0: np.ndarr
                  EXUDYN_FREE_TOL)]
     out = []
     for label, engine, rs, tol in settings:
-        from harness.tools.check import FREE_MOTION_TOL
+        from harness.tools.check.results import FREE_MOTION_TOL
         tol = tol or {key: FREE_MOTION_TOL[key] for key in ("position", "orientation", "velocity")}
         # in its own worker under a wall-clock budget: a hang or a crash is that witness's result
         outcome = run_cases([("witness", engine.simulate_model, (model, rs))], 1, WITNESS_TIMEOUT)["witness"]

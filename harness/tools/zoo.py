@@ -119,7 +119,8 @@ from harness.model.input_files import check_model_file, parse_xml
 from harness.io.provenance import made_with
 from harness.model.errors import InputError
 from harness.model.joints import FREE, JOINTS, TRANSLATIONAL
-from harness.tools.check import (FREE_MOTION_TOL, LOADERS, CheckResult, Vote, add_root_joint, compile_spec,
+from harness.model.from_model_file import add_root_joint
+from harness.tools.check import (FREE_MOTION_TOL, LOADERS, CheckResult, Vote, compile_spec,
                                  load_pinocchio, read_mujoco_spec, render_report, run_check, strip_geometry,
                                  verdict as check_verdict)
 from harness.tools.loaded_models import load_drake

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from harness.model.scene import available_scenes, load_scene
-from harness.tools.check import _zero_qpos, load_mujoco, load_pinocchio
+from harness.tools.check import load_mujoco, load_pinocchio
+from harness.tools.check.reading import _zero_qpos
 from harness.tools.loaded_models import (
     DrakeRefusal,
     compare_joint_bodies,

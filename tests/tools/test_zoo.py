@@ -270,7 +270,7 @@ def test_sigterm_removes_the_temporary_folders(tmp_path, where):
     tmp = tmp_path / "tmp"
     tmp.mkdir()
     hang = ("z.run_check = lambda *a, **k: time.sleep(120)\n" if where == "zoo" else
-            "import harness.tools.check as c\nc._load_readings = lambda *a, **k: time.sleep(120)\n")
+            "import harness.tools.check.reading as c\nc._load_readings = lambda *a, **k: time.sleep(120)\n")
     command = (["zoo", str(d)] if where == "zoo" else ["check", "--mjcf", str(d / "rod.xml")])
     script = ("import time, sys\nimport harness.tools.zoo as z\n" + hang + "from harness.cli.main import main\n"
               f"sys.exit(main({command + ['--out-dir', str(tmp_path / 'out')]!r}))\n")

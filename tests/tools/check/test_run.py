@@ -216,8 +216,9 @@ def test_free_motion_that_goes_to_nan_fails(tmp_path, capsys, monkeypatch):
     import numpy as np
 
     from harness.tools import check
+    from harness.tools.check import dynamics
 
-    real = check.rkmk4_step
+    real = dynamics.rkmk4_step
     calls = {"n": 0}
 
     def nan_after_20(*args, **kwargs):
@@ -225,7 +226,7 @@ def test_free_motion_that_goes_to_nan_fails(tmp_path, capsys, monkeypatch):
         calls["n"] += 1
         return (q * np.nan, v * np.nan) if calls["n"] > 20 else (q, v)
 
-    monkeypatch.setattr(check, "rkmk4_step", nan_after_20)
+    monkeypatch.setattr(dynamics, "rkmk4_step", nan_after_20)
     d = MODELS_DIR / "double_pendulum"
     res = check.run_check(d / "double_pendulum.xml", d / "double_pendulum.urdf", t_end=0.05, n_free=1)
     (free,) = res.free
