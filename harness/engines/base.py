@@ -1,8 +1,9 @@
 """The engine contract: run a scene with given settings, return a common ``Trajectory``.
 
-Every engine (``inhouse``, ``mujoco``, ``pinocchio``) implements ``simulate``. Saved samples are
-at ``t = k * save_every`` for k = 0 .. round(t_end / save_every); fixed-step methods take
-``round(save_every / dt)`` steps between samples.
+Every engine of the registry (``harness.engines.ENGINE_MODULES``: in-house, MuJoCo, Pinocchio,
+Exudyn, Drake) implements ``simulate``. Saved samples are at ``t = k * save_every`` for
+k = 0 .. round(t_end / save_every); fixed-step methods take ``round(save_every / dt)`` steps
+between samples.
 """
 
 from __future__ import annotations

@@ -298,7 +298,7 @@ def sigterm_exits():
     """Inside it, a SIGTERM to this process raises ``SystemExit(143)`` instead of killing it at
     once, so that the ``with tempfile.TemporaryDirectory()`` blocks it is unwinding (``harness
     zoo``'s log folder, ``harness check``'s copies of a model) remove their folders and the local
-    workers are killed and reaped (``harness.validate.workers.Workers`` chains its own SIGTERM
+    workers are killed and reaped (``harness.validate.local_workers.Workers`` chains its own SIGTERM
     handler to this one) before the process exits with status 143. A second SIGTERM kills at once.
 
     Installed only in the main thread of a process that is not a ``multiprocessing`` worker (a

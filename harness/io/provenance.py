@@ -9,6 +9,8 @@ import shlex
 import sys
 from pathlib import Path
 
+from harness.io.cpus import usable_cpus
+
 
 def cpu_model(cpuinfo: str | None = None) -> str:
     """The CPU's model name: from the text of ``/proc/cpuinfo`` (or ``cpuinfo`` if given) the
@@ -35,9 +37,7 @@ def cpu_model(cpuinfo: str | None = None) -> str:
 
 def cores() -> str:
     """The CPUs this process may use and the machine's logical CPUs, e.g. ``"2 usable of 8"``
-    (usable: the affinity mask and cgroup CPU quota, ``harness.validate.workers.usable_cpus``)."""
-    from harness.validate.workers import usable_cpus
-
+    (usable: the affinity mask and cgroup CPU quota, ``harness.io.cpus.usable_cpus``)."""
     return f"{usable_cpus()} usable of {os.cpu_count() or '?'}"
 
 

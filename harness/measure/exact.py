@@ -30,14 +30,17 @@ from __future__ import annotations
 import importlib
 from dataclasses import replace
 from types import ModuleType
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Callable, TypeVar
+
+#: A run's settings, which this module hands on untouched but for their horizon and save
+#: interval (``extra_run``): the engines' ``RunSettings`` (a frozen dataclass), a layer above.
+Settings = TypeVar("Settings")
 
 if TYPE_CHECKING:  # pragma: no cover
-    from harness.engines.base import RunSettings
     from harness.measure.trajectory import Trajectory
     from harness.model.scene import Scene
 
-    Run = Callable[[Scene, RunSettings], Trajectory]
+    Run = Callable[[Scene, Settings], Trajectory]
 
 REFERENCES_PACKAGE = "harness.references"
 
@@ -118,8 +121,8 @@ def _function(scene: "Scene | str", what: str) -> Callable:
     return fn
 
 
-def exact_error(scene: "Scene", traj: "Trajectory", settings: "RunSettings",
-                run: "Run | None" = None) -> tuple[float, str, str]:
+def exact_error(scene: "Scene", traj: "Trajectory", settings: Settings,
+                run: "Run[Settings] | None" = None) -> tuple[float, str, str]:
     """Error of ``traj`` against the scene's closed form: ``(value, unit, detail)`` from the
     scene's reference module (module docstring). ``run`` is needed only where
     ``needs_runs(scene)``.
@@ -186,7 +189,7 @@ def exact_reaction(scene: "Scene", traj: "Trajectory") -> tuple[float, str] | No
     return fn(scene, traj)
 
 
-def extra_run(run: "Run", scene: "Scene", settings: "RunSettings", n_saves: int, save: float,
+def extra_run(run: "Run[Settings]", scene: "Scene", settings: Settings, n_saves: int, save: float,
               what: str) -> "Trajectory":
     """An exact check's own run of ``scene``: ``n_saves`` intervals of ``save`` s, at the step,
     integrator and tolerances of ``settings``, made by the caller's ``run``.

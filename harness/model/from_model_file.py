@@ -38,7 +38,7 @@ A scene without code
 --------------------
 A scene folder whose ``scene.toml`` has no builder module (``harness/model/builders/<scene>.py``)
 and names none (``builder = ...``) takes its multibody from its model file: the MJCF, else the
-URDF (``scene_multibody``). Its parameters map onto that multibody by their ``sets`` key
+URDF (``harness.model.scene.scene_multibody``). Its parameters map onto that multibody by their ``sets`` key
 (``TARGETS``; ``[parameters] m1 = { value = 1.0, unit = "kg", kind = "positive", doc = "...",
 sets = "body.link1.mass" }``), applied in the order written, after the initial state that its
 ``initial_state`` key names (``zero``, the default: every joint at zero / identity and at rest;
@@ -66,8 +66,6 @@ from harness.model.multibody import Body, Multibody
 if TYPE_CHECKING:  # pragma: no cover
     import mujoco
 
-    from harness.model.scene import Parameter, Scene
-
 MJCF, URDF = "MJCF", "URDF"
 
 #: The initial states ``read_model_file`` and a scene's ``initial_state`` know besides a keyframe.
@@ -88,7 +86,8 @@ TARGETS: dict[str, tuple[tuple[int, ...], str, str]] = {
 }
 _FIELDS = {"body": ("mass", "com", "inertia"), "joint": ("q0", "v0")}
 
-#: How far (rad, m) a file's frame may be from the harness's for ``scene_multibody`` (rounding).
+#: How far (rad, m) a file's frame may be from the harness's (rounding) before it is noted
+#: (``ModelFile.frame_notes``, which ``check_runnable`` refuses in a scene without code).
 FRAME_TOL = 1e-12
 
 
@@ -388,36 +387,6 @@ def parse_target(text: str) -> tuple[str, str, str]:
     return group, name, fld
 
 
-def model_file_of(scene: "Scene") -> Path:
-    """The file a scene without code reads its system from: its MJCF when its ``scene.toml``
-    names one, its URDF when it names only a URDF (``Scene.model_files``). A named MJCF that is
-    missing is an InputError naming it, never a silent read of the URDF beside it."""
-    files = list(dict.fromkeys((scene.mjcf, scene.urdf)))
-    if "mjcf" in scene.model_files and not scene.mjcf.is_file() and scene.urdf.is_file() and len(files) == 2:
-        raise InputError(f"{scene.directory / 'scene.toml'}: its MJCF {scene.mjcf.name} is not in {scene.directory}: "
-                         f"a scene without a builder reads its system from the MJCF it names (not from "
-                         f"{scene.urdf.name}; name only urdf = \"{scene.urdf.name}\" to read the URDF)")
-    for path in files:
-        if path.is_file():
-            return path
-    if len(files) == 1:
-        raise InputError(f"{scene.directory / 'scene.toml'}: no model file: {files[0].name} is not in {scene.directory} "
-                         "(a scene without a builder reads its system from its model file)")
-    raise InputError(f"{scene.directory / 'scene.toml'}: no model file: neither {scene.mjcf.name} nor {scene.urdf.name} "
-                     f"is in {scene.directory} (a scene without a builder reads its system from its MJCF, else its URDF)")
-
-
-def scene_multibody(scene: "Scene") -> Multibody:
-    """The multibody of a scene without code: its model file (``model_file_of``) read in the
-    harness's frames, checked for what the engines cannot run from it (module docstring), with
-    the scene's parameters applied (``apply_parameters``)."""
-    path = model_file_of(scene)
-    mf = read_model_file(path, root_joint=scene.urdf_root_joint, initial=scene.initial_state or ZERO)
-    # without a URDF the MJCF states the root joint: no urdf_root_joint to agree with
-    check_runnable(mf, scene.urdf_root_joint if "urdf" in scene.model_files else None)
-    return apply_parameters(mf, scene.parameters.values(), scene.directory / "scene.toml")
-
-
 def check_runnable(mf: ModelFile, urdf_root_joint: str | None) -> None:
     """InputError (one line naming the body, joint or element) unless every engine can run
     ``mf`` as a scene: frames as the harness's (``frame_notes``), the URDF's root joint the
@@ -500,9 +469,10 @@ def _unit_key(unit: str) -> str:
     return "".join(ch for ch in unit.lower() if ch not in " *^\u00b7")
 
 
-def apply_parameters(mf: ModelFile, parameters: Iterable["Parameter"], source: Path) -> Multibody:
+def apply_parameters(mf: ModelFile, parameters: Iterable, source: Path) -> Multibody:
     """``mf``'s multibody with each parameter's value put where its ``sets`` says (``TARGETS``,
-    in the order given). InputError (one line naming the parameter) for a target the file does
+    in the order given); a parameter is read for its ``name``, ``sets``, ``value`` (SI units)
+    and ``unit`` (a scene's ``harness.model.scene.Parameter``). InputError (one line naming the parameter) for a target the file does
     not have, a value of the wrong size, or a unit other than the target's SI unit."""
     model = mf.multibody
     bodies = {b.name: b for b in model.bodies}

@@ -6,7 +6,7 @@ validated parameter values; ``scene.multibody()`` builds the physics (``harness.
 every engine runs: from the scene's builder module (``harness.model.builders.<scene>``, or the
 one its ``builder`` key names), or, for a scene without code (no builder module and no
 ``builder`` key), from its model file, with each parameter put where its ``sets`` key says
-(``harness.model.from_model_file``: ``TARGETS``, ``scene_multibody``).
+(``scene_multibody``; ``harness.model.from_model_file``: ``TARGETS``).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ except ModuleNotFoundError:  # pragma: no cover
 import numpy as np
 
 from harness.model.errors import InputError
-from harness.model.from_model_file import parse_target
+from harness.model.from_model_file import ZERO, apply_parameters, check_runnable, parse_target, read_model_file
 from harness.model.multibody import Multibody
 from harness.model.sanity import check_multibody
 
@@ -238,8 +238,6 @@ class Scene:
         later calls return the same object, which nobody may modify)."""
         if self._built is None:
             if self.from_model_file:
-                from harness.model.from_model_file import scene_multibody
-
                 model = scene_multibody(self)
             else:
                 name = self.builder or self.name
@@ -256,6 +254,40 @@ class Scene:
     def with_params(self, **overrides: Any) -> "Scene":
         """A copy with parameters overridden (values as numbers, sequences or strings)."""
         return apply_overrides(self, overrides)
+
+
+# --------------------------------------------------------------------------- scenes without code
+
+
+def model_file_of(scene: Scene) -> Path:
+    """The file a scene without code reads its system from: its MJCF when its ``scene.toml``
+    names one, its URDF when it names only a URDF (``Scene.model_files``). A named MJCF that is
+    missing is an InputError naming it, never a silent read of the URDF beside it."""
+    files = list(dict.fromkeys((scene.mjcf, scene.urdf)))
+    if "mjcf" in scene.model_files and not scene.mjcf.is_file() and scene.urdf.is_file() and len(files) == 2:
+        raise InputError(f"{scene.directory / 'scene.toml'}: its MJCF {scene.mjcf.name} is not in {scene.directory}: "
+                         f"a scene without a builder reads its system from the MJCF it names (not from "
+                         f"{scene.urdf.name}; name only urdf = \"{scene.urdf.name}\" to read the URDF)")
+    for path in files:
+        if path.is_file():
+            return path
+    if len(files) == 1:
+        raise InputError(f"{scene.directory / 'scene.toml'}: no model file: {files[0].name} is not in {scene.directory} "
+                         "(a scene without a builder reads its system from its model file)")
+    raise InputError(f"{scene.directory / 'scene.toml'}: no model file: neither {scene.mjcf.name} nor {scene.urdf.name} "
+                     f"is in {scene.directory} (a scene without a builder reads its system from its MJCF, else its URDF)")
+
+
+def scene_multibody(scene: Scene) -> Multibody:
+    """The multibody of a scene without code: its model file (``model_file_of``) read in the
+    harness's frames (``harness.model.from_model_file.read_model_file``), checked for what the
+    engines cannot run from it (``check_runnable``), with the scene's parameters applied
+    (``apply_parameters``)."""
+    path = model_file_of(scene)
+    mf = read_model_file(path, root_joint=scene.urdf_root_joint, initial=scene.initial_state or ZERO)
+    # without a URDF the MJCF states the root joint: no urdf_root_joint to agree with
+    check_runnable(mf, scene.urdf_root_joint if "urdf" in scene.model_files else None)
+    return apply_parameters(mf, scene.parameters.values(), scene.directory / "scene.toml")
 
 
 def builder_names() -> list[str]:

@@ -1,12 +1,13 @@
 """Isolated cases on a Dask cluster: the executor behind every sweep's ``--dask ADDRESS``.
 
-``DaskWorkers(address, jobs)`` has the interface of ``harness.validate.workers.Workers``
-(``start``, ``wait``, ``free``, ``len``, a context manager), so ``run_cases`` and the stress
-study's work-conserving loop run on a ``dask.distributed`` scheduler when given its address and on
-the local pool otherwise (``workers.open_workers``). Nothing else in the harness imports Dask.
+``DaskWorkers(address, jobs)`` has the interface of the local pool,
+``harness.validate.local_workers.Workers`` (``start``, ``wait``, ``free``, ``len``, a context
+manager), so ``harness.validate.workers.run_cases`` and the stress study's work-conserving loop
+run on a ``dask.distributed`` scheduler when given its address and on the local pool otherwise
+(``workers.open_workers``). Nothing else in the harness imports Dask.
 
 Each case is one Dask task, ``_remote_case``, which runs the case on the Dask worker through the
-very local pool (``workers.run_cases`` with one slot): the worker forks a fresh process for it,
+very local pool (``local_workers.Workers`` with one slot): the worker forks a fresh process for it,
 limits its BLAS to one thread and enforces its timeout from the case's own start. So the isolation
 contract and the ``Outcome`` are those of a local run: a case that raises is ``error``, one
 whose process dies (a segfault, ``os._exit``) is ``crashed`` with the same message, one past its
@@ -31,7 +32,7 @@ messages do not go through them).
 
 A Dask worker process is daemonic (``distributed.worker.daemon``) and multiprocessing refuses
 children to daemonic processes; ``_remote_case`` lifts that flag in the worker process. The case
-processes die with it anyway (``PR_SET_PDEATHSIG``, ``workers._die_with_parent``).
+processes die with it anyway (``PR_SET_PDEATHSIG``, ``local_workers._die_with_parent``).
 
 At most ``slots`` cases are submitted at once: the cluster's worker threads (``jobs``, when given,
 caps it), so a case starts as it is submitted. Cases and results travel pickled
@@ -60,7 +61,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Hashable
 
 from harness.model.errors import InputError
-from harness.validate.workers import Outcome
+from harness.validate.local_workers import Outcome, Workers
 
 CONNECT_TIMEOUT = 5.0  # s to reach the scheduler and end Dask's handshake, and again for a first worker to be there
 NO_WORKER_S = 5.0  # s the cluster may have no worker while cases wait (a nanny restarts one sooner)
@@ -223,14 +224,15 @@ def _remote_case(payload: bytes, timeout: float, quiet: bool, preload: tuple[str
     import warnings
 
     from harness.io.progress import set_quiet
-    from harness.validate.workers import run_cases
 
     mp.current_process()._config["daemon"] = False  # see the module docstring
     _preload(preload)
     warnings.filterwarnings("ignore", message=r".*use of fork\(\) may lead to deadlocks", category=DeprecationWarning)
     set_quiet(quiet)  # as the local pool's forked workers inherit it
     fn, args = pickle.loads(payload)
-    outcome = run_cases([(0, fn, args)], 1, timeout)[0]
+    with Workers(1) as pool:  # one case in a fresh process, its timeout from its start
+        pool.start(0, fn, args, timeout)
+        ((_, outcome),) = pool.wait()
     try:
         return pickle.dumps(outcome, protocol=pickle.HIGHEST_PROTOCOL)
     except Exception as err:  # a value that does not travel
@@ -247,7 +249,7 @@ class _Submitted:
 
 
 class DaskWorkers:
-    """``harness.validate.workers.Workers`` on the Dask scheduler at ``address``: ``start``
+    """``harness.validate.local_workers.Workers`` on the Dask scheduler at ``address``: ``start``
     submits a case, ``wait`` returns the cases that ended as ``[(key, Outcome)]``; on leaving the
     context the tasks still running are cancelled. ``lost``: why the cluster can run no more
     cases (None while it can); the cases started from then on end at once with that reason, in

@@ -293,7 +293,7 @@ def test_a_missing_mjcf_is_refused_unless_the_scene_names_only_a_urdf(tmp_path):
     reads the URDF (its declared file)."""
     import shutil
 
-    from harness.model.from_model_file import model_file_of
+    from harness.model.scene import model_file_of
 
     folder = tmp_path / "models" / "my_chain"
     shutil.copytree(MODELS_DIR / "three_link_chain", folder)

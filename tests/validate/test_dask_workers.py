@@ -23,7 +23,8 @@ distributed = pytest.importorskip("distributed")
 from harness.cli.main import build_parser, main  # noqa: E402
 from harness.model.scene import load_scene  # noqa: E402
 from harness.validate import dask_workers  # noqa: E402
-from harness.validate.workers import Outcome, _prctl, run_cases  # noqa: E402
+from harness.validate.local_workers import _prctl  # noqa: E402
+from harness.validate.workers import Outcome, run_cases  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -48,7 +48,7 @@ from pathlib import Path  # noqa: E402
 
 import pytest  # noqa: E402
 
-from harness.validate import workers  # noqa: E402
+from harness.validate import local_workers, workers  # noqa: E402
 
 _PARENT = """
 import time
@@ -95,7 +95,7 @@ def test_workers_die_with_a_killed_parent(sig, tmp_path):
     marker = f"HARNESS_WORKER_TEST={uuid.uuid4().hex}"
     env = {**os.environ, "HARNESS_WORKER_TEST": marker.split("=", 1)[1]}
     parent = subprocess.Popen([sys.executable, "-c", _PARENT], env=env, cwd=tmp_path)
-    expected = min(4, workers.usable_cpus())
+    expected = min(4, local_workers.usable_cpus())
     try:
         assert _until(lambda: len(_marked(marker) - {parent.pid}) >= expected, 20.0), "workers did not start"
         started = _marked(marker) - {parent.pid}
@@ -146,7 +146,7 @@ def _span(t):
 
 
 def test_jobs_are_clamped_to_the_usable_cpus(monkeypatch):
-    monkeypatch.setattr(workers, "usable_cpus", lambda: 2)
+    monkeypatch.setattr(local_workers, "usable_cpus", lambda: 2)
     assert (workers.effective_jobs(100), workers.effective_jobs(None), workers.effective_jobs(0),
             workers.effective_jobs(1)) == (2, 2, 2, 1)
     out = run_cases([(i, _span, (0.25,)) for i in range(6)], jobs=100, timeout=30.0)
@@ -156,11 +156,11 @@ def test_jobs_are_clamped_to_the_usable_cpus(monkeypatch):
 
 
 def test_usable_cpus_is_within_the_affinity_mask():
-    assert 1 <= workers.usable_cpus() <= len(os.sched_getaffinity(0))
+    assert 1 <= local_workers.usable_cpus() <= len(os.sched_getaffinity(0))
 
 
 def test_each_timeout_counts_from_the_cases_own_start(monkeypatch):
-    monkeypatch.setattr(workers, "usable_cpus", lambda: 1)
+    monkeypatch.setattr(local_workers, "usable_cpus", lambda: 1)
     # one at a time: the third case starts about 1.2 s after the first, past the 1 s timeout
     out = run_cases([(i, _span, (0.6,)) for i in range(3)], jobs=3, timeout=1.0)
     assert [out[i].status for i in range(3)] == ["ok"] * 3
@@ -175,7 +175,7 @@ def test_workers_are_killed_when_the_parent_loop_fails(monkeypatch):
             started.append(proc)
             super().add(proc)
 
-    monkeypatch.setattr(workers, "_LIVE", Recording())
+    monkeypatch.setattr(local_workers, "_LIVE", Recording())
 
     def broken_wait(self):
         raise RuntimeError("parent failed")
@@ -184,7 +184,7 @@ def test_workers_are_killed_when_the_parent_loop_fails(monkeypatch):
     with pytest.raises(RuntimeError, match="parent failed"):
         run_cases([(i, _hang, (i,)) for i in range(2)], jobs=2, timeout=60.0)
     assert started and all(p.exitcode == -signal.SIGKILL for p in started)
-    assert not workers._LIVE
+    assert not local_workers._LIVE
 
 
 def _blas_threads():
@@ -225,7 +225,7 @@ def test_a_stream_yields_each_item_as_it_comes_and_ends_a_hang_at_its_budget():
     before a hang arrive, the hang ends as ``timeout`` within the budget, the worker is gone."""
     import time
 
-    from harness.validate.workers import _LIVE, stream_case
+    from harness.validate.local_workers import _LIVE, stream_case
 
     start = time.monotonic()
     outcomes = list(stream_case(_three_then_hang, (30.0,), 0.5))

@@ -57,9 +57,9 @@ iterations taken (``prox_iter_max``).
 The Baumgarte corrector of the models is off (Kp = Kd = 0): drift is controlled by projection.
 
 ``constraintDynamics`` takes no external forces: the scene's prescribed point forces and point
-springs (``engine.point_wrenches``: spatial forces in the local frame of the joint that moves the
+springs (``forces.point_wrenches``: spatial forces in the local frame of the joint that moves the
 body) enter ``tau`` as generalised forces ``sum_j J_j^T f_j`` with ``J_j`` the joint's ``LOCAL``
-Jacobian; joint springs are already in ``tau`` (``engine.joint_force_function``).
+Jacobian; joint springs are already in ``tau`` (``forces.joint_force_function``).
 
 Drift control (after every step of ``rkmk4`` or ``euler`` on the configuration Lie group, and once
 at t = 0): the position residual e(q) (m, world, all rows) is removed by Gauss-Newton in the tangent
@@ -97,6 +97,8 @@ import pinocchio as pin
 
 from harness.engines.base import RunSettings
 from harness.engines.pinocchio import linalg
+from harness.engines.pinocchio.forces import (joint_force_function, joint_slots, point_spring_energy, point_wrenches,
+                                              rnea_reactions, spring_energy)
 from harness.engines.pinocchio.lie_group_integrators import stepper
 from harness.engines.pinocchio.model import MaximalReader, blowup_reason, initial_configuration, load_urdf
 from harness.measure.trajectory import SampleBuffer, Trajectory
@@ -201,14 +203,12 @@ def tree_reactions(pmodel: pin.Model, rdata: pin.Data, jointed, tau: np.ndarray,
                    constraints: LoopConstraints, lam: np.ndarray, q: np.ndarray, v: np.ndarray,
                    a: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """The reactions of the tree's joints ``jointed`` (``(name, joint id)``) at (q, v) with the
-    constrained acceleration ``a``: ``engine.rnea_reactions`` (``rnea``) with the joint-space
+    constrained acceleration ``a``: ``forces.rnea_reactions`` (``rnea``) with the joint-space
     forces ``tau``, and as ``fext`` the scene's applied point forces ``wrenches`` (joint id ->
-    spatial force [f; m] in the joint's local frame, ``engine.point_wrenches``) with each
+    spatial force [f; m] in the joint's local frame, ``forces.point_wrenches``) with each
     constraint model's force added (``lam[3k:3k+3]``, world axes, on joint1 at its point, the
     opposite on joint2). Force (N) and moment about the joint origin (N m), world, that the parent
     exerts on the child."""
-    from harness.engines.pinocchio.engine import rnea_reactions
-
     pin.forwardKinematics(pmodel, rdata, q)
     fext = dict(wrenches)
     placements = {}
@@ -269,8 +269,6 @@ def proximal_settings(pmodel: pin.Model, data: pin.Data, q: np.ndarray, constrai
 def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Trajectory:
     """Run a scene with cut joints in Pinocchio (module docstring); the trajectory carries each cut
     joint's reaction on body_a in ``reactions[<loop name>]``."""
-    from harness.engines.pinocchio.engine import joint_force_function, _joint_slots, point_spring_energy, point_wrenches, spring_energy
-
     pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
     data = pmodel.createData()
     fdata = pmodel.createData()  # kinematics of the applied forces, apart from the solver's data
@@ -287,7 +285,7 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
             return tau, {}
         pin.computeJointJacobians(pmodel, fdata, q)  # the placements oMi, and the Jacobians of _external_torque
         return tau, wrenches(t)
-    joint_slots = _joint_slots(pmodel, ids, model)
+    slots = joint_slots(pmodel, ids, model)
     counters = {"rhs_evals": 0, "prox_iter_max": 0, "prox_unconverged": 0, "projection_iter_max": 0}
     step = stepper(settings.integrator, pmodel)
     h = settings.dt
@@ -364,7 +362,7 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
                     react[name][0][k], react[name][1][k] = fm
             reader.read(q, v, k)
             buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
-            buf.potential[k] = (pin.computePotentialEnergy(pmodel, data, q) + spring_energy(joint_slots, q)
+            buf.potential[k] = (pin.computePotentialEnergy(pmodel, data, q) + spring_energy(slots, q)
                                     + point_spring_energy(pmodel, data, ids, model, q))
             saved = k + 1
     except (RuntimeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:

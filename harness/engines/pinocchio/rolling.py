@@ -46,7 +46,7 @@ body on a joint; when the scene asks, ``[checks.reaction]``): ``rnea`` at (q, v,
 the constrained forward dynamics and the contact forces lambda as external forces
 (``fext``: lambda at C, about each rolling body's joint origin, in its local frame) leaves in
 ``data.f[j]`` the spatial force the parent exerts on the subtree of joint j (as in
-``harness.engines.pinocchio.engine``), rotated to world.
+``harness.engines.pinocchio.forces``), rotated to world.
 """
 
 from __future__ import annotations
@@ -59,6 +59,7 @@ import pinocchio as pin
 
 from harness.engines.base import RunSettings
 from harness.engines.pinocchio import linalg
+from harness.engines.pinocchio.forces import rnea_reactions
 from harness.engines.pinocchio.lie_group_integrators import stepper
 from harness.engines.pinocchio.model import MaximalReader, blowup_reason, initial_configuration, load_urdf
 from harness.model.joints import JOINTS
@@ -173,11 +174,9 @@ class RollingRows:
 
 def joint_reactions(pmodel: pin.Model, data: pin.Data, rolling: RollingRows, jointed, q, v, a, lam):
     """Per ``(name, joint id)`` of ``jointed``: the force (N) and moment about the joint origin
-    (N m), world, that the parent exerts on the joint's child (module docstring): the engine's
-    ``rnea_reactions`` at the constrained acceleration ``a`` with the contact forces as
+    (N m), world, that the parent exerts on the joint's child (module docstring):
+    ``forces.rnea_reactions`` at the constrained acceleration ``a`` with the contact forces as
     ``fext`` (no joint is actuated: ``tau`` zero)."""
-    from harness.engines.pinocchio.engine import rnea_reactions
-
     pin.forwardKinematics(pmodel, data, q, v)
     fext = rolling.external_forces(lam)
     return rnea_reactions(pmodel, data, jointed, np.zeros(pmodel.nv), fext, q, v, a)

@@ -1,187 +1,91 @@
 """Work-precision sweeps: error against run time for every scene, engine and integrator.
 
+Use: ``harness workprecision`` (``harness.cli.workprecision``), or ``run_sweep(scenes, engines,
+options)``, one ``SceneSweep`` per scene (its ``WorkPrecisionPoint``s, where the time went, the
+head to head and the batch benchmark), which ``report.write_reports`` writes out; nothing here
+writes a file. ``SweepOptions`` holds every setting; ``QUICK`` is a small sweep for tests.
+
 Vocabulary as DiffEqDevTools.jl: a reference solution judges every run; errors are ``final``
 (at the horizon) and ``max`` (the L-infinity norm over the saved steps); timing is one warm-up
-run, then the median (and the minimum) of repeated runs; a run that fails or blows up is a
-recorded point with its reason (errors NaN), never an exception.
+run, then the median (and the minimum) of repeated runs, in wall-clock seconds; a run that fails
+or blows up is a recorded point with its reason (errors NaN), never an exception.
 
-What is swept, per scene (``curves``):
+Curves (``curves``): each integrator of each engine over fixed steps ``dt`` (s) or, where it is
+adaptive, over tolerances ``rtol = atol`` (kind and nominal order from the engine's
+``Integrator`` records, ``harness.engines.integrator``). All run through their engine's
+``simulate`` (``get_engine``) but MuJoCo's ``rollout`` variant; what a point's ``time_s`` covers:
 
-* MuJoCo: each integrator (Euler, implicit, implicitfast, RK4) over timesteps, twice: through
-  ``mujoco.rollout`` (variant ``rollout``: the time inside the C rollout; the conversion to
-  maximal coordinates is in ``time_total_s``) and through the harness's stepping loop
-  ``MujocoEngine.simulate`` (variant ``loop``: the loop's own time, which includes reading every
-  saved sample back; ``time_total_s`` includes compiling the model).
-* Pinocchio: each harness integrator (rkmk4, euler) over timesteps (loop time).
-* Drake: RK3, RK5 and Radau3 with Drake's error control over target accuracies (as the in-house
-  SciPy methods over tolerances; their maximum step ``adaptive_step``, where the fixed-step
-  ladders start, never the save interval), RK3_fixed and RK2 over timesteps, through
-  ``DrakeEngine.simulate`` (the engine's whole run: parsing the URDF, building the plant,
-  integrating, reading every sample); the rolling disk is not run on Drake (unsupported).
-* Exudyn: GeneralizedAlpha and TrapezoidalIndex2 (implicit, every scene) and RK44, RK67
-  (explicit, free bodies only) over timesteps, through ``ExudynEngine.simulate`` (the engine's
-  whole run: building the Exudyn system, solving, reading the sensors).
-* In-house, all through ``InhouseEngine.simulate``: the compiled methods (variant ``compiled``;
-  the integration alone, the kernel compiled before the clock starts; ``time_total_s`` adds
-  building the model and converting the result): rk4_compiled and rkmk4_compiled (RK4 in
-  Runge-Kutta-Munthe-Kaas form on SO(3): exact for a constant-rate rotation) over timesteps,
-  dop853_compiled over tolerances; and the per-state methods (variant ``per-state``, the slow readable oracle;
-  the engine's whole run): rk4, euler over timesteps and SciPy's RK45, DOP853 over tolerances,
-  by default only on a scene the compiled form does not model (``per_state``, below).
+* MuJoCo: Euler, implicit, implicitfast, RK4, twice: ``rollout`` (``mujoco.rollout``: the time
+  inside the C rollout) and ``loop`` (``MujocoEngine.simulate``: the stepping loop, reading back
+  every saved sample).
+* Pinocchio: rkmk4, euler (the loop).
+* Drake: RK3, RK5, Radau3 with Drake's error control over tolerances (maximum step
+  ``adaptive_step``), RK3_fixed and RK2 over steps (the engine's whole run: parsing the URDF,
+  building the plant, integrating, reading every sample).
+* Exudyn: GeneralizedAlpha, TrapezoidalIndex2, and RK44, RK67 on free bodies only (the whole
+  run: building the system, solving, reading the sensors).
+* In-house: the compiled methods (variant ``compiled``: the integration alone, the kernel
+  compiled beforehand, ``warm_kernels``) rk4_compiled, rkmk4_compiled over steps and
+  dop853_compiled over tolerances; the per-state oracle (variant ``per-state``: the whole run)
+  rk4, euler over steps and SciPy's RK45, DOP853 over tolerances, by default only on the scenes
+  the compiled form does not model (``SweepOptions.per_state``).
 
-Every curve except MuJoCo's ``rollout`` variant runs through its engine's ``simulate`` (the
-registry's ``get_engine``); whether a method is adaptive and its nominal order come from the
-engine's ``Integrator`` records (``harness.engines.integrator``).
+``time_total_s`` adds loading the model and converting the result. A method that does not model
+a scene (status ``"unsupported"``) is skipped there after its first run, its reason in
+``SceneSweep.skipped``.
 
-Every curve runs in its own worker process (``_curve_points`` through
-``harness.validate.workers.stream_case``), forked from the sweep's process after the engines'
-imports and the compiled kernels are loaded, which sends each point (its warm-up and timed
-repeats) back as it is measured, each under a wall-clock budget (``run_timeout_s``, default
-60 s, ``--run-timeout``): a point over it is killed with its worker and recorded as failed,
-"timed out after N s", its curve stops there (a finer step or a tighter tolerance only takes
-longer) and the sweep goes on. One worker per curve, not per point: forking a worker for each
-point cost more than many points (heavy_top's sweep 19 s against 13 s in-process). The times
-stay the runs' own: each is measured inside the worker around the run alone (``measure``), and
-a point's wall time, which the curve budgets count, around ``measure`` in the worker. A scene's
-reference run, its head-to-head timing and its batch benchmark each run in a worker of their
-own too (``run_stage``, under ``STAGE_TIMEOUT``), recorded as failed with the reason if they
-do not end.
-Before any run, the finest step of every ladder is held to ``harness.model.scene.MAX_STEPS``
-integration steps over the horizon (``check_step_budget``).
+Ladders: steps ``dt = save / 2^k`` (whole steps per saved interval) from the first at or below
+``coarsest_dt`` times the scene's dt down to ``save / 2^(dt_levels - 1)``, each held to
+``harness.model.scene.MAX_STEPS`` steps over the horizon before any run (``check_step_budget``);
+tolerances one per decade (``tolerances``).
 
-Timesteps are ``dt = save / 2^k`` (whole steps per saved interval), from the first level at or
-below ``coarsest_dt`` times the scene's own dt down to ``save / 2^(dt_levels - 1)``;
-tolerances ``rtol = atol`` per decade. A method that does not model the scene (its run comes
-back with status ``"unsupported"``, e.g. ``mujoco.rollout`` with a prescribed force) is skipped on
-that scene after its first run: no points, its reason in ``SceneSweep.skipped``, and the report
-says so.
+Isolation: each curve runs in a worker process of its own
+(``harness.validate.workers.stream_case``) that sends each point back as it is measured; a point
+over ``run_timeout_s`` of wall clock is recorded as failed (``TIMED_OUT``) and its curve stops.
+A scene's reference, head to head and batch benchmark each run in a worker too (``run_stage``,
+``STAGE_TIMEOUT``).
 
-How long a sweep takes, and why (the default ``SweepOptions``)
----------------------------------------------------------------
-The sweep used to refine every curve until one run took longer than ``max_run_s`` = 2 s, with
-four runs per point below 0.25 s, the per-state reference and all per-state curves: heavy_top
-alone took 316 s (load 2.4-4.2 on 2 cores): every one of its 25 curves 8-19 s, the batch 26 s,
-the head to head 19 s, the per-state reference 3.8 s; four_bar 315 s with a 77 s batch and a
-14 s reference; andrews_squeezer's per-state reference alone did not end in 10 minutes. The 18
-scenes took more than 66 minutes. With the choices below the 18 scenes take 210 s of sweep
-(3 min 47 s for the whole command with its figures and imports; load 1.7 -> 3.0): the curves
-133 s, the batches 41 s, the head to head 20 s, the references 15 s (10 s of it
-andrews_squeezer's closed-form check, which integrates its own DAE reference). ``SceneSweep.curves``
-and ``SceneSweep.walls`` record where the time of a run went (the report has the table):
+Refinement rules: a point whose warm-up took less than ``slow_run_s`` is timed ``repeats`` more
+times, a slower one once more. A curve stops (``stop_reason``, recorded in
+``SceneSweep.curves[label]["stop"]``) when its next point, predicted from the last two
+(``next_cost``), would take its points past their wall-time budget: ``curve_budget_s``;
+``key_budget_s`` for the curves the targets are measured on (MuJoCo RK4 through ``rollout``, or
+the loop where rollout cannot run the scene, and the in-house DOP853), ``reach_budget_s`` while
+such a curve still converges above the error it must reach (``converging``, ``reach``);
+``loop_budget_s`` for MuJoCo's loop variants. It also stops after a run slower than
+``max_run_s``, at a state error below ``stop_error``, when a fixed-step error stalls (the best of
+the last three points not twice better than the best before, below 1e-2, and their error model
+not ``converges``), and after three failed runs that follow a sound one.
 
-* A time budget per curve (``curve_budget_s``): the wall time of all its points (warm-up, timed
-  repeats, errors). Before each point its cost is predicted from the last two (a halved dt
-  doubles the work: per-run time times the runs it will take, ``next_cost``) and the curve
-  stops when the point would end past the budget; the first point always runs, and
-  ``max_run_s`` still stops a curve after one slow run. The curves the targets are measured on
-  get ``key_budget_s`` (MuJoCo RK4 through ``mujoco.rollout``, or through the loop where rollout
-  cannot run the scene, and the in-house DOP853: compiled, or per-state where the compiled form
-  does not model the scene), MuJoCo's ``loop`` variants ``loop_budget_s`` (their errors are the
-  rollout variant's; they give the harness's overhead table, and the head to head times the loop
-  at the rollout point's dt itself). Defaults 0.5, 3 and 0.25 s: 18 scenes x about 25 curves
-  must fit in 5 minutes with the reference, head to head and batch.
-* A target curve still converging (``converging``: its last halving cut the error at at least
-  half its order) and above the error it must reach (``reach``: MuJoCo RK4 the smallest target;
-  the in-house solver the smallest target MuJoCo RK4 reached) gets ``reach_budget_s`` = 10 s
-  instead: with 3 s only, heavy_top's MuJoCo RK4 stopped at 2.0e-10 (dt 1.2e-4, 2.1 s spent),
-  one halving short of 1e-10 (a 0.4 s run), and the table said "not reached by MuJoCo" where
-  the budget, not MuJoCo, stopped it. MuJoCo on a soft loop or contact (four_bar, order 0.5;
-  rolling_cone 0.4) converges too slowly for the extension and keeps its 3 s.
-* A curve also stops once its state error is below ``stop_error`` = 1e-11, a decade under the
-  smallest target (the order fits use errors above 100 x ``error_floor`` = 1e-10 only), when
-  the error of a fixed-step curve stalls (the best of its last three points is not twice better
-  than the best before, below 1e-2: MuJoCo's soft loop constraints; not for tolerances: bricard's
-  compiled DOP853 sits at 2.6e-6 from rtol 1e-3 to 1e-6 and is 7e-10 off at 1e-13), or when its
-  last three runs failed after a sound one. ``SceneSweep.curves[label]["stop"]`` says which.
-* Ladders start where errors mean something: fixed steps at ``coarsest_dt`` = 32 times the
-  scene's dt (RK4 errors there are ~32^4 = 1e6 times those at the scene's dt, 1e-4 to 1e-2
-  on these scenes), not at the save interval (a 0.25-0.5 s step, where every explicit method
-  blows up and each of Drake's or Exudyn's runs still costs its 0.05-0.5 s of setup).
-* Repeats: a point whose warm-up took less than ``slow_run_s`` = 0.02 s is timed ``repeats`` =
-  3 more times (median), a slower one once more only (it was 0.25 s: a 0.2 s run then cost
-  0.8 s, more than an ordinary curve's whole budget; a cheap point's fixed cost, the errors and
-  the runner's set-up, is 5-30 ms, so more than about four points per 0.5 s budget leave no
-  room for repeats).
-* The reference is the compiled in-house DOP853 whenever the compiled form models the scene,
-  the per-state DOP853 otherwise (``reference``; measurements below). The compiled kernels are
-  loaded (or compiled, when Numba's cache misses) before a scene's sweep (``warm_kernels``; once
-  per process), so that no curve's budget pays for it.
-* Per-state in-house curves (``per_state``): by default only on scenes the compiled form does
-  not model ("uncovered"), where they are the in-house solver; "all" runs them everywhere (the
-  oracle's own work-precision; heavy_top: 50 s of per-state curves), "none" never.
-* Head to head: at least 3 rounds, up to ``h2h_rounds`` = 5 while a target's rounds took less
-  than ``h2h_budget_s`` = 2 s.
-* Batch: after warm-ups on one trajectory per thread, a calibration run of the one-thread
-  variants on 4 trajectories per thread sizes the batch so that one timed run of the slower
-  takes about ``batch_budget_s`` / 12 (4 variants x 3 rounds; never more than ``batch`` = 1000
-  trajectories, never fewer than one per thread); rounds past the first only while the rounds
-  took less than ``batch_budget_s``. Throughput (trajectory-steps per second) is a rate: fewer
-  trajectories measure the same rate once a run is long against a call's own cost (torque_free,
-  load 1.6: ``mujoco.rollout`` 1.2-1.4e5 steps/s from 8 to 512 trajectories; the compiled batch
-  on 2 threads 2.8e5 at 8, 4.8e5 at 32, 7.6e5 at 128, 9.1e5 at 512, which is why the
-  calibration does not use the threaded variants: sized from a 2-trajectory warm-up the batch
-  came out at 77 trajectories there, and the ratio at 4.5 instead of 7). Before, four_bar's
-  1000 x 100 steps took 13 s per compiled run, 104 s for the benchmark; the 1000 initial states
-  alone took 0.2-0.8 s per scene.
-
-Error measures (one definition, used everywhere; ``errors``)
-------------------------------------------------------------
-Against the reference trajectory at the saved times, with the reference's scales
-(``compare.motion_scales``: length L, velocity V, angular velocity Omega; ``compare.energy_scale``
-E; ``compare.momentum_scales`` p and Lm):
+Error measures (``errors``), against the reference at the saved times with the reference's
+scales (``harness.measure.compare``: ``motion_scales`` length L (m), velocity V (m/s), angular
+velocity Omega (rad/s); ``energy_scale`` E (J); ``momentum_scales`` p (kg m/s), Lm (kg m^2/s)):
 
 * state error at a sample = max over bodies of max( |dp_WCm_W| / L, geodesic angle of
   quat_WB^-1 quat_ref (rad), |dv_WCm_W| / V, |dw_WB_W| / Omega ): the largest of the trajectory
   quantities of ``harness.judging.quantities`` (``state_error``), as validate judges its
-  ``trajectory.*`` checks and the stress study its bands;
+  ``trajectory.*`` checks;
 * energy error = |E - E_ref| / E (the harness's energy recomputed from the common state);
 * momentum error = max( |p_W - p_ref| / p, |L_W - L_ref| / Lm ) (linear and angular momentum
   about the world origin, world frame);
 
-each reported at the final time (``*_final``) and as the max over the saved samples (``*_max``).
+each at the final time (``*_final``) and as the max over the saved samples (``*_max``).
 
-Reference (``reference``): the compiled in-house DOP853 at rtol = atol = 1e-13 (first step a
-tenth of the save interval; it projects onto the constraints after every step) when the compiled
-form models the scene, else the per-state in-house DOP853 at rtol = atol = 1e-13 with steps capped
-at a tenth of the save interval. Measured on the 18 scenes (save = t_end / 20, load 3.6-5.9 on
-2 cores): the compiled reference took 0.02-0.8 s per scene (andrews_squeezer 4.3 s of
-integration), the per-state one 0.2-58 s (bricard 58 s; andrews_squeezer and
-four_bar_near_singular did not end within 60 s, andrews_squeezer not within 10 minutes). Where
-both ended they agree to 1e-14..6e-12 in state error, except on the loop and rolling scenes where
-the compiled one is the closer of the two to the scene's closed form: four_bar 3.4e-11 against
-5.8e-9, slider_crank 4.9e-10 against 2.3e-8 (the compiled one is the same at 100 slices: the
-closed form's own floor), bricard 3.5e-13 against 4.8e-13; rolling_cylinder_bar 4.4e-11
-against 1.5e-11 (the compiled rolling contact's round-off: 25 to 400 slices scatter 2e-12 to
-1e-10). The slices matter: run through the engine in one go (dense output, no step cap) bricard's
-compiled reference took 105 steps and was 7.2e-10 off its closed form (3.4e-10 at rtol 3e-14);
-capped at save / 10, 1.7e-11; at save / 25 (500 steps), 3.5e-13 (also at save / 50).
-Where the scene's reference module has an exact check that needs no runs of its own, the
-reference's own error against it is reported (``harness.measure.exact``).
+Reference (``reference``): the compiled in-house DOP853 at rtol = atol = ``REFERENCE_TOL``, its
+steps capped at save / ``REFERENCE_SLICES`` and projected onto the constraints after each, where
+the compiled form models the scene; else the per-state DOP853 at the same tolerance, steps
+capped at save / 10. Its own error against the scene's closed form is reported where the exact
+check needs no runs of its own (``reference_checks``).
 
-Error model of each curve (``curve_model``; ``harness.judging.error_model``, as validate judges
-its checks): the curve's state error (max over the saved samples, relative: scale 1) at its
-steps (fixed step, the method's order) or tolerances (kind ``adaptive``, order 1 in the
-tolerance) is fitted by ``error_model.fit`` from its finest points: the (up to) three finest
-sound points whose errors are resolved (above ``NOISE`` times the resolution), the finest first,
-else the three finest (at the resolution: ``converges`` there). The resolution is the larger
-of ``error_floor`` (the reference's accuracy, 1e-12: the reference is integrated at 1e-13, not
-``JUDGING_RESOLUTION``'s 1e-9, which would hide the 1e-10 target) and the round-off floor
-``N eps`` of the finest run's steps. The model gives the observed order of the finest two levels,
-the floor (the part that does not vanish with the step or tolerance: MuJoCo's soft loop and
-contact constraints) and the class (``converges``, ``model difference``, ``defect``,
-``unresolved``: an error of the motion's own size at the finest point, ``not judged``: one
-sound point, or none: a ladder's blow-ups are beyond the method's stability, at steps coarser
-than the scene's, and read as no defect). ``observed_order``
-reports it with, for adaptive methods, the effective order -slope of log(state error max)
-against log(accepted steps) (least squares over the points between ``100 x error_floor`` and
-1e-2: the order in the work, which the error model does not measure).
+Each curve is judged as validate judges its checks (``curve_model``,
+``harness.judging.error_model``): its state error against its step or tolerance gives the
+observed order, the floor and the class; ``observed_order`` adds, for adaptive methods, the order
+in the work (against accepted steps).
 
-The stop rule "error stalled" (``stop_reason``) stays a budget rule on three points (the best
-of the last three not twice better than the best before, below 1e-2: one noisy halving must not
-end a curve), and stops only where the error model of those three points does not say
-``converges``; its reason names the model's class and floor. ``converging`` (whether a target
-curve gets ``reach_budget_s``) also stays its own: it is a deliberately permissive budget test
-(half the nominal order over the last halving), not a classification.
+Targets: at each state error of ``TARGETS`` the in-house solver's time over MuJoCo RK4's
+(``head_to_head``, timed again in alternation) is at most ``TARGET_RATIO``; the compiled in-house
+RK4's batched throughput over ``mujoco.rollout``'s (``batch_benchmark``, trajectory-steps per
+second) is at least ``TARGET_THROUGHPUT``.
 """
 
 from __future__ import annotations
@@ -213,7 +117,7 @@ PER_STATE = ("uncovered", "all", "none")  # values of SweepOptions.per_state
 
 @dataclass(frozen=True)
 class SweepOptions:
-    """How a sweep is run (the module docstring says why the defaults are what they are).
+    """How a sweep is run (the module docstring says what each setting stops or sizes).
 
     Attributes:
         repeats: timed runs after the warm-up (median and minimum are reported).
