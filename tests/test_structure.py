@@ -43,14 +43,6 @@ ROOT = Path(__file__).resolve().parents[1]
 KNOWN_CYCLES = {
     ("harness.tools.check", "harness.tools.witnesses"),
 }
-#: Upward imports into ``harness/tools/`` that only moving code out of ``harness/tools/`` can
-#: cure: validate's ``model.*`` checks read the files back with tools' ``inspection`` and
-#: ``loaded_models``, and Drake's ``drake_bodies`` returns tools' ``LoadedBody``.
-KNOWN_UPWARD = {
-    ("harness.validate.run", "harness.tools.inspection"),
-    ("harness.validate.run", "harness.tools.loaded_models"),
-    ("harness.engines.drake.model", "harness.tools.loaded_models"),
-}
 
 
 @dataclass(frozen=True)
@@ -255,15 +247,9 @@ def test_every_package_has_a_layer():
 
 def test_no_layer_imports_from_a_higher_one():
     order = layers()
-    found = [imp for imp in upward_imports(GRAPH, order) if (imp.source, imp.target) not in KNOWN_UPWARD]
+    found = upward_imports(GRAPH, order)
     assert not found, "imports from the same or a higher layer (CONTRIBUTING.md, Layers):\n" + "\n".join(
         f"{imp} (layer {order[_package(imp.source)]} -> {order[_package(imp.target)]})" for imp in found)
-
-
-@pytest.mark.xfail(strict=True, reason="upward imports into harness/tools/: cured by moving code out of it (issue #32)")
-@pytest.mark.parametrize("edge", sorted(KNOWN_UPWARD), ids=" -> ".join)
-def test_known_upward_import_is_gone(edge):
-    assert edge not in {(imp.source, imp.target) for imp in upward_imports(GRAPH, layers())}
 
 
 # ------------------------------------------------------------------------------------ the test fails

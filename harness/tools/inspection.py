@@ -1,6 +1,6 @@
 """``harness inspect SCENE``: what each engine holds after loading a scene, against the scene.
 
-Loads, each compared with the scene description (``harness.tools.loaded_models``):
+Loads, each compared with the scene description (``harness.engines.loaded_models``):
 
 * primary, scene parameters applied (what every run uses): MuJoCo from the MJCF by
   ``load_mjcf``, Pinocchio from the URDF by ``load_urdf``, against the scene at its current
@@ -9,7 +9,7 @@ Loads, each compared with the scene description (``harness.tools.loaded_models``
   defaults of its ``scene.toml``, which the files must hold. ``load_urdf``/``load_mjcf`` overwrite
   mass properties, so an error in a file shows here only. A URDF cannot state gravity: the
   URDF-as-written model gets the scene's gravity for the dynamics check. The same comparison
-  (``as_written``) is what ``harness validate`` checks at the start of every run (``model.*``);
+  (``harness.engines.as_written``) is what ``harness validate`` checks at the start of every run (``model.*``);
 * cross-loads, as written, against the defaults: the MJCF into Pinocchio
   (``buildModelFromMJCF``) and the URDF into MuJoCo (MuJoCo compiles URDF: first as MuJoCo
   imports it by default, then with the scene's root joint added as Pinocchio adds it). What a
@@ -25,110 +25,35 @@ written, bodies, gravity or dynamics) fail; cross-load findings do not.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
 
 import mujoco
 import numpy as np
 import pinocchio as pin
 
 from harness.tools import dynamics_terms as dc
-from harness.tools.check import check_spec_inertials, load_mujoco, load_pinocchio
+from harness.tools.check import load_mujoco, load_pinocchio
+from harness.engines.as_written import APPLIED_RTOL, AS_WRITTEN_RTOL, as_written, scene_defaults
 from harness.engines.mujoco.model import load_mjcf, read_spec
-from harness.engines.pinocchio.model import load_urdf, read_urdf
+from harness.engines.pinocchio.model import load_urdf
 from harness.model.errors import InputError
 from harness.model.joints import JOINTS, by_urdf_root
-from harness.tools.loaded_models import (
-    Discrepancy,
+from harness.engines.loaded_models import (
     LoadedBody,
-    body_discrepancies,
-    check_joint_bodies_physical,
     compare_bodies,
     exudyn_bodies,
     exudyn_gravity,
-    gravity_discrepancy,
     gravity_problem,
     mujoco_bodies,
     mujoco_force_discrepancies,
     mujoco_loop_discrepancies,
     pinocchio_bodies,
-    pinocchio_joint_bodies,
 )
 from harness.engines.mujoco.loops import loop_points
 from harness.engines.mujoco.loops import settings_text as loop_settings
 from harness.model.forces import elements
 from harness.model.joints import keeps_axis
 from harness.model.multibody import Multibody
-from harness.model.scene import Scene, load_scene
-
-AS_WRITTEN_RTOL = 1e-6   # the files carry rounded decimals (e.g. 0.083358333333333)
-APPLIED_RTOL = 1e-9
-MODEL_FILE_ENGINES = ("mujoco", "pinocchio")  # the engines that read a scene's model file (MJCF, URDF)
-MODEL_FILE_ENGINES = MODEL_FILE_ENGINES + ("drake",)  # Drake reads the URDF with its own parser
-MODEL_ENGINES = MODEL_FILE_ENGINES + ("exudyn",)  # ... and those whose model as built is checked (Exudyn: from the description)
-
-
-@dataclass
-class AsWritten:
-    """One engine's load of its model file as written, against the scene at its defaults.
-
-    ``engine``: ``mujoco`` (the MJCF, ``read_spec().compile()``), ``pinocchio`` (the URDF,
-    ``read_urdf`` with the scene's root joint) or ``exudyn`` (no file: the system built from
-    the scene's description, ``harness.engines.exudyn.model``); ``path``: the file
-    (``scene.toml`` for Exudyn); ``model``: the compiled ``MjModel``, ``pin.Model``, Drake's
-    ``(plant, joints)`` (``harness.engines.drake.model.parse``) or the ``ExudynSystem``; ``discrepancies``: every quantity of every body
-    (``harness.tools.loaded_models.body_discrepancies`` at ``AS_WRITTEN_RTOL``) and, for the
-    MJCF, its gravity (at ``APPLIED_RTOL``; a URDF cannot state gravity).
-    """
-
-    engine: str
-    path: Path
-    model: Any
-    discrepancies: list[Discrepancy]
-
-    @property
-    def problems(self) -> list[str]:
-        return [d.message for d in self.discrepancies if not d.passed]
-
-
-def scene_defaults(scene: Scene) -> Scene:
-    """The scene at the defaults of its ``scene.toml``: the values its model files must hold
-    (re-read from the scene's folder, so ``--set`` overrides are not in it)."""
-    return load_scene(scene.directory.name, models_dir=scene.directory.parent)
-
-
-def as_written(scene: Scene, engine: str, model0: Multibody | None = None) -> AsWritten:
-    """``engine``'s model file of ``scene`` loaded as written and measured against ``model0``
-    (default: the scene at its ``scene.toml`` defaults). InputError if the file does not load
-    or holds a non-physical body."""
-    if model0 is None:
-        model0 = scene_defaults(scene).multibody()
-    if engine == "mujoco":
-        m = _compile_as_written(scene)
-        found = body_discrepancies(mujoco_bodies(m, model0), model0, rtol=AS_WRITTEN_RTOL)
-        found += mujoco_loop_discrepancies(m, model0, rtol=AS_WRITTEN_RTOL)  # cut joints: the <connect> sites
-        found += mujoco_force_discrepancies(m, model0, rtol=AS_WRITTEN_RTOL)  # motors and tendon springs
-        found.append(gravity_discrepancy(np.asarray(m.opt.gravity, dtype=float), model0.gravity_W, APPLIED_RTOL))
-        return AsWritten(engine, scene.mjcf, m, found)
-    if engine == "pinocchio":
-        p = read_urdf(scene.urdf, scene.urdf_root_joint)
-        check_joint_bodies_physical(pinocchio_joint_bodies(p), str(scene.urdf))
-        return AsWritten(engine, scene.urdf, p, body_discrepancies(pinocchio_bodies(p, model0), model0, rtol=AS_WRITTEN_RTOL))
-    if engine == "drake":  # the URDF as Drake's own parser reads it (a URDF cannot state gravity)
-        from harness.engines.drake.model import drake_bodies, parse
-
-        plant, _, joints = parse(scene.urdf, scene.urdf_root_joint, model0, springs=False)
-        return AsWritten(engine, scene.urdf, (plant, joints),
-                         body_discrepancies(drake_bodies(plant, joints, model0), model0, rtol=AS_WRITTEN_RTOL))
-    if engine == "exudyn":  # built from the description (Exudyn reads no model file): what it holds
-        from harness.engines.exudyn.integrators import NODE_TYPE
-        from harness.engines.exudyn.model import build
-
-        system = build(model0, NODE_TYPE[scene.integrators["exudyn"]])
-        found = body_discrepancies(exudyn_bodies(system, model0), model0, rtol=AS_WRITTEN_RTOL)
-        found.append(gravity_discrepancy(exudyn_gravity(system), model0.gravity_W, APPLIED_RTOL))
-        return AsWritten(engine, scene.directory / "scene.toml", system, found)
-    raise ValueError(f"engine {engine!r} builds no model to check (those that do: {', '.join(MODEL_ENGINES)})")
+from harness.model.scene import Scene
 
 
 @dataclass
@@ -316,17 +241,6 @@ def _exudyn_load(scene: Scene, model: Multibody) -> Load:
 def _gravity(g, model: Multibody, rtol: float = APPLIED_RTOL) -> list[str]:
     problem = gravity_problem(np.asarray(g, dtype=float), model.gravity_W, rtol)
     return [problem] if problem else []
-
-
-def _compile_as_written(scene: Scene) -> mujoco.MjModel:
-    spec = read_spec(scene.mjcf)
-    check_spec_inertials(spec, scene.mjcf)
-    try:
-        return spec.compile()
-    except InputError:
-        raise
-    except Exception as err:
-        raise InputError(f"{scene.mjcf}: MJCF does not compile: {' '.join(str(err).split())}") from None
 
 
 def _dynamics(label: str, primary: bool, model: Multibody, m, pmodel, n_states: int, seed: int,

@@ -2,7 +2,7 @@
 
 First, for each scene, the model files are judged AS WRITTEN (``model_checks``): each engine that
 reads one (MuJoCo the MJCF, Pinocchio the URDF) loads it without the scene's parameters applied
-(``harness.tools.inspection.as_written``), and every body's mass, centre of mass, inertia, joint
+(``harness.engines.as_written``), and every body's mass, centre of mass, inertia, joint
 position, joint type and axis (and the MJCF's gravity) is checked against the scene at its
 ``scene.toml`` defaults, which the files must hold: checks ``model.<body>.<quantity>`` of that
 engine (relative, 1e-6, the files' rounded decimals; axes 1e-9 rad). The runs themselves load the
@@ -281,7 +281,7 @@ def validate_scene(scene: Scene, engines: list[str], **kwargs) -> SceneValidatio
 
 
 def _defaults(scene: Scene) -> Scene:
-    from harness.tools.inspection import scene_defaults
+    from harness.engines.as_written import scene_defaults
 
     return scene_defaults(scene)
 
@@ -299,15 +299,15 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
     """The model files of ``scene`` as written, against the scene at its ``scene.toml`` defaults
     (``defaults``; re-read when not given), for each of ``engines`` that reads one: a check
     ``model.<body>.<quantity>`` (``model.gravity`` for the MJCF's gravity) per quantity of
-    ``harness.tools.loaded_models.body_discrepancies``, engine = the loader. A file that does not
+    ``harness.engines.loaded_models.body_discrepancies``, engine = the loader. A file that does not
     load or holds a non-physical body raises InputError; any other failure to read it back is
     a failed ``model.load`` check. A scene that names one model file only is checked as each
     engine reads that file: Pinocchio and Drake the MJCF (``as_written`` through their MJCF
     parsers), MuJoCo the URDF with the scene's root joint added (a URDF cannot state gravity,
     which is not checked there, as for Pinocchio and Drake)."""
+    from harness.engines.as_written import AS_WRITTEN_RTOL, MODEL_ENGINES, AsWritten, as_written
+    from harness.engines.loaded_models import body_discrepancies, mujoco_bodies
     from harness.engines.mujoco.model import read_spec
-    from harness.tools.inspection import AS_WRITTEN_RTOL, MODEL_ENGINES, AsWritten, as_written
-    from harness.tools.loaded_models import body_discrepancies, mujoco_bodies
 
     def load(engine):
         if engine == "mujoco" and scene.reads_other_format(engine):  # the URDF into MuJoCo, as written

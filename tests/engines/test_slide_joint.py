@@ -19,7 +19,7 @@ from harness.engines.inhouse.constraints import rows
 from harness.engines.inhouse.model import join, split
 from harness.engines.pinocchio.model import load_urdf
 from harness.model.errors import InputError
-from harness.tools.loaded_models import compare_bodies, pinocchio_bodies
+from harness.engines.loaded_models import compare_bodies, pinocchio_bodies
 from harness.model.multibody import Body, Multibody
 from harness.model.scene import load_scene
 from harness.model.sanity import check_multibody

@@ -11,7 +11,7 @@ from harness.measure import invariants
 from harness.engines import ENGINE_NAMES, get_engine
 from harness.engines.base import RunSettings
 from harness.engines.mujoco.model import load_mjcf, read_spec
-from harness.tools.loaded_models import mujoco_spring_problems
+from harness.engines.loaded_models import mujoco_spring_problems
 from harness.model.scene import load_scene
 from harness.io.trajectory_csv import to_frame
 

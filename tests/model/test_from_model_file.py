@@ -16,7 +16,7 @@ from harness.model.from_model_file import (TARGETS, apply_parameters, parse_targ
 from harness.model.joints import JOINTS, ROTATIONAL
 from harness.model.kinematics import forward
 from harness.model.scene import MODELS_DIR, Parameter, available_scenes, load_scene
-from harness.tools.loaded_models import LoadedBody, body_discrepancies
+from harness.engines.loaded_models import LoadedBody, body_discrepancies
 
 TREES = [s for s in available_scenes() if not load_scene(s).multibody().loops]
 LOOPS = [s for s in available_scenes() if load_scene(s).multibody().loops]

@@ -9,14 +9,13 @@ import pytest
 from harness.model.scene import available_scenes, load_scene
 from harness.tools.check import load_mujoco, load_pinocchio
 from harness.tools.check.reading import _zero_qpos
+from harness.engines.loaded_models import compare_joint_bodies, mujoco_joint_bodies
 from harness.tools.loaded_models import (
     DrakeRefusal,
-    compare_joint_bodies,
     drake_gravity,
     drake_joint_bodies,
     drake_joint_details,
     load_drake,
-    mujoco_joint_bodies,
     mujoco_joint_details,
     pinocchio_joint_details,
     pinocchio_joint_slots,
@@ -126,19 +125,6 @@ def test_a_body_with_several_joints_is_reported_as_mujoco_reports_it(tmp_path):
     assert [(x.joint, x.body) for x in dr] == [("x", "box"), ("z", "box"), ("pitch", "box")]
     assert [x.mass for x in dr] == [0.0, 0.0, pytest.approx(1.0)]
     assert compare_joint_bodies(mujoco_joint_bodies(m, _zero_qpos(m)), dr, ("MuJoCo", "Drake")) == []
-
-
-def test_mujoco_at_zero_coordinates_turns_a_joint_with_ref(tmp_path):
-    """MuJoCo turns a hinge by q - ref: at q = 0 a hinge with ref = 0.5 rad about y stands turned by
-    -0.5 rad about y from the pose the file writes (the pose at ``qpos0``)."""
-    path = tmp_path / "ref.xml"
-    path.write_text("""<mujoco model="ref"><compiler angle="radian"/><worldbody>
-      <body name="a" pos="0 0 1"><joint name="h" axis="0 1 0" ref="0.5"/><geom size=".1" mass="1"/></body>
-      </worldbody></mujoco>""")
-    m, _ = load_mujoco(path)
-    (x,) = mujoco_joint_bodies(m, _zero_qpos(m))
-    c, s = np.cos(-0.5), np.sin(-0.5)
-    assert np.allclose(x.R_PB, [[c, 0, s], [0, 1, 0], [-s, 0, c]])
 
 
 def test_a_file_drake_refuses_is_one_line(tmp_path):

@@ -242,8 +242,8 @@ def drake_bodies(plant, joints: dict, model: Multibody) -> list:
     the scene's physics is applied in a context): mass (kg), centre of mass and inertia about it
     in the body frame (m, kg m^2), the joint frame's position in the parent body (m), the joint
     kind and its unit axis in the child's frame (``LoadedBody`` of
-    ``harness.tools.loaded_models``; a floating body: kind free, no axis)."""
-    from harness.tools.loaded_models import LoadedBody, drake_joint_kind
+    ``harness.engines.loaded_models``; a floating body: kind free, no axis)."""
+    from harness.engines.loaded_models import LoadedBody, drake_joint_kind
 
     out = []
     for body in model.bodies:

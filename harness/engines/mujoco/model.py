@@ -4,7 +4,7 @@ The MJCF file is the model as a user writes it; ``load_mjcf`` rewrites, from the
 ``Multibody``, what parameters can change (body positions, masses, centres of mass, inertias,
 gravity, the site where a prescribed force acts, joint springs, the sites of a loop joint's
 ``<connect>`` equalities: ``harness.engines.mujoco.loops``) and sets timestep and integrator.
-Joint types and axes are not rewritten: they are checked (``harness.tools.loaded_models``).
+Joint types and axes are not rewritten: they are checked (``harness.engines.loaded_models``).
 
 A scene that names only a URDF is run by MuJoCo from the URDF (MuJoCo compiles URDF; its
 importer fuses fixed links and drops visuals): ``read_spec(path, root_joint=...)`` gives the
@@ -33,6 +33,7 @@ from harness.model.forces import (FORCES, JOINT_SPRINGS, JOINT_TORQUES, POINT_FO
                                   JointTorque, PointForce, PointSpring)
 from harness.model.joints import JOINTS, JointType
 from harness.model.multibody import Multibody
+from harness.model.sanity import check_inertia
 
 from harness.engines.mujoco.integrators import INTEGRATORS
 from harness.engines.mujoco.loops import apply_loops
@@ -222,6 +223,30 @@ def set_initial_state(m: mujoco.MjModel, d: mujoco.MjData, model: Multibody, sou
         q, v = np.asarray(model.q0[body.name]), np.asarray(model.v0[body.name])
         d.qpos[qadr : qadr + len(q)] = q
         d.qvel[vadr : vadr + len(v)] = v
+
+
+def check_spec_inertials(spec: mujoco.MjSpec, source: Path) -> None:
+    """File-level sanity of the inertials: no body/link may have a negative mass, and every
+    body/link that a joint moves and that has mass must have a valid inertia tensor
+    (``check_inertia``: positive definite, triangle inequality). Fixed links (frames, sensors)
+    are judged through the composite body they are merged into (``harness check``'s
+    ``load_pair``, ``harness.engines.loaded_models.check_joint_bodies_physical``)."""
+    for body in spec.bodies:
+        if body.name == "world" or not body.explicitinertial:
+            continue
+        mass = float(body.mass)
+        what = f"body {body.name!r}"
+        if not np.isfinite(mass) or mass < 0.0:
+            raise InputError(f"{source}: {what}: mass must be positive, got {mass:g} kg")
+        if mass == 0.0 or body.first_joint() is None:
+            continue
+        full = np.asarray(body.fullinertia, dtype=float)
+        if np.all(np.isfinite(full)):
+            xx, yy, zz, xy, xz, yz = full
+            inertia = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        else:  # principal moments in the frame iquat: validity does not depend on the frame
+            inertia = np.diag(np.asarray(body.inertia, dtype=float))
+        check_inertia(inertia, what, str(source))
 
 
 def _one_line(err: Exception) -> str:

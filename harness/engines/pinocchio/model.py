@@ -4,7 +4,7 @@ The URDF is the model as a user writes it. URDF has no free or ball joint, so th
 which root joint Pinocchio adds (``free`` -> ``JointModelFreeFlyer``, ``spherical`` ->
 ``JointModelSpherical``). ``load_urdf`` then rewrites, from the scene's ``Multibody``, the joint
 placements (body positions), the inertias (mass, centre of mass, inertia about it) and gravity.
-Joint types and axes are not rewritten: they are checked (``harness.tools.loaded_models``).
+Joint types and axes are not rewritten: they are checked (``harness.engines.loaded_models``).
 A scene that names only an MJCF is read from the MJCF (``buildModelFromMJCF``, Pinocchio's own
 MJCF parser): the MJCF states its root joint, so none is added.
 

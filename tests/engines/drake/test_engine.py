@@ -14,8 +14,8 @@ from harness.engines.drake.integrators import METHODS
 from harness.engines.drake.model import drake_bodies, parse
 from harness.measure import compare
 from harness.model.scene import available_scenes, load_scene
-from harness.tools.inspection import as_written
-from harness.tools.loaded_models import body_discrepancies
+from harness.engines.as_written import as_written
+from harness.engines.loaded_models import body_discrepancies
 
 ENGINE = get_engine("drake")
 

@@ -1,13 +1,15 @@
 """Mass, centre of mass, inertia and joints as each engine sees them match the scene description,
-for the model files as written (defaults) and after parameter overrides."""
+for the model files as written (defaults) and after parameter overrides; MuJoCo's per-joint
+bodies at zero joint coordinates."""
 
+import mujoco
 import numpy as np
 import pytest
 
 from harness.engines.mujoco.model import load_mjcf, read_spec
 from harness.engines.pinocchio.model import load_urdf, read_urdf
-from harness.tools.loaded_models import (compare_bodies, mujoco_bodies, mujoco_force_discrepancies, mujoco_loop_discrepancies,
-                                         pinocchio_bodies)
+from harness.engines.loaded_models import (compare_bodies, mujoco_bodies, mujoco_force_discrepancies,
+                                           mujoco_joint_bodies, mujoco_loop_discrepancies, pinocchio_bodies)
 from harness.model.scene import available_scenes, load_scene
 
 SCENES = available_scenes()
@@ -109,3 +111,14 @@ def test_a_motor_or_spring_changed_in_the_mjcf_is_named():
     found = [d for d in mujoco_force_discrepancies(spec.compile(), model) if not d.passed]
     assert sorted((d.body, d.quantity) for d in found) == [("motor", "torque"), ("spring", "site_b"), ("spring", "stiffness")]
     assert [d for d in mujoco_force_discrepancies(load_mjcf(scene.mjcf, model), model) if not d.passed] == []
+
+
+def test_mujoco_at_zero_coordinates_turns_a_joint_with_ref():
+    """MuJoCo turns a hinge by q - ref: at q = 0 a hinge with ref = 0.5 rad about y stands turned by
+    -0.5 rad about y from the pose the file writes (the pose at ``qpos0``)."""
+    m = mujoco.MjModel.from_xml_string("""<mujoco model="ref"><compiler angle="radian"/><worldbody>
+      <body name="a" pos="0 0 1"><joint name="h" axis="0 1 0" ref="0.5"/><geom size=".1" mass="1"/></body>
+      </worldbody></mujoco>""")
+    (x,) = mujoco_joint_bodies(m, np.zeros(m.nq))  # the hinge at 0 (qpos0 holds its ref)
+    c, s = np.cos(-0.5), np.sin(-0.5)
+    assert np.allclose(x.R_PB, [[c, 0, s], [0, 1, 0], [-s, 0, c]])
