@@ -32,17 +32,8 @@ try:  # Python >= 3.11
 except ModuleNotFoundError:  # pragma: no cover
     import tomli as tomllib
 
-import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-
-#: Known faults in files another change is rewriting (``harness/tools/``, issue #32), each an
-#: expected failure (strict: it fails once the fault is gone, so that its entry is removed).
-#: The cycle between exactly two modules, tools/check (the module, or one of the package it is
-#: being split into) and tools/witnesses, which imports one constant of check back:
-KNOWN_CYCLES = {
-    ("harness.tools.check", "harness.tools.witnesses"),
-}
 
 
 @dataclass(frozen=True)
@@ -220,22 +211,11 @@ def test_modules_are_found_and_imports_read():
     assert "harness.model.scene" in {imp.target for imp in GRAPH["harness.measure.exact"]}  # TYPE_CHECKING
 
 
-def _is(cycle: Cycle, pair: tuple[str, str]) -> bool:
-    """Whether ``cycle`` is between two modules, one of each of ``pair`` (the module, or one of
-    its package)."""
-    return len(cycle.modules) == 2 and all(any(m == n or m.startswith(n + ".") for m in cycle.modules) for n in pair)
-
-
 def test_there_is_no_import_cycle():
-    cycles = [c for c in import_cycles(GRAPH) if not any(_is(c, pair) for pair in KNOWN_CYCLES)]
+    cycles = import_cycles(GRAPH)
     assert not cycles, "import cycles (move the piece both need to the module where it belongs):\n" + \
         "\n".join(map(str, cycles))
 
-
-@pytest.mark.xfail(strict=True, reason="tools/check <-> tools/witnesses: being fixed in harness/tools/ (issue #32)")
-@pytest.mark.parametrize("pair", sorted(KNOWN_CYCLES), ids="<->".join)
-def test_known_cycle_is_gone(pair):
-    assert not [str(c) for c in import_cycles(GRAPH) if _is(c, pair)]
 
 
 def test_every_package_has_a_layer():

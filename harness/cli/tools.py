@@ -65,13 +65,17 @@ def add_parsers(sub) -> None:
 
     c = sub.add_parser("check", help="read a model (MJCF and/or URDF) with MuJoCo, Pinocchio and Drake; name the odd one "
                                      "out; write a report",
-                       description="Load a model with three importers (MuJoCo, Pinocchio, Drake); per joint and quantity "
-                                   "say which agree and, where two agree against one, name the odd one out; compare the "
-                                   "dynamics terms at random states and MuJoCo's free motion against Pinocchio's; write "
-                                   "check_<model>.md. A file Pinocchio or Drake does not load is reported in one line and "
-                                   "the others still compare. Exit 0 when the loaders agree, 1 on a disagreement, 2 on "
-                                   "bad input (a file MuJoCo does not load, one only MuJoCo loads, a free motion that "
-                                   "diverges).")
+                       description="Load a model with three importers (MuJoCo, Pinocchio, Drake); find the defects "
+                                   "of the file itself (element, line, fix); per joint and quantity say which importers "
+                                   "agree, name the odd one out and match it against the known importer limitations; "
+                                   "compare the dynamics terms at random states and MuJoCo's free motion against "
+                                   "Pinocchio's (judged by convergence); run the in-house engine and Exudyn as witnesses "
+                                   "(apart: they never vote on the file). Prints the file's class (defect in your file, "
+                                   "importer disagreement, consistent; and what is not compared) with the top findings "
+                                   "and their fixes; writes check_<model>.md. Exit 0 when the file is consistent or its "
+                                   "only disagreements are known importer limitations, 1 on a defect in the file or an "
+                                   "unexplained disagreement, 2 on bad input (a file MuJoCo does not load, one whose "
+                                   "defect stops every loader, one only MuJoCo loads, a free motion that diverges).")
     c.add_argument("--mjcf", type=Path, metavar="FILE.xml",
                    help="MJCF file (loaded into MuJoCo; into all three when alone)")
     c.add_argument("--urdf", type=Path, metavar="FILE.urdf",
@@ -99,6 +103,8 @@ def add_parsers(sub) -> None:
     c.add_argument("--allow-dir", action="append", type=_models_dir, default=[], metavar="DIR",
                    help="a folder besides the model's own whose files its <include>s, meshes, textures and height "
                         "fields may name (repeatable); any other file outside the model's folder is refused unread")
+    c.add_argument("--no-witnesses", action="store_true",
+                   help="do not run the in-house engine and Exudyn (the fastest check: the loaders only)")
     c.add_argument("--quiet", action="store_true",
                    help="print only the summary and errors: no progress bar or per-stage lines, not what the "
                         "engines printed on stderr during the comparison (numpy's and the importers' warnings)")
@@ -106,8 +112,10 @@ def add_parsers(sub) -> None:
     z = sub.add_parser("zoo", help="`check` on every model of a collection or folder, each in its own process; one table",
                        description="Run `harness check` on every model of an installed collection or a folder, each model "
                                    "in its own worker process (a crash, hang or timeout is that model's row); write "
-                                   "<collection>.md and .csv (per model: which engines load it, the verdict, the largest "
-                                   "discrepancy, run time, suspicious inertias) and <collection>/check_<model>.md. "
+                                   "<collection>.md and .csv (per model: which engines load it, the file's class, the counts "
+                                   "of defects and known and unexplained importer disagreements, the first finding and "
+                                   "its fix, the witnesses, the run time, suspicious inertias) and "
+                                   "<collection>/check_<model>.md. "
                                    "example-robot-data: the URDFs the pip package installs under <site-packages>/"
                                    "cmeel.prefix/share/example-robot-data/robots/ (meshes stripped); dm_control: "
                                    "<site-packages>/dm_control/suite/*.xml, checked in place. Details: the docstring of "
@@ -123,8 +131,10 @@ def add_parsers(sub) -> None:
                    help="for a folder: delete geoms and meshes from MuJoCo's copy (example-robot-data always, dm_control never)")
     z.add_argument("--out-dir", type=_out_dir, default=None, metavar="DIR",
                    help="folder for the table and the per-model reports (default: reports/zoo; reports/partial/zoo "
-                        "with --only, so that only a full run refreshes the committed snapshot)")
+                        "with --only or --no-witnesses, so that only a full run refreshes the committed snapshot)")
     z.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
+    z.add_argument("--no-witnesses", action="store_true",
+                   help="check without the in-house engine and Exudyn (the loaders only: the fastest)")
     z.add_argument("--timeout", type=_float, default=300.0, metavar="S",
                    help="seconds allowed per model (> 0, default 300); a model over it is recorded as crashed (timeout)")
     add_dask(z)
@@ -167,6 +177,7 @@ def cmd_debug(args) -> int:
 
 def cmd_check(args) -> int:
     import numpy as np
+    from threadpoolctl import threadpool_limits
 
     from harness.io.progress import make_bar
     from harness.tools.check import (captured_native_stderr, parse_map_options, read_joint_map, run_check, summary_lines,
@@ -182,14 +193,16 @@ def cmd_check(args) -> int:
     # before. MuJoCo's warnings are not among it: run_check captures them into the result (report).
     failure = None
     # the progress (a bar, or one line per stage) goes to stderr as it was before the capture
+    # one BLAS thread: the check's matrices are small, and a second thread on a busy core only waits
     with _live_stderr() as live, make_bar(None, desc="check", unit="stage", quiet=args.quiet, stream=live) as bar, \
-            captured_native_stderr() as native, warnings.catch_warnings(record=True) as held:
+            captured_native_stderr() as native, warnings.catch_warnings(record=True) as held, \
+            threadpool_limits(limits=1, user_api="blas"):
         warnings.simplefilter("always", RuntimeWarning)
         try:
             result = run_check(args.mjcf, args.urdf, seed=args.seed, n_states=args.states, n_free=args.free_runs,
                                t_end=args.t_end, dt=args.dt, floating_base=args.floating_base,
                                strip=args.strip_geometry, keep_static=args.keep_static_links, joint_map=joint_map or None,
-                               progress=bar, allowed_dirs=tuple(args.allow_dir))
+                               progress=bar, allowed_dirs=tuple(args.allow_dir), witnesses=not args.no_witnesses)
         except (np.linalg.LinAlgError, OverflowError, FloatingPointError) as err:
             failure = err
     if failure is not None:
@@ -201,9 +214,8 @@ def cmd_check(args) -> int:
         sys.stderr.write(native["text"])
         for w in held:
             warnings.showwarning(w.message, w.category, w.filename, w.lineno)
-    print("\n".join(summary_lines(result)))
     path = write_report(result, args.out_dir, _command_line(args))
-    print(f"wrote {path}")
+    print("\n".join(summary_lines(result, path)))
     return EXIT_OK if result.passed else EXIT_FAIL
 
 
@@ -233,7 +245,8 @@ def _command_line(args) -> str:
     parts += ["--seed", str(args.seed), "--states", str(args.states), "--free-runs", str(args.free_runs),
               "--t-end", f"{args.t_end:g}", "--dt", f"{args.dt:g}"]
     parts += [flag for flag, on in (("--floating-base", args.floating_base), ("--strip-geometry", args.strip_geometry),
-                                    ("--keep-static-links", args.keep_static_links)) if on]
+                                    ("--keep-static-links", args.keep_static_links),
+                                    ("--no-witnesses", args.no_witnesses)) if on]
     if args.joint_map is not None:
         parts += ["--joint-map", str(args.joint_map)]
     for item in args.map or []:
@@ -255,16 +268,18 @@ def cmd_zoo(args) -> int:
         raise InputError(f"--timeout must be positive, got {args.timeout!r}")
     coll = select(collection(args.collection, strip=args.strip_geometry), args.only)
     connect_dask(args)  # an unreachable scheduler: one line, exit 2, nothing written
-    out = args.out_dir or (default_out_dir("zoo", full_run=False) if args.only else REPORTS_DIR / "zoo")
+    partial = bool(args.only) or args.no_witnesses   # only a whole run with the witnesses refreshes the snapshot
+    out = args.out_dir or (default_out_dir("zoo", full_run=False) if partial else REPORTS_DIR / "zoo")
     check_writable(out)
 
     print(f"zoo {coll.name}: {len(coll.models)} model(s)", flush=True)
     with make_bar(len(coll.models), desc=f"zoo {coll.name}", unit="model", quiet=args.quiet) as bar:
         def done(row) -> None:
-            print(f"  {row.verdict:<8} {row.name} ({row.wall_s:.1f} s)", flush=True)
-            bar.done(f"{row.name} {row.verdict} {row.wall_s:.1f} s")
+            print(f"  {row.cls:<21} {row.name} ({row.wall_s:.1f} s)", flush=True)
+            bar.done(f"{row.name} {row.cls} {row.wall_s:.1f} s")
 
         zoo = run_zoo(coll, base=args.base, jobs=args.jobs or None, timeout=args.timeout, on_done=done,
+                      witnesses=not args.no_witnesses,
                       dask=args.dask)
     paths = write_zoo(zoo, out, made_line(provenance()), command_line())
     print(f"zoo {coll.name}: {headline(zoo)}")

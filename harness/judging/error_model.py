@@ -250,3 +250,26 @@ def _fit_adaptive(base: Level, loose: Level, model, resolution: float, unit: str
     return model(float("nan"), base.error, 0.0, CONVERGES,
                  f"no floor resolved: within {NOISE:g}x the resolution ({resolution:.1e} {unit}), flat in the tolerance")
 
+
+
+
+def judge_refinement(measure, steps: tuple[float, ...], formal_order: float, scales: dict[str, tuple[str, float]],
+                     n_steps: float) -> dict[str, ErrorModel]:
+    """The error models of discrepancies measured by a fixed-step run pair at several steps.
+
+    ``measure(step)`` -> {quantity: discrepancy} (in the quantity's unit) of the runs at ``step`` (s);
+    ``steps``: the base step first, then the others (e.g. ``(h, 2 h)``); ``scales``: quantity ->
+    (unit, scale in that unit); ``n_steps``: steps of the base run (its round-off). The resolution
+    of each quantity is the larger of the round-off ``N eps scale`` and ``JUDGING_RESOLUTION scale``.
+    Where the levels leave a quantity's class undecided (``needs_finer_level``), the runs are made
+    once more at half the finest step and every quantity's fit uses that level too."""
+    measured = {h: measure(h) for h in steps}
+    resolution = {q: max(roundoff(n_steps, scale), JUDGING_RESOLUTION * scale) for q, (_, scale) in scales.items()}
+
+    def levels(q: str) -> list[Level]:
+        return [Level(h, float(errors[q])) for h, errors in measured.items()]
+
+    if any(needs_finer_level(levels(q), formal_order, resolution[q]) for q in scales):
+        finest = min(measured) / 2.0
+        measured[finest] = measure(finest)
+    return {q: fit(q, unit, scale, "fixed", formal_order, levels(q), resolution[q]) for q, (unit, scale) in scales.items()}

@@ -310,7 +310,10 @@ def _from_compiled(m, path: Path, fmt: str, initial: str, merge_fixed: bool = Fa
             notes[name] = note
     keys = tuple(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, k) or f"#{k}" for k in range(m.nkey))
     q0, v0 = _initial_state(m, path, initial, keys, rots, bodies)
-    model = Multibody(bodies=tuple(bodies), gravity_W=np.array(m.opt.gravity, dtype=float), q0=q0, v0=v0)
+    # gravity as MuJoCo applies it: none where the file disables it (<option><flag gravity="disable"/>)
+    off = bool(int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY))
+    gravity = np.zeros(3) if off else np.array(m.opt.gravity, dtype=float)
+    model = Multibody(bodies=tuple(bodies), gravity_W=gravity, q0=q0, v0=v0)
     return ModelFile(path, fmt, model, joints, rots, notes, keys, m)
 
 

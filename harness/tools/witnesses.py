@@ -32,15 +32,19 @@ dJ/dt v is a fourth-order central difference of u along the zero-acceleration fl
 scaled by the speed; truncation ~1e-12 relative).
 
 Exudyn integrates in redundant coordinates with implicit (order-2) solvers: it holds no
-joint-space terms, and it is compared in free motion only, with its own tolerance
-(``EXUDYN_FREE_TOL``: order 2, run at dt / 4).
+joint-space terms, and it is compared in free motion only.
 
 Free motion (``free_motion``): from the same random states as MuJoCo against Pinocchio, each
 witness's run against MuJoCo's rigid run (RK4, contacts, constraints, passive forces and
 actuators off), on every moving body's centre of mass (world position and velocity) and frame
 orientation (geodesic angle, MuJoCo's body frame turned into the harness's by ``C``) and angular
-velocity (world). In-house: ``rk4`` at the check's dt with projection; Exudyn: its
-``TrapezoidalIndex2`` (implicit trapezoidal rule) at the check's dt.
+velocity (world). In-house: ``rk4_compiled`` (``rk4`` where the compiled form cannot hold the
+model) at the check's dt with projection; Exudyn: its ``TrapezoidalIndex2`` (implicit trapezoidal
+rule, order 2) at the check's dt. No tolerance: both run again, with MuJoCo, at 2 dt (or dt / 2),
+and each difference is judged by how it converges (``harness.judging.error_model``): at the lower
+of the two methods' orders (4 against in-house, 2 against Exudyn) or at the resolution, the
+witness holds MuJoCo's dynamics; a floor is a dynamics difference, reported apart from the
+loaders' verdict (a witness never votes on the file).
 
 A model the description cannot hold (a body with several joints, equality constraints, an unnamed
 joint) leaves both witnesses "not run: <one line>"; the parsers still compare.
@@ -62,19 +66,20 @@ from harness.model.joints import JOINTS
 from harness.tools import dynamics_terms as dc
 
 WITNESSES = ("in-house", "Exudyn")
-INHOUSE_METHOD = "rk4"
+#: The in-house engine's method: RK4 compiled (Numba; ``harness.engines.inhouse.compiled``), the
+#: per-state ``rk4`` where the compiled form cannot hold the model (``INHOUSE_FALLBACK``).
+INHOUSE_METHOD = "rk4_compiled"
+INHOUSE_FALLBACK = "rk4"
+#: Exudyn's method: the implicit trapezoidal rule on Euler-parameter nodes, order 2.
 EXUDYN_METHOD = "TrapezoidalIndex2"
-#: Exudyn's free motion against MuJoCo RK4: its implicit trapezoidal rule (order 2) at dt / 4 over
-#: 0.5 s; on ur5 (three random states) at most 1.7e-6 m, 5.0e-6 rad, 9.5e-5 m/s (at dt itself
-#: 2.8e-5 m), hence its own tolerance; the in-house engine meets the check's (5e-10 m there).
-EXUDYN_SUBSTEPS = 4   # Exudyn's step: the check's dt / 4
-EXUDYN_FREE_TOL = {"position": 1e-4, "orientation": 1e-4, "velocity": 1e-3}
 
 
 @dataclass
 class WitnessFree:
-    """One witness's free motion against MuJoCo's rigid run: largest differences over the saved
-    samples (m, rad, m/s or rad/s) and the body where the pose differs most."""
+    """One witness's free motion against MuJoCo's rigid run from one state: largest differences over
+    the saved samples at the check's step (position m, orientation rad, velocity m/s or rad/s), the
+    body where the pose differs most, how each difference converges (``models``: quantity ->
+    ``ErrorModel``), ``status`` ("ok" or why the run failed) and the method it ran."""
 
     witness: str
     state: int
@@ -82,13 +87,26 @@ class WitnessFree:
     orientation: float
     velocity: float
     worst_body: str
-    tol: dict
+    models: dict
     status: str = "ok"
+    method: str = ""
 
     @property
     def passed(self) -> bool:
-        return (self.status == "ok" and self.position <= self.tol["position"]
-                and self.orientation <= self.tol["orientation"] and self.velocity <= self.tol["velocity"])
+        """It ran, and every difference converges (falls at the methods' order, or sits at the resolution)."""
+        from harness.judging.error_model import CONVERGES
+
+        return self.status == "ok" and bool(self.models) and all(e.classification == CONVERGES
+                                                                 for e in self.models.values())
+
+    @property
+    def summary(self) -> str:
+        """One line: how the difference converges (the position's model, the worst of the three otherwise)."""
+        if self.status != "ok":
+            return f"not run: {self.status}"
+        bad = [e for e in self.models.values() if e.classification != "converges"]
+        e = bad[0] if bad else self.models["position"]
+        return f"{e.classification} ({e.reason})"
 
 
 @dataclass
@@ -339,33 +357,23 @@ def _exudyn_rows(mb, rtol: float, size: float) -> list[ModelRow]:
 
 #: Wall-clock budget (s) of one witness run (``free_motion``), made in its own worker process.
 WITNESS_TIMEOUT = 120.0
+#: The witness free motions' compared quantities and their units.
+WITNESS_UNITS = {"position": "m", "orientation": "rad", "velocity": "m/s or rad/s"}
 
 
-def free_motion(w: Witnesses, m: mujoco.MjModel, jmap: dc.JointMap, q0: np.ndarray, v0: np.ndarray, k: int, *,
-                t_end: float, dt: float, save_every: float, rigid: mujoco.MjModel) -> list[WitnessFree]:
-    """Both witnesses from common state (q0, v0) against MuJoCo's rigid model ``rigid`` (module
-    docstring)."""
-    from harness.engines.base import RunSettings
-    from harness.engines.exudyn.engine import ExudynEngine
-    from harness.engines.inhouse import InhouseEngine
-    from harness.validate.workers import run_cases
-
-    mf = w.model_file
-    mb = mf.multibody
-    qd, vd = to_description(mf, jmap, q0, v0)
-    model = replace(mb, q0=qd, v0=vd)
-    steps = max(1, int(round(save_every / dt)))
-    n_saves = max(1, int(round(t_end / (steps * dt))))
-    # MuJoCo's rigid run, sampled
+def _mujoco_samples(m: mujoco.MjModel, rigid: mujoco.MjModel, mf: ModelFile, jmap: dc.JointMap, q0: np.ndarray,
+                    v0: np.ndarray, moving: list[str], steps: int, n_saves: int) -> list[dict]:
+    """MuJoCo's rigid run ``rigid`` (at its own timestep), sampled every ``steps`` steps: per moving
+    body of the description, (centre of mass m, R_WB of the description's frame, centre-of-mass
+    velocity m/s, angular velocity rad/s), world frame, the body's merged fixed children included."""
     d = mujoco.MjData(rigid)
     d.qpos[:], d.qvel[:] = dc.mujoco_state(m, jmap, q0, v0)
-    ids = {b.name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b.name) for b in mb.bodies}
-    moving = _descendants(mb, [mf.joints[s.name] for s in jmap.slots])
+    ids = {b.name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b.name) for b in mf.multibody.bodies}
     owner = np.arange(m.nbody)
     for b in range(1, m.nbody):
         owner[b] = b if m.body_jntnum[b] > 0 else owner[m.body_parentid[b]]
     parts = {b: [c for c in range(1, m.nbody) if owner[c] == b] for b in ids.values()}
-    ref = []
+    out = []
     vel = np.zeros(6)
     for i in range(n_saves + 1):
         if i > 0:
@@ -384,41 +392,101 @@ def free_motion(w: Witnesses, m: mujoco.MjModel, jmap: dc.JointMap, q0: np.ndarr
                 if part == b:
                     w_W = vel[:3].copy()
             sample[name] = (p_com / total, R @ mf.rotations[name].T, v_com / total, w_W)
-        ref.append(sample)
-    settings = [("in-house", InhouseEngine(), RunSettings(n_saves * steps * dt, dt, steps * dt, INHOUSE_METHOD), None),
-                ("Exudyn", ExudynEngine(), RunSettings(n_saves * steps * dt, dt / EXUDYN_SUBSTEPS, steps * dt, EXUDYN_METHOD),
-                 EXUDYN_FREE_TOL)]
+        out.append(sample)
+    return out
+
+
+def _differences(traj, ref: list[dict]) -> tuple[dict[str, float], str, dict[str, float]]:
+    """Largest differences of a witness's trajectory from MuJoCo's samples (``WITNESS_UNITS``), the
+    body where the pose differs most, and the motion's scales (largest body distance from the world
+    origin, at least 1 mm; 1 rad; largest speed, at least 1)."""
+    worst = {"position": 0.0, "orientation": 0.0, "velocity": 0.0}
+    scales = {"position": 1e-3, "orientation": 1.0, "velocity": 1.0}
+    worst_body, top = "", -1.0
+    for i, sample in enumerate(ref):
+        for name, (p, R, v, w_W) in sample.items():
+            bi = traj.body_index(name)
+            dp = float(np.linalg.norm(traj.p_WCm_W[i, bi] - p))
+            dq = float(rotations.geodesic_angle(traj.quat_WB[i, bi], rotations.from_matrix(R)))
+            dv = float(max(np.max(np.abs(traj.v_WCm_W[i, bi] - v)), np.max(np.abs(traj.w_WB_W[i, bi] - w_W))))
+            if not np.isfinite(dp + dq + dv):
+                dp = dq = dv = float("nan")
+            if np.isnan(dp) or dp + dq > top:
+                top, worst_body = (float("inf") if np.isnan(dp) else dp + dq), name
+            worst = {key: float(np.maximum(worst[key], val)) for key, val in
+                     (("position", dp), ("orientation", dq), ("velocity", dv))}
+            scales["position"] = max(scales["position"], float(np.linalg.norm(p)))
+            scales["velocity"] = max(scales["velocity"], float(np.max(np.abs(np.concatenate([v, w_W])))))
+    return worst, worst_body, scales
+
+
+def free_motion(w: Witnesses, m: mujoco.MjModel, jmap: dc.JointMap, q0: np.ndarray, v0: np.ndarray, k: int, *,
+                t_end: float, dt: float, save_every: float, rigid_at) -> list[WitnessFree]:
+    """Both witnesses from common state (q0, v0) against MuJoCo's rigid model (``rigid_at(step)``:
+    MuJoCo's rigid model at that step), each judged by how its difference converges (module
+    docstring): the witness and MuJoCo run at ``dt`` and at 2 ``dt`` (``dt`` / 2 when the save interval
+    is an odd number of steps; half the finest step where the levels leave it open), and the
+    largest differences are fitted at the lower of the two methods' orders."""
+    from harness.engines.base import RunSettings
+    from harness.engines.exudyn.engine import ExudynEngine
+    from harness.engines.inhouse import InhouseEngine
+    from harness.judging.error_model import judge_refinement
+    from harness.validate.workers import run_cases
+
+    mf = w.model_file
+    mb = mf.multibody
+    qd, vd = to_description(mf, jmap, q0, v0)
+    model = replace(mb, q0=qd, v0=vd)
+    steps = max(1, int(round(save_every / dt)))
+    n_saves = max(1, int(round(t_end / (steps * dt))))
+    moving = _descendants(mb, [mf.joints[s.name] for s in jmap.slots])
+    second = 2.0 * dt if steps % 2 == 0 else dt / 2.0
+    refs: dict[float, list[dict]] = {}
+
+    def reference(h: float) -> list[dict]:
+        if h not in refs:
+            refs[h] = _mujoco_samples(m, rigid_at(h), mf, jmap, q0, v0, moving, int(round(steps * dt / h)), n_saves)
+        return refs[h]
+
+    mujoco_order = 4.0   # MuJoCo's RK4
     out = []
-    for label, engine, rs, tol in settings:
-        from harness.tools.check.results import FREE_MOTION_TOL
-        tol = tol or {key: FREE_MOTION_TOL[key] for key in ("position", "orientation", "velocity")}
-        # in its own worker under a wall-clock budget: a hang or a crash is that witness's result
-        outcome = run_cases([("witness", engine.simulate_model, (model, rs))], 1, WITNESS_TIMEOUT)["witness"]
-        if outcome.status != "ok":  # a witness that cannot run is reported, not a crash
-            why = (f"timed out after {WITNESS_TIMEOUT:g} s" if outcome.status == "timeout"
-                   else f"{outcome.status}: {' '.join(outcome.message.split())}")
-            out.append(WitnessFree(label, k, float("nan"), float("nan"), float("nan"), "", tol, why))
+    for label, engine, method in (("in-house", InhouseEngine(), INHOUSE_METHOD), ("Exudyn", ExudynEngine(), EXUDYN_METHOD)):
+        order = min(float(engine.integrators[method].order), mujoco_order)
+        failure: list[str] = []
+        worst_at: dict[float, tuple] = {}
+
+        chosen = [method]
+
+        def measure(h: float, engine=engine, label=label, chosen=chosen) -> dict[str, float]:
+            nan = {q: float("nan") for q in WITNESS_UNITS}
+            if failure:
+                return nan
+            rs = RunSettings(n_saves * steps * dt, h, steps * dt, chosen[0])
+            # in its own worker under a wall-clock budget: a hang or a crash is that witness's result
+            outcome = run_cases([(label, engine.simulate_model, (model, rs))], 1, WITNESS_TIMEOUT)[label]
+            if outcome.status != "ok":
+                failure.append(f"timed out after {WITNESS_TIMEOUT:g} s" if outcome.status == "timeout"
+                               else f"{outcome.status}: {' '.join(outcome.message.split())}")
+                return nan
+            traj = outcome.value
+            if traj.status == "unsupported" and chosen[0] == INHOUSE_METHOD:   # the compiled form cannot hold it
+                chosen[0] = INHOUSE_FALLBACK
+                return measure(h)
+            if traj.status != "ok" or len(traj.t) != n_saves + 1:
+                failure.append(f"{traj.status}: {traj.message}")
+                return nan
+            worst_at[h] = _differences(traj, reference(h))
+            return worst_at[h][0]
+
+        first = measure(dt)
+        if failure:
+            out.append(WitnessFree(label, k, float("nan"), float("nan"), float("nan"), "", {}, failure[0], chosen[0]))
             continue
-        traj = outcome.value
-        if traj.status != "ok" or len(traj.t) != n_saves + 1:
-            out.append(WitnessFree(label, k, float("nan"), float("nan"), float("nan"), "", tol,
-                                   f"{traj.status}: {traj.message}"))
-            continue
-        worst = {"position": 0.0, "orientation": 0.0, "velocity": 0.0}
-        worst_body, top = "", -1.0
-        for i, sample in enumerate(ref):
-            for name, (p, R, v, w_W) in sample.items():
-                bi = traj.body_index(name)
-                dp = float(np.linalg.norm(traj.p_WCm_W[i, bi] - p))
-                dq = float(rotations.geodesic_angle(traj.quat_WB[i, bi], rotations.from_matrix(R)))
-                dv = float(max(np.max(np.abs(traj.v_WCm_W[i, bi] - v)), np.max(np.abs(traj.w_WB_W[i, bi] - w_W))))
-                if not np.isfinite(dp + dq + dv):
-                    dp = dq = dv = float("nan")
-                if np.isnan(dp) or dp + dq > top:
-                    top, worst_body = (float("inf") if np.isnan(dp) else dp + dq), name
-                worst = {key: float(np.maximum(worst[key], val)) for key, val in
-                         (("position", dp), ("orientation", dq), ("velocity", dv))}
-        out.append(WitnessFree(label, k, worst["position"], worst["orientation"], worst["velocity"], worst_body, tol))
+        scales = {q: (unit, worst_at[dt][2][q]) for q, unit in WITNESS_UNITS.items()}
+        models = judge_refinement(lambda h: first if h == dt else measure(h), (dt, second), order, scales,
+                                  n_saves * steps)
+        out.append(WitnessFree(label, k, first["position"], first["orientation"], first["velocity"], worst_at[dt][1],
+                               models, failure[0] if failure else "ok", chosen[0]))
     return out
 
 
@@ -431,9 +499,9 @@ def _descendants(mb, names) -> list[str]:
 
 
 def run(w: Witnesses, m: mujoco.MjModel, jmap: dc.JointMap, free_states, *, t_end: float, dt: float,
-        save_every: float, rigid: mujoco.MjModel) -> None:
+        save_every: float, rigid_at) -> None:
     """The witnesses' free motions from ``free_states`` into ``w.free``; wall time into ``w.wall_s``."""
     start = time.perf_counter()
     for k, (q, v) in enumerate(free_states):
-        w.free += free_motion(w, m, jmap, q, v, k, t_end=t_end, dt=dt, save_every=save_every, rigid=rigid)
+        w.free += free_motion(w, m, jmap, q, v, k, t_end=t_end, dt=dt, save_every=save_every, rigid_at=rigid_at)
     w.wall_s += time.perf_counter() - start

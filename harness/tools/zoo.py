@@ -100,7 +100,6 @@ import importlib.resources
 import inspect
 import io
 import itertools
-import math
 import os
 import re
 import shlex
@@ -118,19 +117,25 @@ from harness.io import atomic
 from harness.model.input_files import check_model_file, parse_xml
 from harness.io.provenance import made_with
 from harness.model.errors import InputError
-from harness.model.joints import FREE, JOINTS, TRANSLATIONAL
+from harness.model.joints import FREE
 from harness.model.from_model_file import add_root_joint
-from harness.tools.check import (FREE_MOTION_TOL, LOADERS, CheckResult, Vote, compile_spec,
-                                 load_pinocchio, read_mujoco_spec, render_report, run_check, strip_geometry,
-                                 verdict as check_verdict)
+from harness.tools.check import (LOADERS, compile_spec, load_pinocchio, read_mujoco_spec, render_report, run_check,
+                                 strip_geometry, verdict as check_verdict)
+from harness.tools.check.classifying import CONSISTENT, DEFECT, IMPORTER
+from harness.tools.check.defects import (DENSITY_RANGE, MARGIN_MIN, BodyPlausibility, mujoco_plausibility,
+                                         spec_plausibility)
+from harness.tools.check.classifying import witness_line
+from harness.tools.check.report import top_findings
 from harness.tools.loaded_models import load_drake
 from harness.validate.workers import Outcome, effective_jobs, run_cases
 
 COLLECTIONS = ("example-robot-data", "dm_control")
-VERDICTS = ("pass", "fail", "refused", "crashed")
+#: A row's class: the check's (``harness.tools.check.classifying.CLASSES`` but *not compared*, which is
+#: listed beside it), or refused (bad input that is not a defect of the file), or crashed.
+ROW_CLASSES = (DEFECT, IMPORTER, CONSISTENT, "refused", "crashed")
 BASES = ("auto", "fixed", "floating")
-MARGIN_MIN = 1e-3                     # triangle-inequality margin below which an inertia is suspicious
-DENSITY_RANGE = (50.0, 25000.0)       # kg/m^3: implied densities outside it are suspicious
+#: How to install the collections (the ``robots`` extra of pyproject.toml).
+ROBOTS_EXTRA = 'the extra "robots" of harness: pip install ".[robots]" in its checkout'
 DEFAULT_TIMEOUT = 300.0               # s per model
 # check's own defaults (seed, states, free runs, horizon, step), as `harness check` uses them
 CHECK_DEFAULTS = {k: p.default for k, p in inspect.signature(run_check).parameters.items()
@@ -185,7 +190,7 @@ def example_robot_data() -> Collection:
         dist = importlib.metadata.distribution("example-robot-data")
     except importlib.metadata.PackageNotFoundError:
         raise InputError("collection example-robot-data: the package is not installed "
-                         "(pip install example-robot-data)") from None
+                         f"({ROBOTS_EXTRA})") from None
     files = [Path(dist.locate_file(f)) for f in dist.files or ()
              if f.suffix == ".urdf" and "example-robot-data/robots/" in f.as_posix()]
     if not files:
@@ -208,7 +213,7 @@ def dm_control_suite() -> Collection:
     try:
         root = Path(str(importlib.resources.files("dm_control") / "suite"))
     except ModuleNotFoundError:
-        raise InputError("collection dm_control: the package is not installed (pip install dm-control)") from None
+        raise InputError(f"collection dm_control: the package is not installed ({ROBOTS_EXTRA})") from None
     files = sorted(root.glob("*.xml"))
     if not files:
         raise InputError(f"collection dm_control: no suite MJCF in {root}")
@@ -309,223 +314,27 @@ def floating_base(model: ZooModel, base: str) -> bool:
     return model.mjcf is None and urdf_root_link(model.urdf) not in (None, "world")
 
 
-# --------------------------------------------------------------------------- inertia plausibility
-
-
-@dataclass(frozen=True)
-class BodyPlausibility:
-    """A body's inertia judged on its own. ``mass`` kg; ``moments``: principal moments about the
-    centre of mass (kg m^2, ascending); ``margin``: triangle-inequality margin (NaN for a point
-    mass); ``density``: implied density, kg/m^3 (NaN when the equivalent box has no real side);
-    ``flags``: why it is suspicious (empty: plausible)."""
-
-    body: str
-    mass: float
-    moments: tuple[float, float, float]
-    margin: float
-    density: float
-    flags: tuple[str, ...]
-
-    @property
-    def suspicious(self) -> bool:
-        return bool(self.flags)
-
-    def line(self) -> str:
-        verdict = "suspicious: " + "; ".join(self.flags) if self.flags else "plausible"
-        return (f"{self.body}: mass {self.mass:.6g} kg, principal moments [{', '.join(f'{i:.6g}' for i in self.moments)}]"
-                f" kg m^2, triangle margin {_g(self.margin)}, implied density {_g(self.density)} kg/m^3: {verdict}")
-
-
-def _g(x: float, digits: int = 3) -> str:
-    return "undefined" if not np.isfinite(x) else f"{x:.{digits}g}"
-
-
-def plausibility(body: str, mass: float, moments) -> BodyPlausibility:
-    """Triangle-inequality margin and implied density of one body (see module docstring)."""
-    inertia = np.sort(np.asarray(moments, dtype=float))
-    top = float(inertia.max())
-    margin = min(inertia[a] + inertia[b] - inertia[c] for a, b, c in itertools.permutations(range(3))) / top \
-        if top > 0 else float("nan")
-    sides_sq = 6.0 * (inertia.sum() - 2.0 * inertia) / mass  # s_a^2 = 6 (I_b + I_c - I_a) / m
-    density = float(mass / math.sqrt(float(np.prod(sides_sq)))) if np.all(sides_sq > 0) else float("nan")
-    flags = []
-    if not margin >= MARGIN_MIN:
-        flags.append("point mass (no rotational inertia)" if not np.isfinite(margin)
-                     else f"triangle margin {margin:.3g} < {MARGIN_MIN:g}")
-    if np.isfinite(density) and not DENSITY_RANGE[0] <= density <= DENSITY_RANGE[1]:  # undefined: margin <= 0
-        flags.append(f"implied density {_g(density)} kg/m^3 outside [{DENSITY_RANGE[0]:g}, {DENSITY_RANGE[1]:g}]")
-    return BodyPlausibility(body, float(mass), tuple(float(i) for i in inertia), float(margin), density, tuple(flags))
-
-
-def mujoco_plausibility(m: mujoco.MjModel) -> list[BodyPlausibility]:
-    """Every body of positive mass as MuJoCo holds it (``body_mass``, ``body_inertia``)."""
-    return [plausibility(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}", float(m.body_mass[b]),
-                         m.body_inertia[b]) for b in range(1, m.nbody) if m.body_mass[b] > 0]
-
-
-def spec_plausibility(spec: mujoco.MjSpec) -> list[BodyPlausibility]:
-    """Every body with an explicit inertial of positive mass, as the file writes it (for a file
-    MuJoCo does not compile)."""
-    out = []
-    for body in spec.bodies:
-        if body.name == "world" or not body.explicitinertial or not body.mass > 0:
-            continue
-        full = np.asarray(body.fullinertia, dtype=float)
-        if np.all(np.isfinite(full)):
-            xx, yy, zz, xy, xz, yz = full
-            moments = np.linalg.eigvalsh(np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]))
-        else:
-            moments = np.asarray(body.inertia, dtype=float)
-        out.append(plausibility(body.name, float(body.mass), moments))
-    return out
-
-
-# --------------------------------------------------------------------------- largest discrepancy
-
-
-@dataclass(frozen=True)
-class Discrepancy:
-    """One difference found by the check: ``kind`` (what differs, where), ``between`` (the
-    loaders), ``size`` (its size as text, SI units, and relative), ``ratio`` (relative size over
-    its tolerance; inf for a difference with no size, e.g. a joint type)."""
-
-    kind: str
-    between: str
-    size: str
-    ratio: float
-
-
-def _length_scale(x, y) -> float:
-    """A joint body's size (m) as ``check`` judges lengths: centre of mass and placement, >= 1 mm."""
-    return max(np.linalg.norm(x.p_BCm_B), np.linalg.norm(x.p_PB_P), np.linalg.norm(y.p_BCm_B),
-               np.linalg.norm(y.p_PB_P), 1e-3)
-
-
-def _angle(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.arctan2(np.linalg.norm(np.cross(a, b)), np.dot(a, b)))
-
-
-def _translational(kind: str) -> bool:
-    return JOINTS.get(kind) is not None and JOINTS[kind].axis == TRANSLATIONAL
-
-
-def _gap(quantity: str, x, y, dx, dy) -> tuple[float, str, float] | None:
-    """(size, unit, relative size) of ``quantity`` between two loaders' joint bodies ``x``,
-    ``y`` and details ``dx``, ``dy``; None when it has no size (a type, a missing value)."""
-    if quantity == "mass":
-        d = abs(x.mass - y.mass)
-        return d, "kg", d / max(abs(x.mass), abs(y.mass), 1e-300)
-    if quantity == "centre of mass":
-        d = float(np.linalg.norm(x.p_BCm_B - y.p_BCm_B))
-        return d, "m", d / _length_scale(x, y)
-    if quantity == "inertia about the centre of mass":
-        d = float(np.abs(x.I_Cm_B - y.I_Cm_B).max())
-        return d, "kg m^2", d / max(np.abs(x.I_Cm_B).max(), np.abs(y.I_Cm_B).max(), 1e-300)
-    if quantity == "position in parent":
-        d = float(np.linalg.norm(x.p_PB_P - y.p_PB_P))
-        return d, "m", d / _length_scale(x, y)
-    if quantity == "orientation in parent":
-        angle = float(np.arccos(np.clip((np.trace(x.R_PB.T @ y.R_PB) - 1.0) / 2.0, -1.0, 1.0)))
-        return angle, "rad", float(np.abs(x.R_PB - y.R_PB).max())
-    if quantity == "axis":
-        return _angle(x.axis_B, y.axis_B), "rad", float(np.linalg.norm(x.axis_B - y.axis_B))
-    if quantity == "joint point" and dx is not None and dy is not None:
-        d = dx.point_B - dy.point_B
-        if JOINTS.get(x.kind) is not None and JOINTS[x.kind].axis is not None:
-            d = d - (d @ x.axis_B) * x.axis_B
-        return float(np.linalg.norm(d)), "m", float(np.linalg.norm(d)) / _length_scale(x, y)
-    if quantity == "range" and dx is not None and dy is not None and dx.limits is not None and dy.limits is not None:
-        unit = "m" if _translational(x.kind) else "rad"
-        d = max(abs(p - q) for p, q in zip(dx.limits, dy.limits))
-        return d, unit, max(abs(p - q) / max(1.0, abs(p), abs(q)) for p, q in zip(dx.limits, dy.limits))
-    if quantity in ("damping", "armature") and dx is not None and dy is not None:
-        a, b = getattr(dx, quantity), getattr(dy, quantity)
-        if a is None or b is None:
-            return None
-        unit = ("N s/m" if quantity == "damping" else "kg") if _translational(x.kind) \
-            else ("N m s/rad" if quantity == "damping" else "kg m^2")
-        return abs(a - b), unit, abs(a - b) / max(abs(a), abs(b), 1e-300)
-    return None
-
-
-def _vote_discrepancy(v: Vote, res: CheckResult, rtol: float) -> Discrepancy:
-    """The size of a disagreement ``v`` between the loaders: the odd one against the first of
-    the two others, else the first two groups."""
-    a = v.groups[0][0]
-    b = v.odd if v.odd is not None else v.groups[1][0]
-    between = (f"{v.odd} against {' and '.join(v.groups[0])}" if v.odd is not None
-               else " vs ".join(g[0] for g in v.groups))
-    where = f", joint {v.joint!r} (body {v.body!r})" if v.joint else ""
-    kind = f"model: {v.quantity}{where}"
-    gap = None
-    if v.quantity == "gravity":
-        ga, gb = res.readings[a].gravity, res.readings[b].gravity
-        d = float(np.linalg.norm(ga - gb))
-        gap = (d, "m/s^2", d / max(float(np.linalg.norm(ga)), 1.0))
-    elif v.quantity != "present":
-        bodies = {k: {x.joint: x for x in res.readings[k].bodies} for k in (a, b)}
-        details = {k: {x.joint: x for x in res.readings[k].details} for k in (a, b)}
-        if v.joint in bodies[a] and v.joint in bodies[b]:
-            gap = _gap(v.quantity, bodies[a][v.joint], bodies[b][v.joint], details[a].get(v.joint),
-                       details[b].get(v.joint))
-    if gap is None:
-        return Discrepancy(kind, between, "; ".join(f"{k}: {val}" for k, val in v.values.items()), math.inf)
-    size, unit, rel = gap
-    ratio = rel / max(rtol, 1e-12)
-    return Discrepancy(kind, between, f"{size:.3g} {unit} (relative {rel:.2g})",
-                       ratio if np.isfinite(ratio) else math.inf)
-
-
-FREE_LABELS = {"joint": ("joint coordinates", "rad or m"), "velocity": ("joint velocities", "rad/s or m/s"),
-               "position": ("body position", "m"), "orientation": ("body orientation", "rad")}
-
-
-def discrepancies(res: CheckResult) -> list[Discrepancy]:
-    """Every compared difference of a check, each with its ratio to its tolerance: the counted
-    model quantities the loaders disagree on, the dynamics terms of every pair, the free motions."""
-    rtol = float(res.settings.get("rtol_model", 1e-9))
-    out = [_vote_discrepancy(v, res, rtol) for v in res.votes if not v.agree and v.counted]
-    for d in res.dynamics:
-        ratio = d.max_rel / d.rtol if d.rtol > 0 else math.inf
-        out.append(Discrepancy(f"dynamics {d.term}", f"{d.a} vs {d.b}",
-                               f"max abs {d.max_abs:.3g} (relative {d.max_rel:.2g})",
-                               ratio if np.isfinite(ratio) else math.inf))
-    for r in res.free:
-        for key, (label, unit) in FREE_LABELS.items():
-            value = float(getattr(r, key))
-            ratio = value / FREE_MOTION_TOL[key]
-            where = f" of {r.worst_body}" if key in ("position", "orientation") and r.worst_body else ""
-            out.append(Discrepancy(f"free motion: {label}{where} (state {r.state})", "MuJoCo vs Pinocchio",
-                                   f"{_g(value)} {unit}", ratio if np.isfinite(ratio) else math.inf))
-    return out
-
-
-def largest(res: CheckResult) -> Discrepancy | None:
-    """The discrepancy largest relative to its tolerance (the first of equals), a model quantity
-    first: when the loaders disagree on one, it is the cause the dynamics terms and free motions
-    follow from, and the largest of those is chosen. None when nothing was compared."""
-    found = discrepancies(res)
-    model = [d for d in found if d.kind.startswith("model:")]
-    return max(model or found, key=lambda d: d.ratio) if found else None
-
-
 # --------------------------------------------------------------------------- one model, in its worker
 
 
 @dataclass
 class ModelRow:
-    """One model's line of the table (see module docstring). ``loads``: loader -> "" when it
-    loads the file, its one-line refusal otherwise (empty dict when unknown: the worker
-    crashed); ``reason``: check's verdict line, the refusal, or how it crashed; ``report``: the
-    per-model report's text ("" when there is none)."""
+    """One model's line of the table (see module docstring). ``cls``: one of ``ROW_CLASSES``;
+    ``loads``: loader -> "" when it loads the file, its one-line refusal otherwise (empty dict when
+    unknown: the worker crashed); ``reason``: check's verdict line, the refusal, or how it crashed;
+    ``counts``: defects, known and unexplained importer disagreements, not compared; ``top``: the
+    first finding with its fix (``check``'s summary); ``witnesses``: the witnesses' line;
+    ``report``: the per-model report's text ("" when there is none)."""
 
     name: str
     files: tuple[str, ...]
     base: str
-    verdict: str
+    cls: str
     reason: str
     loads: dict[str, str] = field(default_factory=dict)
-    largest: Discrepancy | None = None
+    counts: dict[str, int] = field(default_factory=dict)
+    top: str = ""
+    witnesses: str = ""
     bodies: list[BodyPlausibility] = field(default_factory=list)
     bodies_from: str = ""
     wall_s: float = 0.0
@@ -540,14 +349,15 @@ class ModelRow:
         return len(self.loads) == len(LOADERS) and not any(self.loads.values())
 
 
-def check_command(model: ZooModel, floating: bool, strip: bool) -> str:
+def check_command(model: ZooModel, floating: bool, strip: bool, witnesses: bool = True) -> str:
     """The ``harness check`` command that checks ``model`` alone, as the zoo does."""
     parts = ["harness", "check"]
     parts += [x for flag, p in (("--mjcf", model.mjcf), ("--urdf", model.urdf)) if p is not None for x in (flag, str(p))]
     c = CHECK_DEFAULTS
     parts += ["--seed", str(c["seed"]), "--states", str(c["n_states"]), "--free-runs", str(c["n_free"]),
               "--t-end", f"{c['t_end']:g}", "--dt", f"{c['dt']:g}"]
-    parts += [flag for flag, on in (("--floating-base", floating), ("--strip-geometry", strip)) if on]
+    parts += [flag for flag, on in (("--floating-base", floating), ("--strip-geometry", strip),
+                                    ("--no-witnesses", not witnesses)) if on]
     return shlex.join(parts)
 
 
@@ -610,9 +420,11 @@ def _file_bodies(model: ZooModel, m: mujoco.MjModel | None) -> tuple[list[BodyPl
         return [], "not read (MuJoCo does not parse the file)"
 
 
-def check_model(model: ZooModel, base: str, strip: bool, log_path: str | None = None) -> ModelRow:
+def check_model(model: ZooModel, base: str, strip: bool, log_path: str | None = None,
+                witnesses: bool = True) -> ModelRow:
     """Run ``harness check`` on one model and make its row (runs in a worker process; stdout and
-    stderr go to ``log_path`` when given, and ``faulthandler`` writes a crash's frames there)."""
+    stderr go to ``log_path`` when given, and ``faulthandler`` writes a crash's frames there);
+    ``witnesses``: also the in-house engine and Exudyn (``check --no-witnesses`` when False)."""
     if log_path is not None and os.path.isdir(os.path.dirname(log_path) or "."):  # not on another machine's worker
         log = open(log_path, "w")  # left open: faulthandler writes a crash's frames to it until the worker exits
         os.dup2(log.fileno(), 1)
@@ -623,31 +435,41 @@ def check_model(model: ZooModel, base: str, strip: bool, log_path: str | None = 
         tempfile.tempdir = os.path.dirname(log_path) or None
     warnings.simplefilter("ignore")
     floating = floating_base(model, base)
-    command = check_command(model, floating, strip)
+    command = check_command(model, floating, strip, witnesses)
     row = ModelRow(model.name, tuple(str(p) for p in model.files), "floating" if floating else "fixed", "", "")
     try:  # what `harness check` refuses before any loader opens the file: no loader is asked either
         for path in model.files:
             check_model_file(path)
     except InputError as err:
-        row.verdict, row.reason = "refused", _without_path(str(err), model)
+        row.cls, row.reason = "refused", _without_path(str(err), model)
         row.bodies_from = "not read (the file is refused before any engine reads it)"
         row.report = refused_report(row, command)
         return row
     try:
-        res = run_check(model.mjcf, model.urdf, floating_base=floating, strip=strip, **CHECK_DEFAULTS)
+        res = run_check(model.mjcf, model.urdf, floating_base=floating, strip=strip, witnesses=witnesses,
+                        **CHECK_DEFAULTS)
     except (InputError, np.linalg.LinAlgError, OverflowError, FloatingPointError) as err:
-        row.verdict = "refused"
         row.reason = _without_path(err, model) if isinstance(err, InputError) else (
             f"the comparison diverged ({type(err).__name__}: {_one_line(err)})")
+        # a defect that stops every loader is the file's class (its line names the element and the fix)
+        row.cls = DEFECT if f": {DEFECT}: " in str(err) else "refused"
+        if row.cls == DEFECT:
+            row.counts = {"defects": 1, "known": 0, "unexplained": 0, "not compared": 0}
+            row.top = row.reason.split(f"{DEFECT}: ", 1)[1]
         row.loads, m = probe_loaders(model, floating, strip)
         row.bodies, row.bodies_from = _file_bodies(model, m)
         row.report = refused_report(row, command)
         return row
     res.name = model.name
-    row.verdict = "pass" if res.passed else "fail"
+    c = res.classes
+    row.cls = c.file_class
     row.reason = check_verdict(res)
     row.loads = {r.loader: r.refusal or "" for r in res.readings.values()}
-    row.largest = largest(res)
+    row.counts = {"defects": len(c.defects), "known": len(c.known), "unexplained": len(c.unexplained),
+                  "not compared": len(c.uncompared)}
+    found = top_findings(res)
+    row.top = f"{found[0][0]}; {found[0][1]}" if found else ""
+    row.witnesses = witness_line(res)
     row.bodies, row.bodies_from = mujoco_plausibility(res.readings["MuJoCo"].model), AS_MUJOCO_HOLDS
     row.report = render_report(res, command) + "\n" + "\n".join(plausibility_section(row)) + "\n"
     return row
@@ -667,7 +489,7 @@ def plausibility_section(row: ModelRow) -> list[str]:
 def refused_report(row: ModelRow, command: str) -> str:
     """A short report for a model ``check`` refuses: the reason, which engines load the file, the
     plausibility of its inertias."""
-    lines = [f"# harness check: {row.name}", "", f"Verdict: **REFUSED**: {row.reason}", "", f"Command: `{command}`", "",
+    lines = [f"# harness check: {row.name}", "", f"Verdict: **{row.cls}**: {row.reason}", "", f"Command: `{command}`", "",
              f"- Files: {', '.join(f'`{f}`' for f in row.files)}; base: {row.base}",
              ("- Loads (each engine asked alone): " + "; ".join(
                  f"{k} {'loads it' if not why else 'does not load it: ' + why}" for k, why in row.loads.items())
@@ -688,8 +510,10 @@ class Zoo:
     wall_s: float
     jobs: int
 
-    def count(self, verdict: str) -> int:
-        return sum(r.verdict == verdict for r in self.rows)
+    witnesses: bool = True
+
+    def count(self, cls: str) -> int:
+        return sum(r.cls == cls for r in self.rows)
 
 
 def _crash_detail(log_path: Path) -> str:
@@ -714,10 +538,11 @@ def _crashed_row(model: ZooModel, base: str, outcome: Outcome, log_path: Path) -
 
 
 def run_zoo(coll: Collection, *, base: str = "auto", jobs: int | None = None, timeout: float = DEFAULT_TIMEOUT,
-            on_done=None, dask: str | None = None) -> Zoo:
+            on_done=None, dask: str | None = None, witnesses: bool = True) -> Zoo:
     """Check every model of ``coll``, each in its own worker (see module docstring); ``on_done(row)``
     is called in this process as each model ends. ``dask``: the address of a ``dask.distributed``
-    scheduler whose workers check the models (same rows), else the local pool."""
+    scheduler whose workers check the models (same rows), else the local pool. ``witnesses``: also
+    run the in-house engine and Exudyn (``check --no-witnesses`` when False)."""
     if base not in BASES:
         raise InputError(f"--base must be one of {', '.join(BASES)}, got {base!r}")
     if not (timeout > 0):
@@ -739,7 +564,7 @@ def run_zoo(coll: Collection, *, base: str = "auto", jobs: int | None = None, ti
             if on_done is not None:
                 on_done(row)
 
-        cases = [(m.name, check_model, (m, base, coll.strip, str(log[m.name]))) for m in coll.models]
+        cases = [(m.name, check_model, (m, base, coll.strip, str(log[m.name]), witnesses)) for m in coll.models]
         run_cases(cases, jobs, timeout, on_done=done, dask=dask)
     if dask:
         from harness.validate.dask_workers import slots
@@ -747,7 +572,7 @@ def run_zoo(coll: Collection, *, base: str = "auto", jobs: int | None = None, ti
         jobs = slots(dask, jobs)
     else:
         jobs = effective_jobs(jobs)
-    return Zoo(coll, [rows[m.name] for m in coll.models], base, time.perf_counter() - start, jobs)
+    return Zoo(coll, [rows[m.name] for m in coll.models], base, time.perf_counter() - start, jobs, witnesses)
 
 
 # --------------------------------------------------------------------------- tables
@@ -770,12 +595,16 @@ def report_path(coll: Collection, row: ModelRow) -> str:
 
 
 def headline(zoo: Zoo) -> str:
-    """Models, loaded in all three, verdict counts, suspicious inertias, wall time."""
+    """Models, loaded in all three, the count per class, suspicious inertias, wall time."""
     rows = zoo.rows
     suspicious = sum(bool(r.suspicious) for r in rows)
-    return (f"{len(rows)} models; loaded in all three engines: {sum(r.loaded_by_all for r in rows)}; verdict: "
-            + ", ".join(f"{zoo.count(v)} {v}" for v in VERDICTS)
-            + f"; {suspicious} model(s) with a suspicious inertia; {zoo.wall_s:.0f} s wall on {zoo.jobs} worker(s)")
+    known = sum(r.counts.get("known", 0) for r in rows)
+    unexplained = sum(r.counts.get("unexplained", 0) for r in rows)
+    return (f"{len(rows)} models; loaded in all three engines: {sum(r.loaded_by_all for r in rows)}; class: "
+            + ", ".join(f"{zoo.count(c)} {c}" for c in ROW_CLASSES)
+            + f"; importer disagreements: {known} known, {unexplained} unexplained; {suspicious} model(s) with a "
+            f"suspicious inertia; {zoo.wall_s:.0f} s wall on {zoo.jobs} worker(s)"
+            + ("" if zoo.witnesses else " (--no-witnesses)"))
 
 
 def render_table(zoo: Zoo, made: str, command: str) -> str:
@@ -785,54 +614,47 @@ def render_table(zoo: Zoo, made: str, command: str) -> str:
              f"**{headline(zoo)}.**", "",
              f"Collection: {coll.what}. Each model: `harness check` with its defaults (seed {CHECK_DEFAULTS['seed']}, "
              f"{CHECK_DEFAULTS['n_states']} random states, {CHECK_DEFAULTS['n_free']} free motions of "
-             f"{CHECK_DEFAULTS['t_end']:g} s at {CHECK_DEFAULTS['dt']:g} s) in its own worker process; base "
+             f"{CHECK_DEFAULTS['t_end']:g} s at {CHECK_DEFAULTS['dt']:g} s, judged by convergence"
+             + (", the witnesses too" if zoo.witnesses else ", without the witnesses") + ") in its own worker process; base "
              f"`--base {zoo.base}`" + (" (a URDF alone floats unless its root link is `world`; an MJCF keeps its own "
                                        "root joints)" if zoo.base == "auto" else "") + ".", "",
-             "Columns: which engines load the file (the one-line reason where one refuses); the verdict (pass / fail: "
-             "`check`'s verdict; refused: `check` rejects the model as bad input; crashed: the worker died, timed out or "
-             "`check` raised); the largest discrepancy relative to its tolerance among the counted model quantities "
-             "the loaders disagree on (or, when they agree on every one, the dynamics terms and the free motions): what, "
-             "between which loaders, its size (SI units; relative to the quantity's scale) and its ratio to the tolerance; the run time; the bodies whose inertia is "
-             f"suspicious (triangle margin < {MARGIN_MIN:g} or implied density outside [{DENSITY_RANGE[0]:g}, "
-             f"{DENSITY_RANGE[1]:g}] kg/m^3; listed, not a failure). Per-model reports: `{coll.name}/check_<model>.md`.",
-             "", "| model | base | MuJoCo | Pinocchio | Drake | verdict | largest discrepancy | between | size | size / tolerance "
-             "| run time (s) | suspicious inertias |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "Columns: which engines load the file (the one-line reason where one refuses); the file's class (*defect in "
+             "your file*: fix the file; *importer disagreement*: the loaders read a valid element differently, each "
+             "matched to a known limitation of `harness/tools/check/known_limitations.toml` or unexplained; "
+             "*consistent*; *refused*: bad input that is not a defect of the file; *crashed*: the worker died, timed out "
+             "or `check` raised); the count of defects, of known and unexplained importer disagreements and of what is "
+             "not compared; the first finding with its fix (the whole list: the model's report); the witnesses (the "
+             "in-house engine and Exudyn, judged by convergence, never a vote on the file); the run time. Per-model "
+             f"reports: `{coll.name}/check_<model>.md`.",
+             "", "| model | base | MuJoCo | Pinocchio | Drake | class | defects | known | unexplained | not compared "
+             "| first finding and its fix | witnesses | run time (s) |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in zoo.rows:
-        big = r.largest
         name = f"[{r.name}]({report_path(coll, r)})" if r.report else r.name
-        sus = ", ".join(f"{b.body} ({'; '.join(b.flags)})" for b in r.suspicious[:3])
-        sus = (f"{len(r.suspicious)} of {len(r.bodies)}: {sus}" + (", ..." if len(r.suspicious) > 3 else "")
-               if r.suspicious else (f"0 of {len(r.bodies)}" if r.bodies else ""))
+        n = r.counts
+        top = r.top or (r.reason if r.cls in ("refused", "crashed") else "")
         lines.append(f"| {name} | {r.base} | " + " | ".join(_load_cell(r, k) for k in LOADERS)
-                     + f" | **{r.verdict}**: {_cell(_table_reason(r))} | {_cell(big.kind) if big else ''} | "
-                     f"{_cell(big.between) if big else ''} | {_cell(big.size) if big else ''} | "
-                     f"{_ratio(big.ratio) if big else ''} | {r.wall_s:.1f} | {_cell(sus)} |")
-    lines += ["", "## Suspicious inertias", "", "Per model, the bodies whose inertia is suspicious and why (each body's "
-              "mass, principal moments, margin and density: the model's report).", ""]
+                     + f" | **{r.cls}** | {n.get('defects', '')} | {n.get('known', '')} | {n.get('unexplained', '')} | "
+                     f"{n.get('not compared', '')} | {_cell(_cut(top))} | {_cell(r.witnesses.removeprefix('witnesses (never vote): '))} "
+                     f"| {r.wall_s:.1f} |")
+    lines += ["", "## Suspicious inertias", "", f"Per model, the bodies whose inertia is near-degenerate (triangle margin "
+              f"< {MARGIN_MIN:g}: a rod over ~40 times longer than thick) or implausible (implied density outside "
+              f"[{DENSITY_RANGE[0]:g}, {DENSITY_RANGE[1]:g}] kg/m^3; a defect when the file states it); each body's mass, "
+              "principal moments, margin and density: the model's report.", ""]
     lines += [f"- {r.name}: " + "; ".join(f"{b.body} ({', '.join(b.flags)})" for b in r.suspicious)
               for r in zoo.rows if r.suspicious] or ["- none"]
     return "\n".join(lines) + "\n"
 
 
-VERDICT_CELL = 400  # characters of a verdict line the table shows (the CSV and the report: all of it)
+CELL = 240  # characters of a finding the table shows (the CSV and the report: all of it)
 
 
-def _table_reason(row: ModelRow) -> str:
-    """The verdict line without the refusals the loader columns show, cut at ``VERDICT_CELL``."""
-    text = row.reason
-    for loader, why in row.loads.items():
-        if why:
-            text = text.replace(f"; {loader}: does not load: {why}", "").replace(f"{loader}: does not load: {why}", "")
-    text = text.strip("; ")
-    return text if len(text) <= VERDICT_CELL else text[:VERDICT_CELL].rsplit(" ", 1)[0] + " ... (whole: the report)"
-
-
-def _ratio(x: float) -> str:
-    return "no size" if math.isinf(x) else f"{x:.2g}"
+def _cut(text: str) -> str:
+    text = _one_line(text)
+    return text if len(text) <= CELL else text[:CELL].rsplit(" ", 1)[0] + " ... (whole: the report)"
 
 
 CSV_COLUMNS = ("collection", "model", "files", "base", *(f"{k.lower()}_{c}" for k in LOADERS for c in ("loads", "refusal")),
-               "verdict", "reason", "largest_kind", "largest_between", "largest_size", "largest_ratio_to_tolerance",
+               "class", "reason", "defects", "known", "unexplained", "not_compared", "first_finding", "witnesses",
                "run_time_s", "bodies", "suspicious_bodies", "suspicious", "report")
 
 
@@ -842,11 +664,11 @@ def render_csv(zoo: Zoo) -> str:
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(CSV_COLUMNS)
     for r in zoo.rows:
-        big = r.largest
         loads = [x for k in LOADERS for x in (("" if k not in r.loads else "no" if r.loads[k] else "yes"), r.loads.get(k, ""))]
-        w.writerow([zoo.collection.name, r.name, ";".join(r.files), r.base, *loads, r.verdict, r.reason,
-                    big.kind if big else "", big.between if big else "", big.size if big else "",
-                    ("inf" if math.isinf(big.ratio) else f"{big.ratio:.3g}") if big else "", f"{r.wall_s:.2f}",
+        n = r.counts
+        w.writerow([zoo.collection.name, r.name, ";".join(r.files), r.base, *loads, r.cls, r.reason,
+                    n.get("defects", ""), n.get("known", ""), n.get("unexplained", ""), n.get("not compared", ""),
+                    r.top, r.witnesses, f"{r.wall_s:.2f}",
                     len(r.bodies), len(r.suspicious), "; ".join(f"{b.body}: {', '.join(b.flags)}" for b in r.suspicious),
                     report_path(zoo.collection, r) if r.report else ""])
     return buf.getvalue()

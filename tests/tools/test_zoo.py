@@ -17,14 +17,15 @@ import pytest
 from harness.cli.main import main
 from harness.tools import zoo
 
-# A thin rod (principal moments 1e-7, 0.01, 0.01 kg m^2: triangle margin 1e-5) on a hinge, as an
+# A thin rod (principal moments 5e-6, 0.01, 0.01 kg m^2: triangle margin 5e-4, a 1 m rod of 3.2 mm
+# radius; implied density 9.6e4 kg/m^3, within the plausible range) on a hinge, as an
 # MJCF and the matching URDF (checked as a pair), and a box-like arm welded to the world (URDF
 # alone): a 1 kg link whose inertia is that of a uniform 0.1 x 0.2 x 0.3 m box (166.67 kg/m^3).
 ROD_MJCF = """<mujoco model="rod">
   <worldbody>
     <body name="rod" pos="0 0 1">
       <joint name="hinge" type="hinge" axis="0 1 0"/>
-      <inertial pos="0 0 -0.5" mass="1" diaginertia="1e-7 0.01 0.01"/>
+      <inertial pos="0 0 -0.5" mass="1" diaginertia="5e-6 0.01 0.01"/>
     </body>
   </worldbody>
 </mujoco>
@@ -35,7 +36,7 @@ ROD_URDF = """<?xml version="1.0"?>
   <joint name="hinge" type="continuous"><parent link="world"/><child link="rod"/>
     <origin xyz="0 0 1"/><axis xyz="0 1 0"/></joint>
   <link name="rod"><inertial><origin xyz="0 0 -0.5"/><mass value="1"/>
-    <inertia ixx="1e-7" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+    <inertia ixx="5e-6" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
 </robot>
 """
 BOX = {"ixx": (0.2**2 + 0.3**2) / 12, "iyy": (0.1**2 + 0.3**2) / 12, "izz": (0.1**2 + 0.2**2) / 12}
@@ -77,53 +78,54 @@ def test_folder_pairs_models_and_gives_a_malformed_file_its_row(tmp_path, capsys
     rod, arm, broken = table["rod"], table["arm"], table["broken"]
     assert rod["files"] == f"{d / 'rod.xml'};{d / 'rod.urdf'}" and rod["base"] == "fixed"
     assert arm["base"] == "fixed"  # a URDF alone whose root link is `world` stays welded
-    assert rod["verdict"] == arm["verdict"] == "pass"
+    assert rod["class"] == arm["class"] == "consistent"
+    assert rod["defects"] == rod["known"] == rod["unexplained"] == "0"
     assert {rod[f"{k}_loads"] for k in ("mujoco", "pinocchio", "drake")} == {"yes"}
-    assert broken["verdict"] == "refused" and "cannot load" in broken["reason"]
+    assert broken["class"] == "refused" and "cannot load" in broken["reason"]
     assert broken["mujoco_loads"] == broken["pinocchio_loads"] == broken["drake_loads"] == "no"
     assert all(broken[f"{k}_refusal"] for k in ("mujoco", "pinocchio", "drake"))
-    # the rod's triangle margin (1e-7 / 0.01 = 1e-5) is flagged, the box's inertia is not
-    assert rod["suspicious_bodies"] == "1" and "triangle margin 1e-05 < 0.001" in rod["suspicious"]
+    # the rod's triangle margin (5e-6 / 0.01 = 5e-4) is flagged, the box's inertia is not
+    assert rod["suspicious_bodies"] == "1" and "triangle margin 0.0005 < 0.001" in rod["suspicious"]
     assert arm["bodies"] == "1" and arm["suspicious_bodies"] == "0"
     assert float(arm["run_time_s"]) > 0
     md = (out / "my_models.md").read_text()
-    assert ("**3 models; loaded in all three engines: 2; verdict: 2 pass, 0 fail, 1 refused, 0 crashed; "
-            "1 model(s) with a suspicious inertia;") in md
-    assert "[rod](my_models/check_rod.md)" in md and "- rod: rod (triangle margin 1e-05 < 0.001, " in md
+    assert ("**3 models; loaded in all three engines: 2; class: 0 defect in your file, 0 importer disagreement, "
+            "2 consistent, 1 refused, 0 crashed; importer disagreements: 0 known, 0 unexplained; 1 model(s) with a "
+            "suspicious inertia;") in md
+    assert "[rod](my_models/check_rod.md)" in md and "- rod: rod (triangle margin 0.0005 < 0.001)" in md
     report = (out / "my_models" / "check_arm.md").read_text()
-    assert report.startswith("# harness check: arm") and "Verdict: **PASS**" in report
+    assert report.startswith("# harness check: arm") and "Verdict: consistent" in report
     assert "implied density 167 kg/m^3: plausible" in report  # 1 kg / (0.1 x 0.2 x 0.3 m)
-    assert "Verdict: **REFUSED**" in (out / "my_models" / "check_broken.md").read_text()
-    assert "pass     arm" in stdout and "refused  broken" in stdout
+    assert "Verdict: **refused**" in (out / "my_models" / "check_broken.md").read_text()
+    assert "consistent            arm" in stdout and "refused               broken" in stdout
 
 
-def test_largest_discrepancy_is_the_planted_mass(tmp_path):
-    """An MJCF 10 % heavier than its URDF: MuJoCo is the odd one out in mass, by 0.1 kg."""
-    from harness.tools.check import run_check
-
-    (tmp_path / "rod.xml").write_text(ROD_MJCF.replace('mass="1"', 'mass="1.1"'))
-    (tmp_path / "rod.urdf").write_text(ROD_URDF)
-    res = run_check(tmp_path / "rod.xml", tmp_path / "rod.urdf", n_free=1, t_end=0.05)
-    big = zoo.largest(res)
-    assert big.kind == "model: mass, joint 'hinge' (body 'rod')"
-    assert big.between == "MuJoCo against Pinocchio and Drake"
-    assert big.size == "0.1 kg (relative 0.091)" and big.ratio == pytest.approx(0.1 / 1.1 / 1e-6)  # two files: rtol 1e-6
-    # when the loaders agree, the largest is a dynamics term or a free motion within its tolerance
-    (tmp_path / "rod.xml").write_text(ROD_MJCF)
-    big = zoo.largest(run_check(tmp_path / "rod.xml", tmp_path / "rod.urdf", n_free=1, t_end=0.05))
-    assert big.ratio < 1 and big.kind.startswith(("dynamics", "free motion"))
+def test_an_mjcf_lighter_than_its_urdf_is_a_defect_of_the_pair_with_its_fix(tmp_path):
+    """An MJCF 10 % lighter than its URDF: the readers of each file agree with each other, so the two
+    files state different masses: the row's class is a defect, its first finding names the joint
+    and says what to make agree."""
+    d = tmp_path / "pair"
+    d.mkdir()
+    (d / "rod.xml").write_text(ROD_MJCF.replace('mass="1"', 'mass="0.9"'))
+    (d / "rod.urdf").write_text(ROD_URDF)
+    (row,) = zoo.run_zoo(zoo.collection(str(d)), timeout=120.0).rows
+    assert row.cls == "defect in your file" and row.counts["defects"] >= 1 and row.counts["unexplained"] == 0
+    assert row.top.startswith("rod.urdf joint 'hinge' (body 'rod'): MJCF and URDF disagree (mass)")
+    assert "fix: make the MJCF and the URDF state the same mass for joint 'hinge' (body 'rod')" in row.top
 
 
 def test_plausibility_of_an_inertia():
-    box = zoo.plausibility("box", 6.0, [6 * (0.2**2 + 0.3**2) / 12, 6 * (0.1**2 + 0.3**2) / 12, 6 * (0.1**2 + 0.2**2) / 12])
+    from harness.tools.check.defects import DENSITY_RANGE, plausibility
+
+    box = plausibility("box", 6.0, [6 * (0.2**2 + 0.3**2) / 12, 6 * (0.1**2 + 0.3**2) / 12, 6 * (0.1**2 + 0.2**2) / 12])
     assert box.density == pytest.approx(1000.0) and not box.suspicious  # 6 kg in 0.006 m^3
     assert box.margin == pytest.approx(2 * 0.1**2 / (0.2**2 + 0.3**2))  # (I_a + I_b - I_c) / I_c = 2 a^2 / (b^2 + c^2)
-    assert zoo.plausibility("sphere", 1.0, [0.4, 0.4, 0.4]).margin == pytest.approx(1.0)
-    bad = zoo.plausibility("base", 1e-6, [0.0, 0.0, 3e-6])  # anymal's rank-1 base
+    assert plausibility("sphere", 1.0, [0.4, 0.4, 0.4]).margin == pytest.approx(1.0)
+    bad = plausibility("base", 1e-6, [0.0, 0.0, 3e-6])  # anymal's rank-1 base
     assert bad.margin == pytest.approx(-1.0) and np.isnan(bad.density) and bad.suspicious
-    heavy = zoo.plausibility("lump", 1.0, [1e-7, 1e-7, 1e-7])  # 1 kg with a 2.4 mm box's inertia
-    assert heavy.density > 25000 and any("density" in f for f in heavy.flags)
-    assert "point mass" in zoo.plausibility("dot", 1.0, [0, 0, 0]).flags[0]
+    heavy = plausibility("lump", 1.0, [1e-7, 1e-7, 1e-7])  # 1 kg with a 2.4 mm box's inertia
+    assert heavy.density > DENSITY_RANGE[1] and heavy.implausible and any("density" in f for f in heavy.flags)
+    assert "point mass" in plausibility("dot", 1.0, [0, 0, 0]).flags[0]
 
 
 def test_a_crash_and_a_hang_stay_in_their_rows(tmp_path, monkeypatch):
@@ -144,11 +146,11 @@ def test_a_crash_and_a_hang_stay_in_their_rows(tmp_path, monkeypatch):
     (d / "broken.urdf").write_text(ARM_URDF)  # a second, healthy arm
     result = zoo.run_zoo(zoo.collection(str(d)), timeout=4.0)
     by = {r.name: r for r in result.rows}
-    assert by["arm"].verdict == "crashed" and "SIGABRT" in by["arm"].reason
+    assert by["arm"].cls == "crashed" and "SIGABRT" in by["arm"].reason
     assert "last Python frame" in by["arm"].reason and "misbehaving" in by["arm"].reason
-    assert by["rod"].verdict == "crashed" and "timed out" in by["rod"].reason and by["rod"].wall_s >= 4.0
-    assert by["broken"].verdict == "pass" and by["arm"].loads == {}
-    assert (result.count("pass"), result.count("crashed")) == (1, 2)
+    assert by["rod"].cls == "crashed" and "timed out" in by["rod"].reason and by["rod"].wall_s >= 4.0
+    assert by["broken"].cls == "consistent" and by["arm"].loads == {}
+    assert (result.count("consistent"), result.count("crashed")) == (1, 2)
 
 
 @pytest.mark.parametrize("args, message", [
@@ -175,12 +177,13 @@ def test_dm_control_suite_models_by_name(tmp_path, capsys):
     assert main(["zoo", "dm_control", "--only", "pendulum,lqr", "--out-dir", str(out)]) == 0
     table = rows(out / "dm_control.csv")
     assert sorted(table) == ["lqr", "pendulum"]
-    assert table["pendulum"]["verdict"] == "pass" and table["pendulum"]["files"].endswith("dm_control/suite/pendulum.xml")
+    assert table["pendulum"]["class"] == "consistent"
+    assert table["pendulum"]["files"].endswith("dm_control/suite/pendulum.xml")
     lqr = table["lqr"]
-    assert lqr["verdict"] == "refused" and "no moving joint" in lqr["reason"]
+    assert lqr["class"] == "refused" and "no moving joint" in lqr["reason"]
     assert lqr["mujoco_loads"] == "yes" and lqr["pinocchio_loads"] == "no" and lqr["pinocchio_refusal"]
     md = (out / "dm_control.md").read_text()
-    assert "dm_control/suite/*.xml`, checked in place" in md and "verdict: 1 pass, 0 fail, 1 refused, 0 crashed" in md
+    assert "dm_control/suite/*.xml`, checked in place" in md and "class: 0 defect in your file, 0 importer disagreement, 1 consistent, 1 refused, 0 crashed" in md
     assert (out / "dm_control" / "check_pendulum.md").is_file() and (out / "dm_control" / "check_lqr.md").is_file()
 
 
@@ -197,8 +200,12 @@ def test_example_robot_data_is_found_from_the_installed_package(tmp_path, capsys
     out = tmp_path / "out"
     assert main(["zoo", "example-robot-data", "--only", "ur5_robot,ur3", "--out-dir", str(out)]) == 0
     table = rows(out / "example-robot-data.csv")
-    assert table["ur5_robot"]["verdict"] == "pass" and table["ur5_robot"]["base"] == "fixed"
-    assert table["ur3"]["verdict"] == "refused"  # ur3.urdf is an empty <robot/>
+    # ur5's wrist_3_link: 0.1879 kg with the inertia of a 1.45 kg/m^3 box: a defect, its line and its fix
+    ur5 = table["ur5_robot"]
+    assert ur5["class"] == "defect in your file" and ur5["base"] == "fixed" and ur5["defects"] == "1"
+    assert ur5["first_finding"].startswith("ur5_robot.urdf:") and "link 'wrist_3_link': implausible density" in \
+        ur5["first_finding"] and "; fix: check link 'wrist_3_link'" in ur5["first_finding"]
+    assert table["ur3"]["class"] == "refused"  # ur3.urdf is an empty <robot/>
     assert "--strip-geometry" in (out / "example-robot-data" / "check_ur5_robot.md").read_text()
 
 
@@ -253,11 +260,11 @@ def test_a_file_check_would_refuse_is_refused_not_crashed(tmp_path):
     (d / "zero.urdf").symlink_to("/dev/zero")  # read-side only: refused before a byte is read
     result = zoo.run_zoo(zoo.collection(str(d)), timeout=60.0)
     by = {r.name: r for r in result.rows}
-    assert {n: r.verdict for n, r in by.items()} == {"cafe": "refused", "pipe": "refused", "zero": "refused"}
+    assert {n: r.cls for n, r in by.items()} == {"cafe": "refused", "pipe": "refused", "zero": "refused"}
     assert by["cafe"].reason == "MJCF file is not UTF-8 text (byte 0xe9 at offset 18)"
     assert by["pipe"].reason.startswith("the URDF is not a regular file but a FIFO (named pipe)")
     assert by["zero"].reason.startswith("the URDF is not a regular file but a character device (a symlink to /dev/zero)")
-    assert all(r.loads == {} and "REFUSED" in r.report for r in by.values())
+    assert all(r.loads == {} and "Verdict: **refused**" in r.report for r in by.values())
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")

@@ -134,11 +134,12 @@ from harness.tools.check.reading import (captured_native_stderr, check_spec_iner
                                          load_models, load_mujoco, load_pinocchio, parse_map_options, read_joint_map,
                                          read_mujoco_spec, strip_geometry, supported_joints)
 from harness.tools.check.report import render_report, summary_lines, verdict, write_report
-from harness.tools.check.results import FREE_MOTION_TOL, LOADERS, CheckResult, Finding, Reading, Vote
+from harness.tools.check.results import LOADERS, CheckResult, Finding, Reading, Vote
+from harness.tools.check.classifying import CLASSES, Classification, classify
 from harness.tools.check.comparing import vote
 from harness.tools.check.run import run_check
 
-__all__ = ["FREE_MOTION_TOL", "LOADERS", "CheckResult", "Finding", "Reading", "Vote", "captured_native_stderr",
+__all__ = ["CLASSES", "Classification", "classify", "LOADERS", "CheckResult", "Finding", "Reading", "Vote", "captured_native_stderr",
            "check_spec_inertials", "compile_spec", "geom_inertials", "load_models", "load_mujoco", "load_pinocchio",
            "parse_map_options", "read_joint_map", "read_mujoco_spec", "render_report", "run_check", "strip_geometry",
            "summary_lines", "supported_joints", "verdict", "vote", "write_report"]

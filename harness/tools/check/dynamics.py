@@ -13,6 +13,7 @@ from harness.tools import dynamics_terms as dc
 from harness.engines.pinocchio.lie_group_integrators import rkmk4_step
 from harness.engines.pinocchio.model import from_pinocchio
 from harness.model import rotations
+from harness.judging.error_model import judge_refinement
 from harness.model.joints import JOINTS
 from harness.tools.check.results import FreeMotion, Reading
 
@@ -88,34 +89,67 @@ def _rigid_copy(m: mujoco.MjModel, dt: float) -> mujoco.MjModel:
     return rigid
 
 
+#: Order of the free motions' difference: MuJoCo's RK4 against Pinocchio's ``rkmk4_step``, both order 4.
+FREE_ORDER = 4.0
+#: The free motion's compared quantities and their units.
+FREE_UNITS = {"joint": "rad or m", "velocity": "rad/s or m/s", "position": "m", "orientation": "rad"}
+
+
 def free_motion(m: mujoco.MjModel, pmodel: pin.Model, jmap: dc.JointMap, q0: np.ndarray, v0: np.ndarray, k: int, *,
                 t_end: float, dt: float, save_every: float, frames: dict[int, int] | None = None) -> FreeMotion:
-    """Unforced motion under gravity from (q0, v0) (common coordinates) in both engines.
+    """Unforced motion under gravity from (q0, v0) (common coordinates) in both engines, judged by
+    how the difference converges.
 
     MuJoCo: RK4 at ``dt``, contacts, constraints (limits, equalities, friction loss), passive
     forces (damping, springs, gravity compensation, fluid forces) and actuators disabled, so that
     both integrate M a + C v + g = 0. Pinocchio: ``aba`` with zero torque and ``rkmk4_step`` at
-    ``dt``. A second MuJoCo run with only contacts off measures how far limits, equality
+    ``dt``. Both are order 4: where they hold the same dynamics, their difference falls as dt^4
+    (or sits at the resolution, 1e-9 of the motion's scale); where they do not, it has a floor. The
+    pair runs again at 2 dt (dt / 2 when the save interval is an odd number of steps; and at half
+    the finest step where two levels leave it open), and each quantity's difference is fitted
+    (``harness.judging.error_model.judge_refinement``): ``FreeMotion.models``. Scales: joints and
+    joint velocities their largest magnitude in MuJoCo's run (at least 1), positions the largest
+    distance of a moving body from the world origin (at least 1 mm), orientations 1 rad.
+    A second MuJoCo run with only contacts off measures how far limits, equality
     constraints, damping and actuators move the joints (``constrained_joint``; informational).
     ``frames``: MuJoCo body id -> Pinocchio frame id of each moving body (``_pinocchio_frames``;
     default: Pinocchio's BODY frame of the MuJoCo body's name).
     """
     steps_per_save = max(1, int(round(save_every / dt)))
     n_saves = max(1, int(round(t_end / (steps_per_save * dt))))
-    rigid = _mujoco_copy(m, dt, mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
-                         | mujoco.mjtDisableBit.mjDSBL_DAMPER | mujoco.mjtDisableBit.mjDSBL_SPRING
-                         | mujoco.mjtDisableBit.mjDSBL_ACTUATION)
-    rigid.body_gravcomp[:] = 0.0            # MuJoCo's own passive forces, not in M a + C v + g = 0
-    rigid.opt.density, rigid.opt.viscosity = 0.0, 0.0
-    as_file = _mujoco_copy(m, dt, mujoco.mjtDisableBit.mjDSBL_CONTACT)
     if frames is None:
         bodies = [b for b in range(1, m.nbody) if m.body_jntnum[b] > 0]
         frames = {b: pmodel.getFrameId(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b), pin.FrameType.BODY)
                   for b in bodies}
-    bodies, frames = list(frames), list(frames.values())
-    d_rigid, d_file = mujoco.MjData(rigid), mujoco.MjData(as_file)
+    base = _free_run(m, pmodel, jmap, q0, v0, dt, steps_per_save, n_saves, frames, constrained=True)
+    second = 2.0 * dt if steps_per_save % 2 == 0 else dt / 2.0
+
+    def measure(h: float) -> dict[str, float]:
+        if h == dt:
+            return base["worst"]
+        return _free_run(m, pmodel, jmap, q0, v0, h, int(round(steps_per_save * dt / h)), n_saves, frames)["worst"]
+
+    scales = {q: (unit, base["scales"][q]) for q, unit in FREE_UNITS.items()}
+    models = judge_refinement(measure, (dt, second), FREE_ORDER, scales, n_saves * steps_per_save)
+    w = base["worst"]
+    return FreeMotion(k, w["joint"], w["velocity"], w["position"], w["orientation"], base["worst_body"],
+                      w["constrained"], models)
+
+
+def _free_run(m: mujoco.MjModel, pmodel: pin.Model, jmap: dc.JointMap, q0: np.ndarray, v0: np.ndarray, dt: float,
+              steps_per_save: int, n_saves: int, frames: dict[int, int], constrained: bool = False) -> dict:
+    """MuJoCo's rigid run and Pinocchio's at ``dt`` (``free_motion``): the largest differences over
+    the saved samples (``worst``: joint, velocity, position, orientation; ``constrained``: MuJoCo as
+    the file says against rigid, when ``constrained``), the body where the pose differs most and
+    the motion's scales."""
+    rigid = _rigid_copy(m, dt)
+    as_file = _mujoco_copy(m, dt, mujoco.mjtDisableBit.mjDSBL_CONTACT) if constrained else None
+    bodies, frame_ids = list(frames), list(frames.values())
+    d_rigid = mujoco.MjData(rigid)
+    d_file = mujoco.MjData(as_file) if constrained else None
     for dd in (d_rigid, d_file):
-        dd.qpos[:], dd.qvel[:] = dc.mujoco_state(m, jmap, q0, v0)
+        if dd is not None:
+            dd.qpos[:], dd.qvel[:] = dc.mujoco_state(m, jmap, q0, v0)
     data = pmodel.createData()
     qp, vp = dc.pinocchio_state(pmodel, jmap, q0, v0)
     tau = np.zeros(pmodel.nv)
@@ -123,13 +157,17 @@ def free_motion(m: mujoco.MjModel, pmodel: pin.Model, jmap: dc.JointMap, q0: np.
     def accel(t, q, v):
         return pin.aba(pmodel, data, q, v, tau).copy()
 
-    worst = {"joint": 0.0, "velocity": 0.0, "position": 0.0, "orientation": 0.0, "constrained": 0.0}
+    worst = {"joint": 0.0, "velocity": 0.0, "position": 0.0, "orientation": 0.0, "constrained": float("nan")}
+    if constrained:
+        worst["constrained"] = 0.0
+    scales = {"joint": 1.0, "velocity": 1.0, "position": 1e-3, "orientation": 1.0}
     worst_body = ""
     for i in range(n_saves + 1):
         if i > 0:
             for _ in range(steps_per_save):
                 mujoco.mj_step(rigid, d_rigid)
-                mujoco.mj_step(as_file, d_file)
+                if d_file is not None:
+                    mujoco.mj_step(as_file, d_file)
                 qp, vp = rkmk4_step(pmodel, accel, 0.0, qp, vp, dt)
         mujoco.mj_kinematics(rigid, d_rigid)
         pin.framesForwardKinematics(pmodel, data, qp)
@@ -137,9 +175,12 @@ def free_motion(m: mujoco.MjModel, pmodel: pin.Model, jmap: dc.JointMap, q0: np.
         qc_pin, vc_pin = _common_from_pinocchio(pmodel, jmap, qp, vp)
         worst["joint"] = _worse(worst["joint"], _joint_distance(jmap, qc_mj, qc_pin))
         worst["velocity"] = _worse(worst["velocity"], float(np.max(np.abs(vc_mj - vc_pin), initial=0.0)))
-        qc_file, _ = _common_from_mujoco(jmap, d_file.qpos, d_file.qvel)
-        worst["constrained"] = _worse(worst["constrained"], _joint_distance(jmap, qc_mj, qc_file))
-        for b, fid in zip(bodies, frames):
+        scales["joint"] = max(scales["joint"], float(np.max(np.abs(qc_mj), initial=0.0)))
+        scales["velocity"] = max(scales["velocity"], float(np.max(np.abs(vc_mj), initial=0.0)))
+        if d_file is not None:
+            qc_file, _ = _common_from_mujoco(jmap, d_file.qpos, d_file.qvel)
+            worst["constrained"] = _worse(worst["constrained"], _joint_distance(jmap, qc_mj, qc_file))
+        for b, fid in zip(bodies, frame_ids):
             oMf = data.oMf[fid]
             dp = float(np.linalg.norm(d_rigid.xpos[b] - oMf.translation))
             finite = np.all(np.isfinite(oMf.rotation)) and np.all(np.isfinite(d_rigid.xquat[b]))
@@ -148,8 +189,9 @@ def free_motion(m: mujoco.MjModel, pmodel: pin.Model, jmap: dc.JointMap, q0: np.
                     or (not np.isfinite(dp + dq) and np.isfinite(worst["position"] + worst["orientation"]))):
                 worst_body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"
             worst["position"], worst["orientation"] = _worse(worst["position"], dp), _worse(worst["orientation"], dq)
-    return FreeMotion(k, worst["joint"], worst["velocity"], worst["position"], worst["orientation"], worst_body,
-                      worst["constrained"])
+            scales["position"] = max(scales["position"], float(np.linalg.norm(d_rigid.xpos[b])))
+    scales = {q: (x if np.isfinite(x) else 1.0) for q, x in scales.items()}
+    return {"worst": worst, "worst_body": worst_body, "scales": scales}
 
 
 def _worse(old: float, new: float) -> float:

@@ -21,6 +21,7 @@ from harness.io import atomic
 from harness.model.input_files import check_input_file, check_model_file, parse_xml, read_input_text
 from harness.io.provenance import drake_version
 from harness.engines.mujoco.model import joint_kind as mujoco_joint_kind
+from harness.engines.mujoco.model import check_spec_inertials
 from harness.engines.pinocchio.model import root_joint_model
 from harness.engines.pinocchio.model import joint_type as pin_joint_type
 from harness.model.errors import InputError
@@ -41,7 +42,6 @@ from harness.tools.loaded_models import (
     pinocchio_joint_slots,
     pinocchio_split_joint_bodies,
 )
-from harness.model.sanity import check_inertia
 from harness.tools.check.results import Reading
 
 
@@ -94,29 +94,6 @@ def read_mujoco_spec(path: Path) -> mujoco.MjSpec:
             return mujoco.MjSpec.from_file(str(path))
     except Exception as err:
         raise InputError(f"{path}: cannot load {file_format(path)}: {_one_line(err)}") from None
-
-
-def check_spec_inertials(spec: mujoco.MjSpec, source: Path) -> None:
-    """File-level sanity of the inertials: no body/link may have a negative mass, and every
-    body/link that a joint moves and that has mass must have a valid inertia tensor
-    (``check_inertia``: positive definite, triangle inequality). Fixed links (frames, sensors)
-    are judged through the composite body they are merged into (``load_pair``)."""
-    for body in spec.bodies:
-        if body.name == "world" or not body.explicitinertial:
-            continue
-        mass = float(body.mass)
-        what = f"body {body.name!r}"
-        if not np.isfinite(mass) or mass < 0.0:
-            raise InputError(f"{source}: {what}: mass must be positive, got {mass:g} kg")
-        if mass == 0.0 or body.first_joint() is None:
-            continue
-        full = np.asarray(body.fullinertia, dtype=float)
-        if np.all(np.isfinite(full)):
-            xx, yy, zz, xy, xz, yz = full
-            inertia = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
-        else:  # principal moments in the frame iquat: validity does not depend on the frame
-            inertia = np.diag(np.asarray(body.inertia, dtype=float))
-        check_inertia(inertia, what, str(source))
 
 
 def compile_spec(spec: mujoco.MjSpec, source: Path) -> mujoco.MjModel:

@@ -3,6 +3,7 @@ prints (``summary_lines``)."""
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import mujoco
@@ -10,7 +11,9 @@ import numpy as np
 
 from harness.io import atomic
 from harness.tools import witnesses as wit
-from harness.tools.check.results import CheckResult, FREE_MOTION_TOL, LOADERS, Reading, Vote, causes_line
+from harness.tools.check.classifying import (CONSISTENT, DEFECT, IMPORTER, NOT_COMPARED, loaders_loaded,
+                                             witness_line)
+from harness.tools.check.results import CheckResult, LOADERS, Reading, Vote
 from harness.tools.check.comparing import QUANTITIES, _DETAIL_FIELD, _who, dynamics_odd, witness_odd
 from harness.tools.check.reading import _few
 from harness.tools.check.dynamics import _whole_trees
@@ -24,66 +27,89 @@ def _v(x, digits=6) -> str:
 
 
 def verdict(res: CheckResult) -> str:
-    """Why the check passes or fails, in one line: the odd one out per loader (the model quantities and
-    dynamics terms where the two others agree against it), disagreements without a majority,
-    failed dynamics or free motion, and the loaders that do not load the file."""
+    """The file's class and what makes it so, in one line (``harness.tools.check.classifying``):
+    the defects (kind and element), the importer disagreements (the loader and the known limitation,
+    or unexplained), what is not compared, and the loaders that do not load the file."""
+    c = res.classes
     parts = []
-    odd: dict[str, list[str]] = {}
-    for v in res.votes:
-        if v.odd is not None and v.counted:
-            what = v.quantity
-            if what == "present":
-                what = "joint missing" if v.values[v.odd] != "present" else "extra joint"
-            odd.setdefault(v.odd, []).append(what)
-    dyn_odd = dynamics_odd(res.dynamics)
-    for term, loader in dyn_odd.items():
-        odd.setdefault(loader, []).append(f"dynamics {term}")
-    for loader in LOADERS:
-        if loader in odd:
-            counts: dict[str, int] = {}
-            for q in odd[loader]:
-                counts[q] = counts.get(q, 0) + 1
-            parts.append(f"{loader} is the odd one out: " + ", ".join(f"{q}" + (f" x{n}" if n > 1 else "")
-                                                                       for q, n in counts.items()))
-    split = [v for v in res.votes if not v.agree and v.odd is None and v.counted]
-    if split:
-        parts.append(f"{len(split)} disagreement(s) without a majority")
-    w_dyn = res.witnesses.dynamics if res.witnesses is not None else []
-    w_odd = witness_odd(res.dynamics + w_dyn)
-    for label, terms in w_odd.items():
-        parts.append(f"{label} is the odd one out: " + ", ".join(f"dynamics {t}" for t in terms))
-    explained = {(d.a, d.b, d.term) for d in res.dynamics + w_dyn
-                 if d.term in dyn_odd and dyn_odd[d.term] in (d.a, d.b)
-                 or any(x in w_odd and d.term in w_odd[x] for x in (d.a, d.b))}
-    bad_terms = sorted({d.term for d in res.dynamics + w_dyn if not d.passed and (d.a, d.b, d.term) not in explained})
-    if bad_terms:
-        parts.append(f"dynamics {', '.join(bad_terms)} differ")
-    if not res.free_passed:
-        parts.append("free motion differs (MuJoCo vs Pinocchio)")
-    w = res.witnesses
-    if w is not None and not w.refusal:
-        held = sorted({r.witness for r in w.rows if not r.ok})
-        if held:
-            parts.append(f"{' and '.join(held)} hold(s) another model than the description built from MuJoCo's reading")
-        for label in wit.WITNESSES:
-            bad = [f for f in w.free if f.witness == label and not f.passed]
-            if bad:
-                parts.append(f"{label} is the odd one out: free motion differs from MuJoCo's (state {bad[0].state}, "
-                             f"body {bad[0].worst_body or '-'}, {bad[0].position:.2e} m)")
-    if not parts and res.passed:
-        loaded = [r.loader for r in res.readings.values() if r.loaded]
-        parts.append(f"{', '.join(loaded[:-1])} and {loaded[-1]} agree")
-        if w is not None and not w.refusal:
-            parts[-1] += "; the in-house engine and Exudyn (built from MuJoCo's reading) agree with MuJoCo's dynamics"
-    if res.setting_differences:
-        between = "between the MJCF and the URDF" if res.two_files else "between the loaders"
-        parts.append(f"{len(res.setting_differences)} joint setting(s) differ {between} (listed, not counted)")
-    if res.findings:
-        parts.append("causes: " + causes_line(res.findings))
-    parts += res.refusals
-    if w is not None and w.refusal:
-        parts.append(f"in-house and Exudyn: not run: {w.refusal}")
+    if c.defects:
+        kinds: dict[str, list[str]] = {}
+        for d in c.defects:
+            kinds.setdefault(d.kind, []).append(d.element)
+        parts.append(f"{DEFECT}: " + "; ".join(f"{k} ({_few(els, 3)})" for k, els in kinds.items()))
+        follow = len(c.disagreements) - len(c.importer)
+        if follow:
+            parts.append(f"{follow} loader disagreement(s) follow from them")
+    for key, group in c.groups():
+        parts.append(f"{IMPORTER}: {_group_text(group)}")
+    if not parts:
+        parts.append(f"{CONSISTENT}: {' and '.join(loaders_loaded(res))} agree on {c.agreeing} compared quantities "
+                     "and terms")
+    if c.uncompared:
+        parts.append(f"{NOT_COMPARED}: " + _few([u.what for u in c.uncompared], 3))
     return "; ".join(parts)
+
+
+def _group_text(group) -> str:
+    """One group of importer disagreements (``Classification.groups``) in a few words."""
+    d = group[0]
+    where = _few(dict.fromkeys(x.element.split(" (body")[0].removeprefix("joint ") for x in group), 3)
+    if d.limitation is not None:
+        return f"{' and '.join(d.limitation.loaders)} {d.limitation.brief} (known: {d.limitation.id}; {where})"
+    return f"{' and '.join(d.loaders)} read(s) {d.quantity} differently, unexplained ({where})"
+
+
+def _fix_text(group) -> str:
+    d = group[0]
+    if d.limitation is not None:
+        return (f"workaround: {d.limitation.brief_workaround}"
+                + (f" ({d.limitation.upstream})" if d.limitation.upstream else ""))
+    return (f"report upstream to {' and '.join(d.loaders)}: {d.between}, {d.quantity} of {d.element} "
+            "(the report has the figures)")
+
+
+def top_findings(res: CheckResult) -> list[tuple[str, str]]:
+    """(what, what to do) of every finding, in the order a user acts on them: the defects with
+    their fix, then the importer disagreements (unexplained first: report upstream; then the known
+    limitations with their workaround)."""
+    c = res.classes
+    return ([(d.short, f"fix: {d.fix}") for d in c.defects]
+            + [(_group_text(g), _fix_text(g)) for _, g in c.groups()])
+
+
+WIDTH = 120   # characters of a terminal line
+
+
+def _wrapped(text: str, first: str, rest: str) -> list[str]:
+    return textwrap.wrap(text, WIDTH, initial_indent=first, subsequent_indent=rest, break_on_hyphens=False) or [first]
+
+
+def summary_lines(res: CheckResult, report: Path | str | None = None) -> list[str]:
+    """What ``harness check`` prints: the file's class, the count per class, the top 3 findings with
+    their fix (defects first, then unexplained and known importer disagreements), the witnesses (apart,
+    never a vote) and where the details are; every line at most ``WIDTH`` characters."""
+    c = res.classes
+    lines = _wrapped(f"{res.name}: {c.file_class.upper()} ({res.mode}, {res.base} base)", "", "  ")
+    lines += _wrapped(c.counts_line(), "  ", "    ")
+    items = top_findings(res)
+    for k, (what, fix) in enumerate(items[:3], 1):
+        lines += _wrapped(what, f"  {k}. ", "     ")
+        lines += _wrapped(fix, "     ", "       ")
+    if len(items) > 3:
+        lines.append(f"  ... {len(items) - 3} more in the report")
+    follow = len(c.disagreements) - len(c.importer)
+    if follow:
+        lines += _wrapped(f"{follow} loader disagreement(s) follow from the defect(s) above", "  ", "    ")
+    if c.uncompared:
+        lines += _wrapped(f"{NOT_COMPARED}: " + _few([u.what for u in c.uncompared], 3), "  ", "    ")
+    for refusal in res.refusals:
+        lines += _wrapped(refusal, "  ", "    ")
+    for line in warning_lines(res):
+        lines += _wrapped(f"warnings {line[2:]}", "  ", "    ")
+    lines += _wrapped(witness_line(res), "  ", "    ")
+    if report is not None:
+        lines += _wrapped(f"details: {report}", "  ", "    ")
+    return lines
 
 
 _CELL_QUANTITIES = tuple(QUANTITIES)
@@ -109,8 +135,10 @@ def render_report(res: CheckResult, command: str) -> str:
         if ok:
             loads.append(f"{', '.join(ok)} from `{source}`")
         loads += [f"{r.loader} {r.version} **does not load** `{source}`: {r.refusal}" for r in readers if not r.loaded]
-    L = [f"# harness check: {res.name}", "", f"Verdict: **{'PASS' if res.passed else 'FAIL'}**: {verdict(res)}", "",
-         f"Command: `{command}`", "",
+    L = [f"# harness check: {res.name}", "", f"Verdict: {verdict(res)}", "",
+         f"Command: `{command}`", ""]
+    L += verdict_section(res)
+    L += ["## Readings", "",
          f"- Loads: {res.mode}; " + "; ".join(loads),
          f"- Base: {res.base}; joints matched by name"
          + (f" ({res.mapped} URDF joint(s) through the joint map)" if res.mapped else "")
@@ -200,7 +228,6 @@ def render_report(res: CheckResult, command: str) -> str:
         L += ["", f"{label} is the odd one out in {', '.join(terms)} (MuJoCo, whose reading it was built from, agrees "
               "with another loader)."]
     L += witness_section(res)
-    tol = FREE_MOTION_TOL
     L += ["", "## Free motion under gravity", ""]
     if res.free_skipped:
         L += [f"Not run: {res.free_skipped}."]
@@ -209,17 +236,67 @@ def render_report(res: CheckResult, command: str) -> str:
           "contacts, constraints (limits, equalities, friction loss), passive forces (damping, springs, gravity "
           "compensation, fluid forces) and actuators disabled; "
           "Pinocchio `aba` + `rkmk4_step` (Drake is compared by its dynamics terms above, not in free motion). Max over "
-          f"saved samples (every {res.settings.get('save_every')} s) of the joint-coordinate difference, joint-velocity "
-          "difference and every moving body's world position and orientation (geodesic) difference. Last column: how far "
-          "MuJoCo's joints move when limits, equalities, damping and actuators are left on (contacts off), against the run "
-          "without them.", "",
-          f"| state | joints (tol {tol['joint']:.0e}) | joint velocities (tol {tol['velocity']:.0e}) | body position m (tol {tol['position']:.0e}) "
-          f"| body orientation rad (tol {tol['orientation']:.0e}) | worst body | MuJoCo as the file says vs rigid |",
-          "|---|---|---|---|---|---|---|"]
+          f"saved samples (every {res.settings.get('save_every')} s) of the joint-coordinate difference (rad or m), "
+          "joint-velocity difference and every moving body's world position (m) and orientation (geodesic, rad) "
+          "difference. No tolerance: the pair runs again at 2 dt (or dt/2) and each difference is judged by how it "
+          "converges (both methods are order 4): *converges* (falls at about order 4, or sits at the resolution, 1e-9 of "
+          "the motion's scale: the two hold the same dynamics) or a floor that does not shrink with the step (they do "
+          "not). Last column: how far MuJoCo's joints move when limits, equalities, damping and actuators are left on "
+          "(contacts off), against the run without them.", "",
+          "| state | joints | joint velocities | body position m | body orientation rad | worst body | class (order) "
+          "| MuJoCo as the file says vs rigid |", "|---|---|---|---|---|---|---|---|"]
     for r in res.free:
         L.append(f"| {r.state} | {r.joint:.3e} | {r.velocity:.3e} | {r.position:.3e} | {r.orientation:.3e} | {r.worst_body} "
-                 f"| {r.constrained_joint:.3e} |")
+                 f"| {_models_cell(r.models)} | {r.constrained_joint:.3e} |")
     return "\n".join(L) + "\n"
+
+
+def _models_cell(models: dict) -> str:
+    """The worst class of a run pair's error models, with its order or floor."""
+    if not models:
+        return "not judged"
+    bad = [e for e in models.values() if e.classification != "converges"]
+    e = bad[0] if bad else max(models.values(), key=lambda e: e.error / e.resolution if e.resolution > 0 else 0.0)
+    if e.classification == "converges":
+        return ("converges (at the resolution)" if not e.observed_order == e.observed_order
+                else f"converges (order {e.observed_order:.2f})")
+    return f"**{e.classification}**: {e.quantity}, {e.reason}"
+
+
+def verdict_section(res: CheckResult) -> list[str]:
+    """The report's first section: the class, the count per class, each defect with its fix, each
+    importer disagreement with its known limitation or as unexplained, what is not compared, the witnesses."""
+    c = res.classes
+    L = ["## Verdict", "", f"**{c.file_class}**. " + c.counts_line() + ".", ""]
+    L += [f"### {DEFECT.capitalize()}", ""]
+    L += [f"- `{d.where}` {d.element}: **{d.kind}**: {d.what}. Fix: {d.fix}." for d in c.defects] or ["- none"]
+    follow = [d for d in c.disagreements if d.defect is not None]
+    if follow:
+        L += ["", f"{len(follow)} disagreement(s) between the loaders follow from these defects (each on the body the "
+              "defect is in):", ""]
+        L += [f"- {d.text} (from {d.defect.element})" for d in follow]
+    L += ["", f"### {IMPORTER.capitalize()}s", "",
+          "The loaders read a valid element differently: *known* (the table `harness/tools/check/known_limitations.toml`: "
+          "loader, versions, element, behaviour, workaround, upstream reference) or *unexplained* (worth reporting "
+          "upstream, with this report).", ""]
+    groups = c.groups()
+    for _, group in groups:
+        d = group[0]
+        if d.limitation is not None:
+            lim = d.limitation
+            L.append(f"- known **{lim.id}** ({', '.join(f'{k} {v}' for k, v in lim.versions.items())}): {lim.element}: "
+                     f"{' and '.join(lim.loaders)} {lim.behaviour}. Workaround: {lim.workaround}."
+                     + (f" Upstream: {lim.upstream}." if lim.upstream else ""))
+        else:
+            L.append(f"- **unexplained**: {d.between}:")
+        L += [f"  - {x.text}" for x in group]
+    if not groups:
+        L.append("- none")
+    L += ["", f"### {NOT_COMPARED.capitalize()}", ""]
+    L += [f"- {u.what}: {u.why}" for u in c.uncompared] or ["- nothing"]
+    L += ["", "### Witnesses", "", "The in-house engine and Exudyn, built from MuJoCo's reading, never vote on the file: "
+          + witness_line(res).split(": ", 1)[1] + ".", ""]
+    return L
 
 
 def witness_section(res: CheckResult) -> list[str]:
@@ -242,15 +319,15 @@ def witness_section(res: CheckResult) -> list[str]:
     L += [f"- {p}" for p in w.problems]
     if w.free:
         L += ["", "Free motion from the same random states as below, against MuJoCo's rigid run: every moving body's "
-              f"centre of mass and frame (in-house `{wit.INHOUSE_METHOD}` at dt; Exudyn `{wit.EXUDYN_METHOD}` at dt/"
-              f"{wit.EXUDYN_SUBSTEPS}, order 2, with its own tolerance).", "",
-              "| engine | state | body position m | body orientation rad | body velocity m/s, rad/s | tolerance | worst body | verdict |",
-              "|---|---|---|---|---|---|---|---|"]
+              f"centre of mass and frame (in-house `{wit.INHOUSE_METHOD}` at dt, order 4; Exudyn `{wit.EXUDYN_METHOD}` at "
+              "dt, order 2). No tolerance: each pair runs again at 2 dt (or dt/2) and each difference is judged by how it "
+              "converges, at the lower of the two methods' orders.", "",
+              "| engine | method | state | body position m | body orientation rad | body velocity m/s, rad/s | worst body "
+              "| class |", "|---|---|---|---|---|---|---|---|"]
         for f in w.free:
-            tol_text = f"{f.tol['position']:.0e} / {f.tol['orientation']:.0e} / {f.tol['velocity']:.0e}"
-            verdict_text = "ok" if f.passed else ("DIFFERS" if f.status == "ok" else f.status)
-            L.append(f"| {f.witness} | {f.state} | {f.position:.3e} | {f.orientation:.3e} | {f.velocity:.3e} | {tol_text} "
-                     f"| {f.worst_body} | {verdict_text} |")
+            cls = _models_cell(f.models) if f.status == "ok" else f"not run: {f.status}"
+            L.append(f"| {f.witness} | {f.method} | {f.state} | {f.position:.3e} | {f.orientation:.3e} | {f.velocity:.3e} "
+                     f"| {f.worst_body} | {cls} |")
     L += ["", f"Wall time of the witnesses: {w.wall_s:.2f} s."]
     return L
 
@@ -346,40 +423,6 @@ def warning_lines(res: CheckResult) -> list[str]:
         return []
     return [(f"- MuJoCo: {count} warning{'s' if count != 1 else ''} during the dynamics terms and free motions; "
              f"first: {res.warnings.get('first', '')}")]
-
-
-def summary_lines(res: CheckResult) -> list[str]:
-    """What ``harness check`` prints."""
-    lines = [f"{res.name}: {'PASS' if res.passed else 'FAIL'} ({res.mode}, {res.base} base)",
-             f"  verdict: {verdict(res)}"]
-    lines += [f"  copy: {c}" for c in res.copies]
-    lines += [f"  not compared: {line}" for line in res.not_compared]
-    lines += [f"  MODEL {p}" for p in res.model_problems]
-    lines += [f"  setting (not counted) {p}" for p in res.setting_differences]
-    lines += [f"  CAUSE {f.text}" for f in res.findings]
-    lines += [f"  warnings {line[2:]}" for line in warning_lines(res)]
-    for d in res.dynamics:
-        lines.append(f"  dynamics {d.term:<8} {d.a} vs {d.b}: max abs {d.max_abs:.3e}, max rel {d.max_rel:.3e}"
-                     + ("" if d.passed else f"  DIFFERS (> {d.rtol:.0e})"))
-    lines += [f"  dynamics {r.loader} not compared: {r.dynamics}" for r in res.readings.values() if r.loaded and r.dynamics]
-    lines += [f"  dynamics {partial_line(res, r)}" for r in res.readings.values() if r.loaded and not r.dynamics and r.partial]
-    for r in res.free:
-        lines.append(f"  free motion {r.state}: joints {r.joint:.3e}, velocities {r.velocity:.3e}, "
-                     f"body position {r.position:.3e} m, orientation {r.orientation:.3e} rad")
-    if res.free_skipped:
-        lines.append(f"  free motion not run: {res.free_skipped}")
-    w = res.witnesses
-    if w is not None and w.refusal:
-        lines.append(f"  in-house and Exudyn: not run: {w.refusal}")
-    elif w is not None:
-        lines += [f"  witness model {p}" for p in w.problems]
-        for d in w.dynamics:
-            lines.append(f"  dynamics {d.term:<8} {d.a} vs {d.b}: max abs {d.max_abs:.3e}, max rel {d.max_rel:.3e}"
-                         + ("" if d.passed else f"  DIFFERS (> {d.rtol:.0e})"))
-        for f in w.free:
-            lines.append(f"  free motion {f.state} {f.witness} vs MuJoCo: body position {f.position:.3e} m, orientation "
-                         f"{f.orientation:.3e} rad, velocity {f.velocity:.3e}" + ("" if f.passed else "  DIFFERS"))
-    return lines
 
 
 def write_report(res: CheckResult, out_dir: Path, command: str) -> Path:

@@ -13,11 +13,16 @@ from harness.tools import dynamics_terms as dc
 from harness.tools import witnesses as wit
 from harness.engines.mujoco.warning_capture import captured_warnings
 from harness.model.errors import InputError
+from harness.model.from_model_file import add_root_joint
+from harness.model.joints import FREE
 from harness.model.scene import check_steps
 from harness.tools.check.results import CheckResult, LOADERS, Reading, SAME_FILE_RTOL, TWO_FILES_RTOL
 from harness.tools.check.dynamics import _drake_table, _pinocchio_frames, _pinocchio_table, _rigid_copy, free_motion
 from harness.tools.check.notes import _first_tree_note, importer_notes, not_compared
-from harness.tools.check.reading import _one_line, load_models
+from harness.tools.check.classifying import DEFECT, classify, urdf_mimics
+from harness.tools.check.defects import Defect, find_defects
+from harness.tools.check.known_limitations import explain_refusal
+from harness.tools.check.reading import _one_line, load_models, read_mujoco_spec
 from harness.tools.check.causes import diagnose, diagnose_dynamics
 from harness.tools.check.comparing import vote
 
@@ -51,13 +56,29 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
     if progress is not None:
         progress.total = 4 + n_free
         progress.refresh()
-    readings, mode, notes, copies = load_models(mjcf, urdf, floating_base=floating_base, strip=strip,
-                                                keep_static=keep_static, joint_map=joint_map, allowed_dirs=allowed_dirs)
+    files = [Path(p) for p in (mjcf, urdf) if p is not None]
+    try:
+        readings, mode, notes, copies = load_models(mjcf, urdf, floating_base=floating_base, strip=strip,
+                                                    keep_static=keep_static, joint_map=joint_map,
+                                                    allowed_dirs=allowed_dirs)
+    except InputError as err:   # a defect that stops the loaders is named as one, with its fix
+        defects = _file_defects(files, floating_base)
+        named = [d for d in defects if d.element.split(" ", 1)[1] in str(err)]
+        fatal = next(iter(named), None) or next((d for d in defects if d.fatal), None)
+        if fatal is not None:
+            where = f"{fatal.file}:{fatal.line}" if fatal.line else str(fatal.file)
+            raise InputError(f"{where}: {DEFECT}: {fatal.element}: {fatal.what}; fix: {fatal.fix}") from err
+        known = next((k for k in (explain_refusal(f, "MuJoCo", mujoco.__version__) for f in files[:1]) if k), None)
+        if known is None:
+            raise
+        raise InputError(f"{err} (a known limitation of MuJoCo's importer, {known.id}: {known.brief}; workaround: "
+                         f"{known.brief_workaround})") from err
     name = Path(urdf if urdf is not None else mjcf).stem
     tick(f"{name} loaded: " + ", ".join(f"{k} {'ok' if r.loaded else 'no'}" for k, r in readings.items()))
     res = CheckResult(name, mode, "floating (free root joint 'root_joint')" if floating_base else "fixed", readings)
     res.notes += notes
     res.copies = copies
+    res.defects = [d for d in _file_defects(files, floating_base) if not d.fatal]
     res.not_compared = not_compared(readings["MuJoCo"].model)
     res.mapped = sum(1 for k, v in readings["Pinocchio"].names.items() if k != v)
     mjr, pinr, drr = (readings[k] for k in LOADERS)
@@ -118,11 +139,27 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
             w = res.witnesses
             if w is not None and not w.refusal:
                 wit.run(w, m, jmap, dc.random_states(jmap, n_free, seed + 1), t_end=t_end, dt=dt, save_every=save_every,
-                        rigid=_rigid_copy(m, dt))
+                        rigid_at=lambda h: _rigid_copy(m, h))
             tick(f"{name} witness runs {'done' if w is not None and not w.refusal else 'not run'}")
         finally:
             res.warnings = caught.stats()
+    res.classes = classify(res)
     return res
+
+
+def _file_defects(files: list[Path], floating_base: bool) -> list[Defect]:
+    """The defects of the user's files (``harness.tools.check.defects``), with the root joint the
+    check adds (a floating base moves the root body); none for a file MuJoCo's parser does not read
+    (its refusal is then the message)."""
+    out = []
+    for path in files:
+        try:
+            spec = read_mujoco_spec(path)
+            add_root_joint(spec, FREE.name if floating_base else "none", path)
+        except InputError:
+            continue
+        out += find_defects(path, spec)
+    return out
 
 
 def _witnesses(res: CheckResult, mjr: Reading, jmap: dc.JointMap, sources: dict) -> wit.Witnesses:
@@ -130,6 +167,10 @@ def _witnesses(res: CheckResult, mjr: Reading, jmap: dc.JointMap, sources: dict)
     source (added to ``sources``); refused in one line when the description cannot hold the model."""
     start = time.perf_counter()
     w = wit.describe(mjr.model, mjr.source)
+    mimics = urdf_mimics(res)
+    if w.refusal and mimics and "equality constraint" in w.refusal:   # named as the file names them
+        w.refusal = (f"mimic joint(s) {', '.join(repr(j) for j, *_ in mimics)}: the witnesses hold a tree of "
+                     "independent joints, not a coupling")
     if not w.refusal:
         try:
             w.rows = wit.model_rows(w, mjr.bodies, res.settings["rtol_model"])

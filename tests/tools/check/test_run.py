@@ -10,7 +10,7 @@ import pytest
 from harness.cli.main import main
 from harness.model.scene import MODELS_DIR
 
-INERTIA = 'ixx="0.1" ixy="0.01" ixz="0" iyy="0.12" iyz="0.005" izz="0.05"'
+INERTIA = 'ixx="0.01" ixy="0.001" ixz="0" iyy="0.012" iyz="0.0005" izz="0.005"'
 
 
 def run(args, capsys):
@@ -44,7 +44,7 @@ def urdf(joint_type="revolute", mass="1", inertia=INERTIA, extra="", second=True
 """
 
 
-def mjcf(mass="1", inertia='diaginertia="0.1 0.1 0.05"', extra="", asset=""):
+def mjcf(mass="1", inertia='diaginertia="0.01 0.01 0.005"', extra="", asset=""):
     return f"""<mujoco model="tiny">
   <compiler angle="radian"/>
   {asset}
@@ -82,7 +82,7 @@ def test_urdf_alone_loads_in_both_and_agrees(tmp_path, capsys):
     code, out, _ = run(["check", "--urdf", str(path), "--out-dir", str(out_dir), "--t-end", "0.2"], capsys)
     assert code == 0, out
     report = (out_dir / "check_arm.md").read_text()
-    assert "Verdict: **PASS**" in report
+    assert "Verdict: consistent" in report and out.startswith("arm: CONSISTENT")
     for section in ("## Models", "## Dynamics terms at random states", "## Free motion under gravity"):
         assert section in report
     assert "| j2 | l2 | hinge |" in report and "| j3 | l3 | slide |" in report
@@ -91,7 +91,7 @@ def test_urdf_alone_loads_in_both_and_agrees(tmp_path, capsys):
 
 def test_floating_base_maps_the_free_joint(tmp_path, capsys):
     base = ('<link name="base"><inertial><origin xyz="0.05 0 0.9"/><mass value="2"/>'
-            '<inertia ixx="0.2" ixy="0" ixz="0" iyy="0.3" iyz="0" izz="0.25"/></inertial></link>')
+            '<inertia ixx="0.02" ixy="0" ixz="0" iyy="0.03" iyz="0" izz="0.025"/></inertial></link>')
     path = write(tmp_path, "arm.urdf", urdf().replace('<link name="base"/>', base))
     code, out, _ = run(["check", "--urdf", str(path), "--floating-base", "--out-dir", str(tmp_path), "--t-end", "0.2"], capsys)
     assert code == 0, out
@@ -118,9 +118,10 @@ def test_mjcf_alone_shows_that_pinocchio_ignores_mjcf_gravity(tmp_path, capsys):
     path = write(tmp_path, "low_g.xml", mjcf().replace('<compiler angle="radian"/>',
                                                        '<compiler angle="radian"/><option gravity="0 0 -1"/>'))
     code, out, _ = run(["check", "--mjcf", str(path), "--out-dir", str(tmp_path), "--t-end", "0.1"], capsys)
-    assert code == 1
-    assert "Pinocchio's MJCF parser ignores <option gravity>" in out
-    assert "Verdict: **FAIL**" in (tmp_path / "check_low_g.md").read_text()
+    assert code == 0, out   # a known importer limitation: reported with its workaround, not a failure
+    assert out.startswith("low_g: IMPORTER DISAGREEMENT") and "known: pinocchio-mjcf-ignores-option-gravity" in out
+    report = (tmp_path / "check_low_g.md").read_text()
+    assert "Verdict: importer disagreement: Pinocchio ignores <option gravity>" in report
 
 
 def test_inertia_mismatch_between_mjcf_and_urdf(tmp_path, capsys):
@@ -133,8 +134,11 @@ def test_inertia_mismatch_between_mjcf_and_urdf(tmp_path, capsys):
     code, out, _ = run(["check", "--mjcf", str(d / "double_pendulum.xml"), "--urdf", str(path),
                         "--out-dir", str(tmp_path), "--t-end", "0.2"], capsys)
     assert code == 1
-    assert "joint 'bar2_hinge' (body 'bar2'): inertia about the centre of mass" in out
-    assert any(ln.strip().startswith("dynamics M") and "DIFFERS" in ln for ln in out.splitlines())
+    # the two files state different inertias: a defect of the pair, named with its fix
+    assert out.startswith("double_pendulum: DEFECT IN YOUR FILE")
+    assert ("double_pendulum.urdf joint 'bar2_hinge' (body 'bar2'): MJCF and URDF disagree (inertia about the centre "
+            "of mass)") in out
+    assert "fix: make the MJCF and the URDF state the same inertia about the centre of mass" in out
     report = (tmp_path / "check_double_pendulum.md").read_text()
     assert "| MuJoCo vs Pinocchio | M |" in report and "DIFFERS" in report
 
@@ -150,14 +154,17 @@ BAD = {
                           "tiny.xml", "missing mesh: cannot open mesh file 'gone.stl'"),
     "unknown URDF joint type": (urdf(joint_type="screw"), "arm.urdf", "invalid joint type in URDF joint definition"),
     "planar joint": (urdf(joint_type="planar", second=False), "arm.urdf", "joint 'j1' of type planar cannot be compared"),
-    "negative mass URDF": (urdf(mass="-1"), "arm.urdf", "body 'l1': mass must be positive, got -1 kg"),
-    "zero mass moving link": (urdf(mass="0", second=False), "arm.urdf", "body 'l1' (moved by joint 'j1'): mass must be positive"),
-    "negative mass MJCF": (mjcf(mass="-2"), "tiny.xml", "body 'b1': mass must be positive, got -2 kg"),
-    "not positive definite URDF": (urdf(inertia='ixx="-0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.05"'),
-                                   "arm.urdf", "inertia is not positive definite"),
-    "triangle inequality URDF": (urdf(inertia='ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.5"'),
-                                 "arm.urdf", "violate the triangle inequality"),
-    "triangle inequality MJCF": (mjcf(inertia='diaginertia="0.1 0.1 0.3"'), "tiny.xml", "violate the triangle inequality"),
+    # a defect that stops every loader: one line, with the element's line in the file and the fix
+    "negative mass URDF": (urdf(mass="-1"), "arm.urdf", "arm.urdf:7: defect in your file: link 'l1': mass -1 kg; fix: "),
+    "zero mass moving link": (urdf(mass="0", second=False), "arm.urdf",
+                              "arm.urdf:7: defect in your file: link 'l1': mass 0 kg with the rotational inertia"),
+    "negative mass MJCF": (mjcf(mass="-2"), "tiny.xml", "tiny.xml:5: defect in your file: body 'b1': mass -2 kg; fix: "),
+    "not positive definite URDF": (urdf(inertia='ixx="-0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.05"'), "arm.urdf",
+                                   "arm.urdf:7: defect in your file: link 'l1': principal moments [-0.1, 0.05, 0.1] kg m^2"),
+    "triangle inequality URDF": (urdf(inertia='ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.5"'), "arm.urdf",
+                                 "break the triangle inequality: I1 + I2 = 0.2 < I3 = 0.5 kg m^2; fix: recompute link 'l1'"),
+    "triangle inequality MJCF": (mjcf(inertia='diaginertia="0.1 0.1 0.3"'), "tiny.xml",
+                                 "tiny.xml:5: defect in your file: body 'b1': principal moments [0.1, 0.1, 0.3] kg m^2 break"),
 }
 
 
@@ -237,7 +244,8 @@ def test_free_motion_that_goes_to_nan_fails(tmp_path, capsys, monkeypatch):
     code, out, _ = run(["check", "--mjcf", str(d / "double_pendulum.xml"), "--urdf", str(d / "double_pendulum.urdf"),
                         "--out-dir", str(tmp_path), "--t-end", "0.05", "--free-runs", "1"], capsys)
     assert code == 1, out
-    assert "Verdict: **FAIL**" in (tmp_path / "check_double_pendulum.md").read_text()
+    assert "Verdict: importer disagreement: MuJoCo and Pinocchio read(s) free motion differently, unexplained" in \
+        (tmp_path / "check_double_pendulum.md").read_text()
 
 
 def test_mujoco_warnings_are_captured_into_the_result_not_printed(tmp_path, capfd):
