@@ -64,3 +64,13 @@ def test_study_follows_the_recipe(study):
     assert (ROOT / "tests" / "studies" / f"test_{study}.py").is_file()
     assert f"harness.cli import {study}" in (ROOT / "harness" / "cli" / "main.py").read_text()
 
+
+
+def test_the_engine_recipe_touches_harness_only_in_the_engines_and_the_loader_tools():
+    """An engine's addition touches ``harness/``'s code only in its folder and the registry (and,
+    for a loader ``check`` and ``zoo`` compare, those tools; the stress catalogue is data): every
+    other module asks the registry (``tests/engines/test_engine_names.py``)."""
+    section = TEXT[TEXT.index("## An engine"):TEXT.index("## A study")]
+    paths = re.findall(r"`(harness/[^`\s]*)`", section)
+    allowed = ("harness/engines/", "harness/tools/check/", "harness/tools/zoo.py", "harness/studies/stress/catalogue.toml")
+    assert paths and all(p.startswith(allowed) for p in paths), paths

@@ -10,10 +10,13 @@ import math
 from pathlib import Path
 
 from harness.model.errors import InputError
-from harness.engines import ENGINE_NAMES
+from harness.engines import COMPILED_ENGINES, ENGINE_NAMES, display
 
 #: The registered engines, for help texts (``harness.engines.ENGINE_NAMES``).
 ENGINES_HELP = ", ".join(ENGINE_NAMES)
+#: The engines with compiled twins of their methods, as help texts write them (``--fast``,
+#: ``--per-state``; ``harness.engines.COMPILED_ENGINES``).
+COMPILED_HELP = " and ".join(display(e) for e in COMPILED_ENGINES)
 
 #: Help text of every ``--models-dir`` option.
 MODELS_DIR_HELP = "folder of scene folders <scene>/scene.toml (default: the project's models/)"
@@ -146,7 +149,7 @@ def add_per_state(parser) -> None:
     """The ``--per-state`` option of the commands that run the in-house engine at the scenes'
     defaults (validate, debug): the readable per-state methods instead of their compiled twins."""
     parser.add_argument("--per-state", action="store_true",
-                        help="run the in-house engine's per-state NumPy methods (the readable oracle: rk4, "
+                        help=f"run the {COMPILED_HELP} engine's per-state NumPy methods (the readable oracle: rk4, "
                              "DOP853 for the reference) instead of their compiled twins (rk4_compiled, "
                              "dop853_compiled), which run by default wherever the compiled form models the scene")
 

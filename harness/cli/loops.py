@@ -18,12 +18,15 @@ SUBSET = ("quick", "models_dir")  # options that make a run partial
 def add_parser(sub) -> None:
     """Add the ``loop-study`` subparser."""
     from harness.cli.arg_types import MODELS_DIR_HELP, add_out_dir, float_arg, int_arg, models_dir_arg
+    from harness.engines import display
+    from harness.studies.loops import SOFT_LOOP_ENGINE
 
+    name = display(SOFT_LOOP_ENGINE)
     r = sub.add_parser("loop-study", help="closed kinematic loops: closure gap, energy and exact error against the "
-                                          "step per engine, MuJoCo's solref/solimp; writes reports/loop_closure.md",
+                                          f"step per engine, {name}'s solref/solimp; writes reports/loop_closure.md",
                        description="Every scene with a closed kinematic loop at the scene's step times 2, 1, 1/2, "
-                                   "1/4: closure gap (m) and velocity (m/s), energy, exact error per engine, MuJoCo "
-                                   "with the MJCF's solref/solimp, solref 2 dt, MuJoCo's default solimp and MuJoCo's "
+                                   f"1/4: closure gap (m) and velocity (m/s), energy, exact error per engine, {name} "
+                                   f"with the MJCF's solref/solimp, solref 2 dt, {name}'s default solimp and {name}'s "
                                    "defaults. Writes "
                                    "loop_closure.md, loop_closure.json and loop_closure_<scene>.png. Exit 0 when "
                                    "every ideal-constraint engine closes the loop below 1e-9 m at every step and "
@@ -44,7 +47,7 @@ def run(args) -> int:
     """Run the study, write the reports, print a summary; returns the exit code."""
     from harness.cli.arg_types import out_dir
     from harness.io.progress import case_label, make_bar
-    from harness.io.provenance import provenance
+    from harness.engines import provenance
     from harness.model.errors import InputError
     from harness.studies.loops.report import write_reports
     from harness.studies.loops.run import failures, loop_scenes, loop_study, planned_runs

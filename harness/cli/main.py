@@ -20,11 +20,11 @@ from harness.cli import stress as cli_stress
 from harness.cli import sweep as cli_sweep
 from harness.cli import tools as cli_tools
 from harness.cli import workprecision as cli_workprecision
-from harness.engines import preload
+from harness.engines import REFERENCE_ENGINE, display, preload
 from harness.io.progress import set_quiet
 from harness.io.provenance import set_argv
 from harness.model.errors import InputError
-from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_dask, add_engines, add_per_state, add_out_dir, check_samples, check_selection,
+from harness.cli.arg_types import (COMPILED_HELP, ENGINES_HELP, MODELS_DIR_HELP, add_dask, add_engines, add_per_state, add_out_dir, check_samples, check_selection,
                                    connect_dask, csv_list as _csv_list,
                                    float_arg as _float, int_arg as _int, models_dir_arg as _models_dir,
                                    out_dir, out_file_arg, require_scene_files_utf8)
@@ -98,11 +98,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="CSV file to write (replaced atomically; an existing target must be a regular file)")
     s.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
     s.add_argument("--fast", action="store_true",
-                   help="in-house engine: run the compiled twin of the integrator (rk4 -> rk4_compiled, rkmk4 -> "
+                   help=f"{COMPILED_HELP} engine: run the compiled twin of the integrator (rk4 -> rk4_compiled, rkmk4 -> "
                         "rkmk4_compiled, DOP853 -> dop853_compiled) where the compiled form models the scene")
 
     v = sub.add_parser("validate", help="run every scene on every engine, check, write reports/",
-                       description="Run every selected scene on every selected engine (and the in-house reference), "
+                       description=f"Run every selected scene on every selected engine (and the {display(REFERENCE_ENGINE)} reference), "
                                    "judge each check of each run by how its error converges (a coarser step, or a looser "
                                    "tolerance: order, floor, class) against the scene's requirements and declared model "
                                    "differences, write "
@@ -152,11 +152,11 @@ def cmd_simulate(args) -> int:
     import numpy as np
 
     from harness.io import atomic
-    from harness.engines import get_engine
+    from harness.engines import check_scene, declaration, get_engine
     from harness.model.scene import check_steps, load_scene
     from harness.io.trajectory_csv import to_frame
 
-    scene = load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir)
+    scene = check_scene(load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir))
     engine = get_engine(args.engine)
     if args.engine in scene.not_run:
         raise InputError(f"{args.engine} does not run {scene.name}: {scene.not_run[args.engine]}")
@@ -168,13 +168,13 @@ def cmd_simulate(args) -> int:
     check_samples(settings.t_end, settings.save_every, len(model.bodies))
     check_steps(settings.t_end, settings.dt, "--t-end and --dt")  # before any run (MAX_STEPS)
     if args.fast:
-        if args.engine != "inhouse":
-            raise InputError(f"--fast selects the in-house engine's compiled methods; {args.engine} has none")
+        if not declaration(args.engine).compiled:
+            raise InputError(f"--fast selects the {COMPILED_HELP} engine's compiled methods; {args.engine} has none")
         from dataclasses import replace
 
-        from harness.engines.inhouse import fast_method
+        from harness.engines import fast_method
 
-        settings = replace(settings, integrator=fast_method(settings.integrator, model))
+        settings = replace(settings, integrator=fast_method(args.engine, settings.integrator, model))
     traj = engine.simulate(scene, settings)
     if traj.unsupported:  # the engine/integrator does not model this scene: bad input, nothing written
         raise InputError(f"{args.engine} cannot run {scene.name} with {settings.integrator}: {traj.message}")
@@ -233,33 +233,25 @@ def preflight(scene) -> None:
 
     A scene that names one model file only (an MJCF or a URDF) is read by every engine from that
     file. An engine that reads it in the format it does not usually read
-    (``Scene.reads_other_format``: MuJoCo a URDF, Pinocchio or Drake an MJCF) and cannot load it
-    is marked not run with its loader's reason (``Scene.mark_not_run``: validate lists it as
-    "not run"); a file read in the engine's own format must load (InputError otherwise)."""
-    from harness.engines.mujoco.model import load_mjcf
-    from harness.engines.pinocchio.model import load_urdf
+    (``harness.engines.reads_other_format``: a loader of MJCF given a URDF, or the reverse) and
+    cannot load it is marked not run with its loader's reason (``Scene.mark_not_run``: validate
+    lists it as "not run"); a file read in the engine's own format must load (InputError
+    otherwise; loaded here where the engine declares ``preflight``, else by its runs)."""
+    from harness.engines import LOADERS, declaration, load_model_file, model_file, reads_other_format
 
     require_scene_files_utf8(scene)
     model = scene.multibody()
-
-    def drake():
-        from harness.engines.drake.model import parse
-
-        parse(scene.urdf, scene.urdf_root_joint, model)
-
-    loads = {"mujoco": (scene.mjcf, lambda: load_mjcf(scene.mjcf, model)),
-             "pinocchio": (scene.urdf, lambda: load_urdf(scene.urdf, scene.urdf_root_joint, model)),
-             "drake": (scene.urdf, drake)}
-    for engine, (path, load) in loads.items():
+    for engine in LOADERS:
         if engine in scene.not_run:
             continue
-        if not scene.reads_other_format(engine):
-            if engine != "drake":  # Drake's own format (a URDF) is loaded by its runs
-                load()
+        if not reads_other_format(scene, engine):
+            if declaration(engine).preflight:
+                load_model_file(scene, engine, model)
             continue
         try:
-            load()
+            load_model_file(scene, engine, model)
         except (InputError, NotImplementedError) as err:
+            path = model_file(scene, engine)
             scene.mark_not_run(engine, f"cannot read the scene's only model file, {path.name}: {_one_line(err)}")
 
 
@@ -267,8 +259,7 @@ def cmd_validate(args) -> int:
     import time
 
     start = time.perf_counter()
-    from harness.engines import ENGINE_NAMES, get_engine
-    from harness.io.provenance import provenance
+    from harness.engines import ENGINE_NAMES, check_scene, declaration, get_engine, prepare, provenance
     from harness.validate.report import label as check_label, write_reports
     from harness.model.scene import MODELS_DIR, available_scenes, load_scene
     from harness.judging.requirements import apply_requirements, check_scenes_known, read_requirements
@@ -287,7 +278,7 @@ def cmd_validate(args) -> int:
     overrides = _overrides(args.set)
     scenes = []
     for name in names:
-        scene = load_scene(name, models_dir=args.models_dir)
+        scene = check_scene(load_scene(name, models_dir=args.models_dir))
         if not scene.checks:
             raise InputError(f"{scene.directory / 'scene.toml'}: declares no [checks.<name>] table: "
                              "its validation would judge nothing")
@@ -309,14 +300,14 @@ def cmd_validate(args) -> int:
     folder = out_dir(args, "validate", VALIDATE_SUBSET)
     for scene in scenes:
         preflight(scene)
-    if "inhouse" in engines:  # a compiled in-house default: its compilation announced once, here, not per worker
-        from harness.engines.inhouse import load_compiled
+    for engine in engines:  # compiled defaults: their compilation announced once, here, not per worker
+        if declaration(engine).compiled:
+            from harness.validate.run import default_settings, reference_settings
 
-        from harness.validate.run import default_settings, reference_settings
-
-        runs = [(m.integrator, s.multibody()) for s in scenes
-                for m in (default_settings(s, "inhouse", not args.per_state), reference_settings(s, not args.per_state))]
-        load_compiled(runs)  # here, once: the forked workers inherit the kernels
+            runs = [(m.integrator, s.multibody()) for s in scenes
+                    for m in ((default_settings(s, engine, not args.per_state),) if engine not in s.not_run else ())
+                    + ((reference_settings(s, not args.per_state),) if engine == REFERENCE_ENGINE else ())]
+            prepare(engine, runs)  # here, once: the forked workers inherit the kernels
     if not args.dask:
         preload(engines)  # the engines' own lazy imports, once for the forked workers
     cases = sum(1 + sum(e not in s.not_run for e in engines) for s in scenes)  # a reference run per scene

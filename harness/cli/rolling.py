@@ -18,10 +18,13 @@ SUBSET = ("quick", "models_dir")  # options that make a run partial
 
 def add_parser(sub) -> None:
     from harness.cli.arg_types import MODELS_DIR_HELP, add_out_dir, models_dir_arg
+    from harness.engines import display
+    from harness.studies.rolling import SETTINGS_ENGINE
 
-    r = sub.add_parser("rolling-study", help="rolling disk: MuJoCo settings study, stability threshold vs the textbook; "
+    name = display(SETTINGS_ENGINE)
+    r = sub.add_parser("rolling-study", help=f"rolling disk: {name} settings study, stability threshold vs the textbook; "
                                              "writes reports/rolling_disk.md",
-                       description="The rolling disk on every engine: MuJoCo's contact settings, the stability "
+                       description=f"The rolling disk on every engine: {name}'s contact settings, the stability "
                                    "threshold v_c (m/s) of straight rolling against the textbook's. Writes "
                                    "rolling_disk.md, rolling_disk.json and rolling_disk_*.png. Exit 0 when every "
                                    "engine agrees with the correct threshold, 1 otherwise, 2 on bad input.")
@@ -37,7 +40,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from harness.cli.arg_types import out_dir
     from harness.io.progress import make_bar
-    from harness.io.provenance import provenance
+    from harness.engines import provenance
     from harness.studies.rolling.report import write_reports
     from harness.studies.rolling.run import rolling_study, threshold_agrees
 

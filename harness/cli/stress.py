@@ -46,7 +46,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from harness.model.errors import InputError
     from harness.io.progress import bar_enabled, make_bar
-    from harness.io.provenance import provenance
+    from harness.engines import provenance
     from harness.studies.stress.run import load_catalogue, run_stress, select
     from harness.studies.stress.report import write_stress_reports
 

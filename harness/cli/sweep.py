@@ -13,7 +13,7 @@ from __future__ import annotations
 from harness.cli.arg_types import (ENGINES_HELP, MODELS_DIR_HELP, add_dask, add_engines, check_selection, connect_dask,
                                    float_arg as _float, int_arg as _int, models_dir_arg as _models_dir,
                                    seed_arg as _seed)
-from harness.engines import preload
+from harness.engines import REFERENCE_ENGINE, display, preload
 
 EXIT_OK = 0
 MAX_FAIL_LINES = 5  # failing points printed per engine (the report has them all)
@@ -28,7 +28,7 @@ def add_parser(sub) -> None:
                                      "error and energy drift; heatmap",
                        description="Run one scene at every point of a parameter grid (--grid, one or two keys) or "
                                    "of a random sample (--random, any number of keys, --samples, --seed) on the "
-                                   "engines: each point is a validate case (the in-house DOP853 reference and each "
+                                   f"engines: each point is a validate case (the {display(REFERENCE_ENGINE)} DOP853 reference and each "
                                    "engine, each check judged by how its error converges), each run in its own "
                                    "worker process. "
                                    "Write <scene>_sweep.md, .csv (one row per point x engine) and .png. Exit 0 when "
@@ -63,10 +63,10 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from harness.engines import ENGINE_NAMES, get_engine
+    from harness.engines import ENGINE_NAMES, declaration, get_engine, prepare
     from harness.io.atomic import check_writable, default_out_dir
     from harness.io.progress import make_bar
-    from harness.io.provenance import provenance
+    from harness.engines import provenance
     from harness.model.errors import InputError
     from harness.studies.sweep.report import write_sweep_reports
     from harness.studies.sweep.run import (CLASS_ORDER, MAX_GRID_KEYS, MAX_POINTS, check_axes, grid_points,
@@ -108,11 +108,9 @@ def run(args) -> int:
     connect_dask(args)  # an unreachable scheduler: one line, exit 2, nothing written
     folder = args.out_dir or default_out_dir("sweep", full_run=False) / scene.name
     check_writable(folder)
-    if "inhouse" in engines:  # a compiled in-house default: its compilation announced once, here
-        from harness.engines.inhouse import load_compiled
-
-        runs = [(scene.integrators.get("inhouse", ""), scene.multibody())]
-        load_compiled(runs)  # here, once: the forked workers inherit the kernels
+    for e in engines:  # a compiled default: its compilation announced once, here
+        if declaration(e).compiled:
+            prepare(e, [(scene.integrators.get(e, ""), scene.multibody())])  # once: the forked workers inherit it
     runnable = [e for e in engines if e not in scene.not_run]
     if not args.dask:
         preload(runnable)  # the engines' own lazy imports, once for the forked workers

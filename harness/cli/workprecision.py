@@ -21,6 +21,10 @@ SUBSET = ("quick", "scenes", "engines", "models_dir")  # options that make a run
 
 def add_parser(sub) -> None:
     """Add the ``workprecision`` subcommand to the CLI's subparsers."""
+    from harness.engines import REFERENCE_ENGINE, display
+    from harness.studies.workprecision import BASELINE
+
+    base, ref = display(BASELINE), display(REFERENCE_ENGINE)
     w = sub.add_parser("workprecision", help="work-precision diagrams: error against run time per scene and engine",
                        description="Error against run time for every scene, engine and integrator (fixed steps "
                                    "halved, adaptive tolerances tightened); write workprecision.md, "
@@ -32,16 +36,16 @@ def add_parser(sub) -> None:
     w.add_argument("--max-run-s", type=_float, metavar="S",
                    help="stop refining a curve after a run this slow (s, > 0, default 2)")
     w.add_argument("--budget-s", type=_float, metavar="S",
-                   help="wall time a curve's points may take together (s, > 0, default 0.5; MuJoCo's loop "
+                   help=f"wall time a curve's points may take together (s, > 0, default 0.5; {base}'s loop "
                         "variants half of it)")
     w.add_argument("--key-budget-s", type=_float, metavar="S",
-                   help="the same for the curves the targets are measured on, MuJoCo RK4 and the in-house DOP853 "
+                   help=f"the same for the curves the targets are measured on, {base} RK4 and the {ref} DOP853 "
                         "(s, > 0, default 3; up to 10 while one still converges towards a target)")
     w.add_argument("--no-budget", action="store_true",
                    help="no time budgets: refine every curve until --max-run-s, its error or the ladder stops it "
                         "(much longer: without budgets the sweep took more than an hour)")
     w.add_argument("--per-state", choices=("uncovered", "all", "none"),
-                   help="where the per-state in-house curves run: on scenes the compiled form does not model "
+                   help=f"where the per-state {ref} curves run: on scenes the compiled form does not model "
                         "(uncovered, the default), on every scene (all), nowhere (none)")
     w.add_argument("--saves", type=_int, metavar="N",
                    help="saved intervals over the horizon, where errors are measured (>= 1, default 20)")
@@ -98,8 +102,7 @@ def options_from_args(args):
 
 def run(args) -> int:
     """Run the sweep and write the reports."""
-    from harness.engines import ENGINE_NAMES, get_engine
-    from harness.io.provenance import provenance
+    from harness.engines import ENGINE_NAMES, check_scene, get_engine, provenance
     from harness.model.scene import available_scenes, load_scene
     from harness.studies.workprecision.run import TARGETS, check_step_budget, run_sweep, time_table
     from harness.studies.workprecision.report import write_reports
@@ -112,7 +115,7 @@ def run(args) -> int:
         get_engine(e)
     names = check_selection("--scenes", args.scenes, available_scenes(args.models_dir),
                             f"under {args.models_dir or MODELS_DIR} (a scene is a folder with a scene.toml)")
-    scenes = [load_scene(n, models_dir=args.models_dir) for n in names]
+    scenes = [check_scene(load_scene(n, models_dir=args.models_dir)) for n in names]
     check_step_budget(scenes, options)  # before any run: no ladder beyond MAX_STEPS
     connect_dask(args)  # an unreachable scheduler: one line, exit 2, nothing written
     folder = out_dir(args, "workprecision", SUBSET)

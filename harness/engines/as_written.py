@@ -108,6 +108,19 @@ def as_written(scene: Scene, engine: str, model0: Multibody | None = None) -> As
     raise ValueError(f"engine {engine!r} builds no model to check (those that do: {', '.join(MODEL_ENGINES)})")
 
 
+def as_read(scene: Scene, engine: str, model0: Multibody) -> AsWritten:
+    """``as_written``, for a scene that names one model file only as each engine reads that file:
+    Pinocchio and Drake the MJCF (``as_written`` through their MJCF parsers), MuJoCo the URDF
+    with the scene's root joint added (a URDF cannot state gravity, which is not checked there,
+    as for Pinocchio and Drake). ``harness validate``'s ``model.*`` checks."""
+    from harness.engines import reads_other_format
+
+    if engine == "mujoco" and reads_other_format(scene, engine):  # the URDF into MuJoCo, as written
+        m = read_spec(scene.mjcf, root_joint=scene.urdf_root_joint).compile()
+        return AsWritten(engine, scene.mjcf, m, body_discrepancies(mujoco_bodies(m, model0), model0, rtol=AS_WRITTEN_RTOL))
+    return as_written(scene, engine, model0)
+
+
 def _compile_as_written(scene: Scene) -> mujoco.MjModel:
     spec = read_spec(scene.mjcf)
     check_spec_inertials(spec, scene.mjcf)

@@ -8,6 +8,7 @@ import platform
 import shlex
 import sys
 from pathlib import Path
+from typing import Mapping
 
 from harness.io.cpus import usable_cpus
 
@@ -60,25 +61,20 @@ def command_line(argv: list[str] | None = None) -> str:
     return " ".join(["harness", *(shlex.quote(str(a)) for a in args)])
 
 
-def provenance() -> dict[str, str]:
-    """Versions of the engines and numerical libraries, the machine (OS, architecture, CPU
+def provenance(engines: Mapping[str, str] | None = None) -> dict[str, str]:
+    """Versions of the engines (``engines``: ``{engine: version}``, as the registry gives them,
+    ``harness.engines.provenance``) and numerical libraries, the machine (OS, architecture, CPU
     model), the CPUs this process may use, the UTC time now and the machine's load now (``load``:
     the 1-minute load average, at the end of the run that writes the report; "?" where the OS
     does not tell): timings are comparable only between runs at similar load."""
-    import exudyn
-    import mujoco
     import numba
     import numpy
-    import pinocchio
     import scipy
 
     return {
         "date_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC"),
         "harness": __import__("harness").__version__,
-        "mujoco": mujoco.__version__,
-        "pinocchio": pinocchio.__version__,
-        "exudyn": exudyn.__version__,
-        "drake": drake_version(),
+        **dict(engines or {}),
         "numpy": numpy.__version__,
         "scipy": scipy.__version__,
         "numba": numba.__version__,
@@ -96,14 +92,15 @@ def _load() -> str:
         return "?"
 
 
-#: How the reports name the libraries of ``provenance()`` (in this order).
-LIBRARY_NAMES = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "exudyn": "Exudyn", "drake": "Drake", "numpy": "NumPy",
-                 "scipy": "SciPy", "python": "Python"}
+#: How the reports name the numerical libraries of ``provenance()`` (in this order, after the
+#: engines: ``made_with``).
+LIBRARY_NAMES = {"numpy": "NumPy", "scipy": "SciPy", "python": "Python"}
 
 
 def drake_version() -> str:
     """Drake's version (``pydrake.__version__`` where it has one, else the installed
-    distribution's; "?" when neither tells)."""
+    distribution's; "?" when neither tells). Kept for ``harness.tools.check.reading``; the
+    registry's ``harness.engines.version`` gives every engine's."""
     import pydrake
 
     version = getattr(pydrake, "__version__", None)
@@ -117,10 +114,12 @@ def drake_version() -> str:
         return "?"
 
 
-def made_with(prov: dict[str, str]) -> str:
+def made_with(prov: dict[str, str], engines: Mapping[str, str] | None = None) -> str:
     """``"MuJoCo 4.0.0, Pinocchio 4.1.0, Exudyn ..., NumPy ..., SciPy ..., Python ... on <machine>, load
     average 1.93 (1 min, at the end of the run)"``:
-    the versions of ``provenance()`` every report's header states (missing keys are left out)."""
-    parts = [f"{label} {prov[key]}" for key, label in LIBRARY_NAMES.items() if key in prov]
+    the versions of ``provenance()`` every report's header states (missing keys are left out);
+    ``engines``: ``{engine: how reports write it}``, in order (``harness.engines.made_with``)."""
+    labels = {**dict(engines or {}), **LIBRARY_NAMES}
+    parts = [f"{label} {prov[key]}" for key, label in labels.items() if key in prov]
     return (", ".join(parts) + (f" on {prov['machine']}" if "machine" in prov else "")
             + (f", load average {prov['load']} (1 min, at the end of the run)" if "load" in prov else ""))

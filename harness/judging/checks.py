@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from harness.engines import get_engine, integrator
+from harness.engines import REFERENCE_ENGINE, get_engine, integrator
 from harness.engines.base import RunSettings
 from harness.judging import error_model, refinement
 from harness.judging.verdict import ModelDifference, judge, requirement
@@ -46,7 +46,7 @@ from harness.model.errors import InputError
 from harness.model.scene import Scene
 
 REFERENCE_LABEL = "reference"   # the in-house DOP853 run that judges trajectories
-REFERENCE_ENGINE = "inhouse"    # the engine it runs on
+# REFERENCE_ENGINE, the engine it runs on, is the registry's (``harness.engines``)
 
 
 def run_engine(label: str) -> str:

@@ -18,7 +18,7 @@ import importlib.util
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 try:  # Python >= 3.11
     import tomllib
@@ -38,10 +38,6 @@ from harness.model.sanity import check_multibody
 MODELS_DIR = Path(str(importlib.resources.files("harness.models")))
 
 ParamValue = float | tuple[float, ...]
-
-#: The engines a scene gives a default integrator and tolerances for: ``harness.engines.ENGINE_NAMES``
-#: (spelt out here: the model layer imports no engine; tests/model/test_scene.py keeps them equal).
-ENGINE_NAMES = ("inhouse", "mujoco", "pinocchio", "exudyn", "drake")
 
 #: Conserved momentum components a ``[checks.momentum_drift]`` may list:
 #: ``harness.measure.compare.MOMENTUM_COMPONENTS`` (kept equal by tests/model/test_scene.py).
@@ -151,7 +147,7 @@ class Scene:
         urdf: the file Pinocchio and Drake read: the scene's URDF, or its MJCF when it names only
             an MJCF (Pinocchio's ``buildModelFromMJCF``, Drake's parser).
         model_files: the model-file keys its ``scene.toml`` names: ``("mjcf", "urdf")``,
-            ``("mjcf",)`` or ``("urdf",)`` (``reads_other_format``).
+            ``("mjcf",)`` or ``("urdf",)`` (``harness.engines.reads_other_format``).
         urdf_root_joint: root joint Pinocchio adds when loading the URDF (``free``,
             ``spherical`` or ``none``; ``none`` for a scene without a URDF, whose MJCF states
             its root joint).
@@ -212,20 +208,10 @@ class Scene:
         self.__dict__.update(state)
         self.__dict__["_built"] = None
 
-    def reads_other_format(self, engine: str) -> bool:
-        """Whether ``engine`` reads the scene's one model file in the format it does not usually
-        read: MuJoCo a URDF (the scene names no MJCF), Pinocchio or Drake an MJCF (no URDF). Such
-        an engine that cannot read the file is not run (``harness.cli.main.preflight``)."""
-        if engine == "mujoco":
-            return "mjcf" not in self.model_files
-        if engine in ("pinocchio", "drake"):
-            return "urdf" not in self.model_files
-        return False
-
     def mark_not_run(self, engine: str, why: str) -> None:
         """Record, before any run, that ``engine`` does not run this scene and why (as a
         ``[not_run]`` entry would): an engine that cannot read the scene's one model file
-        (``reads_other_format``; ``harness.cli.main.preflight``). Changes this ``Scene`` only."""
+        (``harness.engines.reads_other_format``; ``harness.cli.main.preflight``). Changes this ``Scene`` only."""
         object.__setattr__(self, "not_run", {**self.not_run, engine: why})
 
     @property
@@ -371,9 +357,11 @@ def check_description(data: dict, path: Path) -> None:
     table and the key for: an unknown or missing top-level key, table or check table, a value of
     the wrong type, a parameter of unknown kind, a run setting that is not a positive finite
     number (or saves more than ``MAX_SAMPLES`` samples, or takes more than ``MAX_STEPS`` steps),
-    an engine without a default integrator, a check table holding a number (``CHECKS``: no
-    per-engine tolerances), a requirement naming no check of the scene or not a positive finite
-    number, and a model difference of an unknown engine or without its model and floor."""
+    a default integrator or a ``[not_run]`` reason that is not a string, a check table holding a
+    number (``CHECKS``: no per-engine tolerances), a requirement naming no check of the scene or
+    not a positive finite number, and a model difference without its model and floor. Which
+    engines the per-engine tables may and must name is the registry's to say
+    (``check_engine_tables``, called by ``harness.engines.check_scene``)."""
     _known_keys(data, _TOP_KEYS, path, "top level")
     for key, (what, required) in _TOP_KEYS.items():
         if key not in data:
@@ -442,22 +430,14 @@ def check_description(data: dict, path: Path) -> None:
                          f"saves more than {MAX_SAMPLES:.0e} samples")
     check_steps(sim["t_end"], sim["dt"], f"{path}: [simulation] t_end and dt")
 
-    not_run = data.get("not_run", {})
-    _known_keys(not_run, ENGINE_NAMES, path, "[not_run]")
-    for engine, why in not_run.items():
+    for engine, why in data.get("not_run", {}).items():
         if not (isinstance(why, str) and why.strip()):
             raise InputError(f"{path}: [not_run] {engine} must say why the engine does not run this scene (a string), "
                              f"got {_show(why)}")
-    runs = [e for e in ENGINE_NAMES if e not in not_run]  # the engines every table must name
-
-    integrators = data["integrators"]
-    _known_keys(integrators, ENGINE_NAMES, path, "[integrators]")
-    for engine in runs:
-        if engine not in integrators:
-            raise InputError(f"{path}: [integrators] lacks a default for {engine}")
-        if not (isinstance(integrators[engine], str) and integrators[engine].strip()):
+    for engine, method in data["integrators"].items():
+        if not (isinstance(method, str) and method.strip()):
             raise InputError(f"{path}: [integrators] {engine} must be an integrator's name (a string), "
-                             f"got {_show(integrators[engine])}")
+                             f"got {_show(method)}")
 
     for check, table in data.get("checks", {}).items():
         where = f"[checks.{check}]"
@@ -470,8 +450,7 @@ def check_description(data: dict, path: Path) -> None:
         for key, value in table.items():
             if key in CHECKS[check]:
                 continue
-            if key in ENGINE_NAMES or key in ("position", "orientation", "velocity", "regression_only") or \
-                    isinstance(value, (int, float, dict)):
+            if key in ("position", "orientation", "velocity", "regression_only") or isinstance(value, (int, float, dict)):
                 raise InputError(f"{path}: {where} {key}: a check holds no tolerance (no per-engine numbers): every "
                                  "check is judged by how its error converges; a bound every engine must meet is a "
                                  "[requirements] entry, an engine's expected model difference a "
@@ -490,8 +469,6 @@ def check_description(data: dict, path: Path) -> None:
         _positive(value, path, f"[requirements] {key}", "a bound")
     for engine, table in data.get("model_differences", {}).items():
         where = f"[model_differences.{engine}]"
-        if engine not in ENGINE_NAMES:
-            raise InputError(f"{path}: {where}: unknown engine (known: {', '.join(ENGINE_NAMES)})")
         if not isinstance(table, dict):
             raise InputError(f"{path}: {where} must be a table with model and floor, got {_show(table)}")
         _known_keys(table, MODEL_DIFFERENCE_KEYS, path, where)
@@ -499,6 +476,23 @@ def check_description(data: dict, path: Path) -> None:
             raise InputError(f"{path}: {where} model must say what differs (a string)")
         _positive(table.get("bound"), path, f"{where} bound", "the error's bound relative to the quantity's scale")
     _check_code_or_data(data, path)
+
+
+def check_engine_tables(scene: Scene, engines: Sequence[str]) -> None:
+    """InputError naming the scene's ``scene.toml`` when its per-engine tables do not fit the
+    registered ``engines`` (``harness.engines.ENGINE_NAMES``; ``harness.engines.check_scene``): a
+    key of ``[not_run]`` or ``[integrators]`` that is no engine, a ``[model_differences.<engine>]``
+    of an unknown engine, an engine neither excluded by ``[not_run]`` nor given a default
+    integrator. The model layer knows no engine: the registry passes them."""
+    path = scene.directory / "scene.toml"
+    _known_keys(scene.not_run, engines, path, "[not_run]")
+    _known_keys(scene.integrators, engines, path, "[integrators]")
+    for engine in engines:
+        if engine not in scene.not_run and engine not in scene.integrators:
+            raise InputError(f"{path}: [integrators] lacks a default for {engine}")
+    for engine in scene.model_differences:
+        if engine not in engines:
+            raise InputError(f"{path}: [model_differences.{engine}]: unknown engine (known: {', '.join(engines)})")
 
 
 def without_code(data: dict) -> bool:

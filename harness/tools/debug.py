@@ -48,7 +48,7 @@ from harness.measure import compare
 from harness.judging import quantities
 from harness.measure import invariants
 from harness.model import rotations
-from harness.engines import ENGINE_NAMES, get_engine
+from harness.engines import ENGINE_NAMES, LOADERS, get_engine
 from harness.model.errors import InputError
 from harness.io.figures import new_figure, png_bytes
 from harness.model.scene import Scene
@@ -56,7 +56,7 @@ from harness.measure.trajectory import Trajectory
 from harness.judging.error_model import NOISE
 from harness.judging.verdict import requirement
 from harness.judging import quantities as vq
-from harness.judging.checks import REFERENCE_LABEL, CheckResult
+from harness.judging.checks import REFERENCE_LABEL, CheckResult, run_engine as run_engine_of
 from harness.validate.run import default_settings, engine_case, reference_case, reference_settings
 
 QUANTITIES = tuple(q.name for q in vq.TRAJECTORY) + ("energy",)
@@ -115,7 +115,8 @@ QUANTITY_CHECKS = {q.name: (q.check,) for q in vq.TRAJECTORY} | {"energy": ("ene
 def parse_engines(text: list[str]) -> tuple[str, str]:
     """Two distinct engine names from ``--engines A,B``."""
     if len(text) != 2 or text[0] == text[1]:
-        raise InputError(f"--engines needs two different engines, e.g. mujoco,pinocchio (got {','.join(text) or 'none'})")
+        raise InputError(f"--engines needs two different engines, e.g. {','.join(LOADERS[:2])} "
+                         f"(got {','.join(text) or 'none'})")
     for e in text:
         if e not in DEBUG_ENGINES:
             raise InputError(f"unknown engine {e!r} (known: {', '.join(DEBUG_ENGINES)})")
@@ -131,7 +132,7 @@ def run_engine(scene: Scene, engine: str, t_end: float | None, fast: bool = True
     settings = reference_settings(scene, fast) if engine == "reference" else default_settings(scene, engine, fast)
     if t_end is not None:
         settings = replace(settings, t_end=t_end)
-    return get_engine("inhouse" if engine == "reference" else engine).simulate(scene, settings)
+    return get_engine(run_engine_of(engine)).simulate(scene, settings)
 
 
 def error_series(a: Trajectory, b: Trajectory, model, scales: dict[str, float] | None = None,

@@ -38,7 +38,8 @@ import pandas as pd
 
 from harness.io import atomic
 from harness.io.figures import new_figure, png_bytes
-from harness.io.provenance import command_line, made_with
+from harness.engines import DECLARATIONS, ENGINES as DECLARATIONS_BY_NAME, REFERENCE_ENGINE, declaration, display, made_with
+from harness.io.provenance import command_line
 from harness.judging.error_model import (
     CONVERGES,
     DEFECT,
@@ -71,9 +72,9 @@ SHORT = {CONVERGES: "converges", DECLARED: "declared model diff.", MODEL_DIFFERE
 #: The matrix PNG's colour of each class.
 COLOURS = {CONVERGES: "#a6d96a", DECLARED: "#abd9e9", MODEL_DIFFERENCE: "#fdae61", NOT_JUDGED: "#c2a5cf", UNRESOLVED: "#9e9ac8",
            DEFECT: "#d73027", RUN_FAILED: "#a50026", MODEL_FILE: "#f46d43"}
-#: Each engine's colour in the convergence figure (the same in every report).
-ENGINE_COLOURS = {"reference": "#000000", "inhouse": "#1f77b4", "mujoco": "#d62728", "pinocchio": "#2ca02c",
-                  "exudyn": "#ff7f0e", "drake": "#9467bd"}
+#: Each engine's colour in the convergence figure (the same in every report): the registry's
+#: (``harness.engines.Declaration.colour``), the reference's black.
+ENGINE_COLOURS = {"reference": "#000000", **{d.name: d.colour for d in DECLARATIONS if d.colour}}
 FAIL_MARK = "✗"
 NOT_RUN_MARK = "§"  # a matrix cell the scene excludes ([not_run] in its scene.toml)
 REFERENCE = "reference"
@@ -328,6 +329,18 @@ def matrix_png(results: list[SceneValidation]) -> bytes:
 # --------------------------------------------------------------------------- engine against engine
 
 
+def _adaptive_defaults(results: list[SceneValidation]) -> str:
+    """``"Drake's default, and "``: the engines whose runs are error-controlled (their scenes'
+    default integrator), as the convergence figure's caption names them ("" for none)."""
+    engines = list(dict.fromkeys(r.engine for v in results for r in v.runs
+                                 if r.rtol is not None and r.engine in DECLARATIONS_BY_NAME))
+    if not engines:
+        return ""
+    names = [f"{display(e)}'s" for e in engines]
+    which = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+    return f"{which} default{'s' if len(names) > 1 else ''}, and "
+
+
 def cross_lines(results: list[SceneValidation]) -> list[str]:
     """The engines against each other, per scene and pair: each judged trajectory quantity's
     difference extrapolated to zero step (``cross_extrapolated``) beside its difference at the
@@ -509,11 +522,13 @@ def _parameters_line(v: SceneValidation) -> str:
 
 def _model_lines(v: SceneValidation) -> list[str]:
     """One line per engine whose model file agrees; failing ``model.*`` checks stay in the table."""
-    out = []
+    out, built = [], []
     for e in engines_of([v]):
         model = [c for c in v.checks if c.engine == e and c.check.startswith("model.")]
         if not model:
             continue
+        if e in DECLARATIONS_BY_NAME and not declaration(e).reads:  # no file: its system as built
+            built.append(display(e))
         bad = [c for c in model if not c.passed]
         source = model[0].detail.split(" vs scene.toml defaults", 1)[0]  # "<file> as written", or Exudyn's build
         if bad:
@@ -526,7 +541,9 @@ def _model_lines(v: SceneValidation) -> list[str]:
                        f"{'body' if len(bodies) == 1 else 'bodies'} agree; "
                        f"worst {_fmt(w.value)} {w.unit} (`{w.check}`, tolerance {_fmt(w.tolerance)})")
     if out:
-        out = ["Model files as written (Exudyn: its system as built from the description) against the scene.toml "
+        out = ["Model files as written"
+               + (f" ({', '.join(built)}: {'its system' if len(built) == 1 else 'their systems'} as built from the "
+                  "description)" if built else "") + " against the scene.toml "
                "defaults (mass, centre of mass, inertia, joint position, type and axis per body; gravity where the "
                "model states it):", ""] + out + [""]
     return out
@@ -601,7 +618,7 @@ def markdown(results: list[SceneValidation], prov: dict) -> str:
         "scene's step (a chaotic or fast motion the step does not resolve); *not judged*: no second level ran to the "
         "end. A "
         "requirement (the scene's `[requirements]` or `--requirements`) bounds a check's value at the scene's step. "
-        "Trajectories are judged against the in-house solver with SciPy DOP853 at rtol = atol = 1e-12 (row "
+        f"Trajectories are judged against the {display(REFERENCE_ENGINE)} solver with SciPy DOP853 at rtol = atol = 1e-12 (row "
         "`reference`, itself judged against the exact solution). Units: `rel` a ratio (drifts over the energy or "
         "momentum scale, trajectory errors over the motion scales, `harness.judging.quantities`), else SI.",
         "",
@@ -611,7 +628,7 @@ def markdown(results: list[SceneValidation], prov: dict) -> str:
               f"![error against step]({CONVERGENCE_PNG})", "",
               "Per scene: each engine's `trajectory.position` error (else the check named in the panel) at the levels it "
               "was run at, the scene's level filled (a cross where the check fails), the slope of the method's formal "
-              "order dashed through it, the resolution dotted; error-controlled runs (Drake's default, and the "
+              f"order dashed through it, the resolution dotted; error-controlled runs ({_adaptive_defaults(results)}the "
               f"reference's own `exact`) on the narrow axis against their tolerance. The class matrix as a picture: "
               f"`{MATRIX_PNG}`.", ""]
     for v in results:
@@ -709,7 +726,7 @@ def junit_xml(results: list[SceneValidation], prov: dict) -> str:
                               failures=str(failures), errors="0", skipped=str(len(v.not_run)), time=f"{wall:.3f}",
                               timestamp=prov["date_utc"])
         props = ET.SubElement(suite, "properties")
-        for key in ("mujoco", "pinocchio", "exudyn", "drake", "numpy", "scipy", "python", "machine"):
+        for key in (*(d.name for d in DECLARATIONS if d.library), "numpy", "scipy", "python", "machine"):
             if key in prov:
                 ET.SubElement(props, "property", name=key, value=str(prov[key]))
         for e, why in v.not_run.items():  # the scene excludes the engine ([not_run]): a skipped case, with why

@@ -58,9 +58,8 @@ from typing import Any
 
 import numpy as np
 
-from harness.engines import get_engine, integrator
+from harness.engines import declaration, display, get_engine, integrator, model_file, run_method
 from harness.engines.base import ERROR_CONTROL_ATOL, ERROR_CONTROL_TOL, RunSettings  # one set of defaults (simulate's too)
-from harness.engines.inhouse import run_method
 from harness.judging import refinement
 from harness.judging.checks import (REFERENCE_ENGINE, REFERENCE_LABEL, CheckResult, check_run, extrapolated_difference,
                                     judge_convergence)
@@ -302,19 +301,8 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
     ``harness.engines.loaded_models.body_discrepancies``, engine = the loader. A file that does not
     load or holds a non-physical body raises InputError; any other failure to read it back is
     a failed ``model.load`` check. A scene that names one model file only is checked as each
-    engine reads that file: Pinocchio and Drake the MJCF (``as_written`` through their MJCF
-    parsers), MuJoCo the URDF with the scene's root joint added (a URDF cannot state gravity,
-    which is not checked there, as for Pinocchio and Drake)."""
-    from harness.engines.as_written import AS_WRITTEN_RTOL, MODEL_ENGINES, AsWritten, as_written
-    from harness.engines.loaded_models import body_discrepancies, mujoco_bodies
-    from harness.engines.mujoco.model import read_spec
-
-    def load(engine):
-        if engine == "mujoco" and scene.reads_other_format(engine):  # the URDF into MuJoCo, as written
-            m = read_spec(scene.mjcf, root_joint=scene.urdf_root_joint).compile()
-            return AsWritten(engine, scene.mjcf, m, body_discrepancies(mujoco_bodies(m, model0), model0,
-                                                                       rtol=AS_WRITTEN_RTOL))
-        return as_written(scene, engine, model0)
+    engine reads that file (``harness.engines.as_written.as_read``)."""
+    from harness.engines.as_written import MODEL_ENGINES, as_read
 
     model0 = (defaults if defaults is not None else _defaults(scene)).multibody()
     hint = f"harness inspect {scene.name}"
@@ -327,17 +315,18 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
         if engine not in MODEL_ENGINES:
             continue
         try:
-            loaded = load(engine)
+            loaded = as_read(scene, engine, model0)
         except InputError:
             raise
         except Exception as err:  # noqa: BLE001 - a model that cannot be read back is a failed check
-            path = {"mujoco": scene.mjcf, "pinocchio": scene.urdf, "drake": scene.urdf}.get(engine, scene.directory / "scene.toml")
+            path = model_file(scene, engine)
             out.append(CheckResult(scene.name, engine, "model.load", float("nan"), 0.0, "", False,
                                    f"{path.name} as written: {type(err).__name__}: {' '.join(str(err).split())}; {hint} shows more"))
             continue
         for d in loaded.discrepancies:
             name = f"model.{d.body}.{d.quantity}" if d.body else f"model.{d.quantity}"
-            source = "Exudyn's system as built from scene.toml" if engine == "exudyn" else f"{loaded.path.name} as written"
+            source = (f"{display(engine)}'s system as built from scene.toml" if not declaration(engine).reads
+                      else f"{loaded.path.name} as written")
             detail = f"{source} vs scene.toml defaults: {d.message}"
             if not d.passed:
                 detail += f"; {hint} shows more"

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from harness.engines import ENGINE_NAMES, check_scene, reads_other_format
 from harness.model.errors import InputError
 from harness.model.scene import MODELS_DIR, available_scenes, load_scene, parse_set
 
@@ -89,12 +90,20 @@ def test_checks_list_every_check_run_reads():
     assert read == set(CHECKS)
 
 
-def test_engine_and_component_names_match_their_sources():
-    from harness.engines import ENGINE_NAMES
+def test_every_scene_names_the_registered_engines_only():
+    """Each scene's per-engine tables hold registered engines, and every engine its ``[not_run]``
+    does not exclude has a default integrator (``harness.engines.check_scene``)."""
+    for name in available_scenes():
+        check_scene(load_scene(name))
+
+
+def test_component_names_match_their_source_and_engines_are_the_registrys():
+    """The model layer keeps no copy of the engines: which a scene may name is the registry's
+    (``harness.engines.check_scene``)."""
     from harness.measure.compare import MOMENTUM_COMPONENTS
     from harness.model import scene
 
-    assert scene.ENGINE_NAMES == ENGINE_NAMES
+    assert not hasattr(scene, "ENGINE_NAMES")
     assert scene.MOMENTUM_COMPONENTS == MOMENTUM_COMPONENTS
 
 
@@ -166,8 +175,8 @@ def test_scene_mistakes_are_input_errors_naming_file_and_table(scene_copy, kind)
     models, path = scene_copy
     old, new, fragment = MISTAKES[kind]
     _edit(path, old, new)
-    with pytest.raises(InputError) as err:
-        load_scene("heavy_top", models_dir=models)
+    with pytest.raises(InputError) as err:  # the engines' names against the registry (check_scene)
+        check_scene(load_scene("heavy_top", models_dir=models))
     message = str(err.value)
     assert message.startswith(f"{path}: ") and fragment in message and "\n" not in message, message
 
@@ -204,9 +213,10 @@ def test_an_engine_the_scene_excludes_needs_no_integrator(scene_copy):
     path.write_text(text.replace("[integrators]", '[not_run]\ndrake = "a test: Drake left out"\n\n[integrators]', 1))
     scene = load_scene("heavy_top", models_dir=models)
     assert scene.not_run == {"drake": "a test: Drake left out"} and "drake" not in scene.integrators
+    assert check_scene(scene) is scene
     path.write_text(text)  # without [not_run], the same file lacks drake's entries
     with pytest.raises(InputError, match="lacks a default for drake"):
-        load_scene("heavy_top", models_dir=models)
+        check_scene(load_scene("heavy_top", models_dir=models))
 
 
 # ---------------------------------------------------------------- a scene without code
@@ -327,7 +337,8 @@ def test_a_scene_with_a_builder_maps_no_parameter(scene_copy, tmp_path):
 @pytest.mark.parametrize("keep", ["mjcf", "urdf"])
 def test_a_scene_may_name_one_model_file(scene_copy, keep):
     """A scene naming only a URDF (or only an MJCF) gives every engine that file: ``mjcf`` and
-    ``urdf`` are then the same path, and ``reads_other_format`` says who reads the other format."""
+    ``urdf`` are then the same path, and the registry's ``reads_other_format`` says who reads the
+    other format."""
     models, path = scene_copy
     if keep == "urdf":
         _edit(path, 'mjcf = "heavy_top.xml"\n', "")
@@ -336,9 +347,9 @@ def test_a_scene_may_name_one_model_file(scene_copy, keep):
     scene = load_scene("heavy_top", models_dir=models)
     only = models / "heavy_top" / ("heavy_top.xml" if keep == "mjcf" else "heavy_top.urdf")
     assert scene.model_files == (keep,) and scene.mjcf == scene.urdf == only
-    assert scene.reads_other_format("mujoco") == (keep == "urdf")
-    assert scene.reads_other_format("pinocchio") == scene.reads_other_format("drake") == (keep == "mjcf")
-    assert not scene.reads_other_format("inhouse") and not scene.reads_other_format("exudyn")
+    assert reads_other_format(scene, "mujoco") == (keep == "urdf")
+    assert reads_other_format(scene, "pinocchio") == reads_other_format(scene, "drake") == (keep == "mjcf")
+    assert not reads_other_format(scene, "inhouse") and not reads_other_format(scene, "exudyn")
     assert scene.urdf_root_joint == ("spherical" if keep == "urdf" else "none")
     scene.mark_not_run("drake", "a test")
     assert scene.not_run == {"drake": "a test"} and load_scene("heavy_top", models_dir=models).not_run == {}
@@ -347,7 +358,7 @@ def test_a_scene_may_name_one_model_file(scene_copy, keep):
 def test_both_model_files_by_default():
     scene = load_scene("heavy_top")
     assert scene.model_files == ("mjcf", "urdf") and scene.mjcf.suffix == ".xml" and scene.urdf.suffix == ".urdf"
-    assert not any(scene.reads_other_format(e) for e in ("mujoco", "pinocchio", "drake"))
+    assert not any(reads_other_format(scene, e) for e in ENGINE_NAMES)
 
 
 def test_a_default_that_follows_the_others_follows_them_unless_set():

@@ -57,8 +57,8 @@ def test_mujoco_defaults_are_what_a_connect_without_settings_gets():
     m = mujoco.MjModel.from_xml_string(
         '<mujoco><worldbody><site name="a"/><body name="b"><joint type="hinge"/><geom size=".1" mass="1"/>'
         '<site name="c" pos="0.1 0 0"/></body></worldbody><equality><connect site1="a" site2="c"/></equality></mujoco>')
-    assert tuple(m.eq_solref[0]) == loops.MUJOCO_DEFAULT_SOLREF
-    assert np.allclose(m.eq_solimp[0], loops.MUJOCO_DEFAULT_SOLIMP)
+    assert tuple(m.eq_solref[0]) == loops.DEFAULT_SOLREF
+    assert np.allclose(m.eq_solimp[0], loops.DEFAULT_SOLIMP)
 
 
 def test_variant_settings():
@@ -68,9 +68,9 @@ def test_variant_settings():
     direct = {"cut": ((-1e6, -200.0), (0.9, 0.95, 0.001, 0.5, 2.0))}  # stiffness/damping form: ratio 1
     assert loops.variant_settings("two_dt", 1e-3, direct)["cut"][0] == (2e-3, 1.0)
     assert loops.variant_settings("defaults", 1e-3, WRITTEN) == {
-        n: (loops.MUJOCO_DEFAULT_SOLREF, loops.MUJOCO_DEFAULT_SOLIMP) for n in WRITTEN}
+        n: (loops.DEFAULT_SOLREF, loops.DEFAULT_SOLIMP) for n in WRITTEN}
     assert loops.variant_settings("default_solimp", 1e-3, WRITTEN) == {
-        n: ((0.002, 1.0), loops.MUJOCO_DEFAULT_SOLIMP) for n in WRITTEN}
+        n: ((0.002, 1.0), loops.DEFAULT_SOLIMP) for n in WRITTEN}
     with pytest.raises(ValueError):
         loops.variant_settings("stiff", 1e-3, WRITTEN)
 
@@ -93,9 +93,9 @@ def test_the_variant_mjcf_changes_the_loop_equalities_and_nothing_else(tmp_path)
     from harness.engines.mujoco.model import load_mjcf
 
     scene = load_scene("slider_crank")
-    assert loops.mujoco_variant(scene, None, tmp_path, "x") is scene
+    assert loops.soft_variant(scene, None, tmp_path, "x") is scene
     settings = loops.variant_settings("two_dt", 1e-4, WRITTEN)
-    variant = loops.mujoco_variant(scene, settings, tmp_path, "two_dt")
+    variant = loops.soft_variant(scene, settings, tmp_path, "two_dt")
     assert variant.mjcf.parent == tmp_path and variant.mjcf != scene.mjcf
     model = scene.multibody()
     a, b = load_mjcf(scene.mjcf, model), load_mjcf(variant.mjcf, model)
@@ -106,7 +106,7 @@ def test_the_variant_mjcf_changes_the_loop_equalities_and_nothing_else(tmp_path)
     for field in ("body_mass", "body_inertia", "body_pos", "body_ipos", "site_pos", "jnt_axis", "actuator_gear"):
         assert np.array_equal(getattr(a, field), getattr(b, field)), field
     with pytest.raises(InputError, match="no equality named 'other'"):
-        loops.mujoco_variant(scene, {"other": WRITTEN["cut"]}, tmp_path, "bad")
+        loops.soft_variant(scene, {"other": WRITTEN["cut"]}, tmp_path, "bad")
 
 
 def test_the_variant_mjcf_with_the_files_own_settings_runs_exactly_as_the_file(tmp_path):
@@ -118,7 +118,7 @@ def test_the_variant_mjcf_with_the_files_own_settings_runs_exactly_as_the_file(t
 
     scene = load_scene("four_bar")
     written = loops.written_settings(read_spec(scene.mjcf), loops.loop_equalities(scene))
-    same = loops.mujoco_variant(scene, written, tmp_path, "same")
+    same = loops.soft_variant(scene, written, tmp_path, "same")
     settings = RunSettings(0.05, scene.dt, 0.01, "RK4")
     a = get_engine("mujoco").simulate(scene, settings)
     b = get_engine("mujoco").simulate(same, settings)

@@ -61,7 +61,7 @@ def test_each_mujoco_setting_is_classified_in_the_judging_vocabulary():
     result = rolling.StudyResult(scene)
     result.engines = [{"case": "steady_circle", "engine": e, "status": "ok", "position": 4e-7}
                       for e in ("inhouse", "pinocchio", "exudyn")]
-    rows = dict(rolling.mujoco_settings_rows(dt))
+    rows = dict(rolling.settings_rows(dt))
     best = rows[rolling.BEST_LABEL]
     finer = {k: v for k, v in rows.items() if k.startswith("as written, step")}
 

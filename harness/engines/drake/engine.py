@@ -46,6 +46,13 @@ class DrakeEngine:
     name = "drake"
     integrators = METHODS
 
+    def load_model_file(self, scene: Scene, model) -> None:
+        """Parse the scene's URDF (its MJCF where it names only one) into a plant, as a run does
+        (``parse``): InputError where Drake cannot (``harness.engines.load_model_file``)."""
+        from harness.engines.drake.model import parse
+
+        parse(scene.urdf, scene.urdf_root_joint, model)
+
     def preload(self) -> None:
         """Import the pydrake modules a run imports at its start (ImportError without Drake), for
         a parent about to fork one worker per run: the workers then share them instead of each

@@ -242,6 +242,14 @@ class InhouseEngine:
                  "settings": self.describe(settings, gains)}
         return replace(traj, stats=stats, status=res.status, message=res.message)
 
+    def fast_method(self, method: str, model: Multibody) -> str:
+        """The registry's hook (``harness.engines.fast_method``): ``fast_method`` below."""
+        return fast_method(method, model)
+
+    def prepare(self, runs) -> None:
+        """The registry's hook (``harness.engines.prepare``): ``load_compiled`` below."""
+        load_compiled(runs)
+
     def describe(self, settings: RunSettings, gains: Baumgarte) -> str:
         """One line on how a run integrates and holds its constraints."""
         method = settings.integrator

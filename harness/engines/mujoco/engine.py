@@ -60,6 +60,11 @@ class MujocoEngine:
     name = "mujoco"
     integrators = INTEGRATOR_METHODS
 
+    def load_model_file(self, scene: Scene, model) -> None:
+        """Compile the scene's MJCF (its URDF where it names only one) with ``model``'s physics,
+        as a run does (``load_mjcf``): InputError where MuJoCo cannot (``harness.engines.load_model_file``)."""
+        load_mjcf(scene.mjcf, model)
+
     def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
         check_settings(settings, self.integrators, self.name)
         model = scene.multibody()

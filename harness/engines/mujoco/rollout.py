@@ -82,6 +82,13 @@ class RolloutModel:
         mujoco.mj_getState(self.m, d, out, STATE_SPEC)
         return out
 
+    def integrate_pos(self, qpos: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """``qpos`` moved by the joint velocities ``dq`` (nv,) over unit time (``mj_integratePos``:
+        on the joints' manifold, quaternions kept unit); a new array."""
+        out = np.array(qpos, dtype=float)
+        mujoco.mj_integratePos(self.m, out, np.asarray(dq, dtype=float), 1.0)
+        return out
+
     def read_bodies(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Maximal coordinates of one state: centre-of-mass positions (nb, 3) m, quaternions
         ``wxyz`` (nb, 4), centre-of-mass velocities (nb, 3) m/s and angular velocities (nb, 3)

@@ -37,6 +37,11 @@ class PinocchioEngine:
     name = "pinocchio"
     integrators = METHODS
 
+    def load_model_file(self, scene: Scene, model) -> None:
+        """Load the scene's URDF (its MJCF where it names only one) with ``model``'s physics, as a
+        run does (``load_urdf``): InputError where Pinocchio cannot (``harness.engines.load_model_file``)."""
+        load_urdf(scene.urdf, scene.urdf_root_joint, model)
+
     def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
         check_settings(settings, self.integrators, self.name)
         model = scene.multibody()

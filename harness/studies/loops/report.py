@@ -14,10 +14,11 @@ import math
 from pathlib import Path
 
 from harness.io import atomic
-from harness.io.provenance import made_with
+from harness.engines import IDEAL, REFERENCE_ENGINE, declaration, display, made_with, with_loops
 from harness.judging import error_model
-from harness.studies.loops.run import (IDEAL_CLOSURE, MODELLED, MUJOCO_DEFAULT_SOLIMP, MUJOCO_DEFAULT_SOLREF, VARIANT,
-                                       LoopStudy, SceneStudy, error_models, failures, horizon, loglog_slope, series)
+from harness.studies.loops.run import (DEFAULT_SOLIMP, DEFAULT_SOLIMP_ONLY, DEFAULT_SOLREF, DEFAULTS, IDEAL_CLOSURE, MODELLED,
+                                       SOFT_INTEGRATOR, SOFT_LOOP_ENGINE, SOFT_NAME, TWO_DT, VARIANT, WRITTEN, LoopStudy,
+                                       SceneStudy, error_models, failures, horizon, loglog_slope, series)
 
 NAME = "loop_closure"
 #: A measure's name in the report and JSON key, with its unit.
@@ -125,15 +126,15 @@ def markdown(study: LoopStudy, prov: dict, pngs: list[Path], command: str) -> st
         f"{', '.join(f'{f:g}' for f in study.factors)}; each run in its own worker process "
         f"({study.jobs} at a time, {study.timeout:g} s allowed each), {study.wall_s:.0f} s in all.",
         "",
-        "Rows: the ideal-constraint engines at the scene's integrator (in-house: the cut joint's rows in "
-        "the KKT system and a projection after each step; Pinocchio: `constraintDynamics` and a projection; "
-        "Exudyn: the index-3 DAE with generalized-α) and MuJoCo RK4, whose `<connect>` equalities are soft "
+        "Rows: the ideal-constraint engines at the scene's integrator ("
+        + "; ".join(f"{display(e)}: {declaration(e).loops_how}" for e in with_loops(IDEAL))
+        + f") and {SOFT_NAME} {SOFT_INTEGRATOR}, whose `<connect>` equalities are soft "
         "constraints, four ways: the MJCF's own `solref`/`solimp`; `solref` = (2·dt, the file's damping ratio), "
-        "the time constant following the step at MuJoCo's safe minimum (MuJoCo raises a smaller one to 2·dt), "
-        "with the file's `solimp`; the file's `solref` with MuJoCo's default `solimp` "
-        f"({' '.join(f'{x:g}' for x in MUJOCO_DEFAULT_SOLIMP)}); MuJoCo's defaults, `solref` "
-        f"{' '.join(f'{x:g}' for x in MUJOCO_DEFAULT_SOLREF)}, `solimp` "
-        f"{' '.join(f'{x:g}' for x in MUJOCO_DEFAULT_SOLIMP)} (what a `<connect>` written with no settings gets).",
+        f"the time constant following the step at {SOFT_NAME}'s safe minimum ({SOFT_NAME} raises a smaller one to 2·dt), "
+        f"with the file's `solimp`; the file's `solref` with {SOFT_NAME}'s default `solimp` "
+        f"({' '.join(f'{x:g}' for x in DEFAULT_SOLIMP)}); {SOFT_NAME}'s defaults, `solref` "
+        f"{' '.join(f'{x:g}' for x in DEFAULT_SOLREF)}, `solimp` "
+        f"{' '.join(f'{x:g}' for x in DEFAULT_SOLIMP)} (what a `<connect>` written with no settings gets).",
         "",
         "Measures, each the largest over the saved samples (and the cut joints): **closure gap** (m), the "
         "distance between the cut joint's two points; **closure velocity** (m/s), their relative velocity "
@@ -278,7 +279,7 @@ def model_lines(s: SceneStudy, study: LoopStudy) -> list[str]:
              "or non-finite), unresolved (an error of the motion's own size), not judged (one step only); "
              "(undecided): no step finer than the scene's, where the finest two leave the class open (a floor read "
              "at the method's order; validate would add a finer step: the full study runs dt/2 and dt/4). "
-             "MuJoCo's soft loop constraints show as a floor or a low order; where the scene declares MuJoCo's "
+             f"{SOFT_NAME}'s soft loop constraints show as a floor or a low order; where the scene declares {SOFT_NAME}'s "
              "model difference, the cell says whether it stays within the declared bound (of each quantity's scale).",
              "", "| engine / variant | class (order) of " + " | ".join(heads) + " |", "|---|" + "---|" * len(heads)]
     for key in s.variants():
@@ -322,7 +323,7 @@ def findings(s: SceneStudy, study: LoopStudy | None = None) -> list[str]:
     out: list[str] = []
     have = set(s.variants())
     ideal = [k for k in VARIANT if k in have and VARIANT[k].ideal]
-    mj = [k for k in VARIANT if k in have and VARIANT[k].engine == "mujoco"]
+    mj = [k for k in VARIANT if k in have and VARIANT[k].engine == SOFT_LOOP_ENGINE]
     unit = exact_unit(s)
     # 1. the ideal engines' closure
     if ideal:
@@ -364,13 +365,13 @@ def findings(s: SceneStudy, study: LoopStudy | None = None) -> list[str]:
                        f"{_join(parts)} {unit} (order: the log-log slope over the steps).")
     # 2. MuJoCo: the gap against the softness and the step
     floors = {k: levels_off(s.steps, series(s, k, "closure_position")) for k in mj}
-    if "mujoco_written" in mj:
-        gap = series(s, "mujoco_written", "closure_position")
-        ex = series(s, "mujoco_written", "exact")
+    if WRITTEN in mj:
+        gap = series(s, WRITTEN, "closure_position")
+        ex = series(s, WRITTEN, "exact")
         clamp = clamped_steps(s)
         free = [(dt, g, e) for dt, g, e in zip(s.steps, gap, ex) if dt not in clamp]
         tc = min(ref[0] for ref, _ in s.written.values())
-        text = (f"MuJoCo's loop is open by {_e(_at(s, 'mujoco_written', 'closure_position'))} m at the scene's step "
+        text = (f"{SOFT_NAME}'s loop is open by {_e(_at(s, WRITTEN, 'closure_position'))} m at the scene's step "
                 f"with the MJCF's settings (time constant {_ms(tc)}).")
         if len(free) >= 2:
             steps = [f[0] for f in free]
@@ -383,7 +384,7 @@ def findings(s: SceneStudy, study: LoopStudy | None = None) -> list[str]:
                          f"{g_hi / g_lo:.2g} (slope {_slope(p)}): it follows the constraint's softness, not the step")
             else:
                 text += f" At the steps that keep this time constant ({_steps(steps)}) the gap goes as dt^{_slope(p)}"
-                floor = floors["mujoco_written"]
+                floor = floors[WRITTEN]
                 if floor is not None:
                     text += f", levelling off at {floor[0]:.1e} m from {_ms(floor[1])} down"
             if has_exact(s):
@@ -396,23 +397,23 @@ def findings(s: SceneStudy, study: LoopStudy | None = None) -> list[str]:
             else:
                 text += "."
         if clamp:
-            same = "mujoco_two_dt" in mj and all(_same(s, "mujoco_written", "mujoco_two_dt", dt) for dt in clamp)
-            text += (f" At {_steps(clamp)} the file's time constant is below 2·dt and MuJoCo raises it to 2·dt"
+            same = TWO_DT in mj and all(_same(s, WRITTEN, TWO_DT, dt) for dt in clamp)
+            text += (f" At {_steps(clamp)} the file's time constant is below 2·dt and {SOFT_NAME} raises it to 2·dt"
                      + (": those runs are identical to the solref 2·dt row." if same else "."))
         out.append(text)
-    if "mujoco_two_dt" in mj:
-        gap = series(s, "mujoco_two_dt", "closure_position")
-        ex = series(s, "mujoco_two_dt", "exact")
+    if TWO_DT in mj:
+        gap = series(s, TWO_DT, "closure_position")
+        ex = series(s, TWO_DT, "exact")
         text = (f"With the time constant at 2·dt the gap shrinks with the step as dt^{_slope(loglog_slope(s.steps, gap))} "
                 f"({_e(gap[0])} m at {_ms(s.steps[0])} to {_e(gap[-1])} m at {_ms(s.steps[-1])})")
         if has_exact(s):
             text += (f" and the exact error as dt^{_slope(loglog_slope(s.steps, _unsaturated(ex, unit)))} ({_e(ex[0])} to "
                      f"{_e(ex[-1])} {unit})")
         out.append(text + ".")
-    ref_gap = _at(s, "mujoco_written", "closure_position") if "mujoco_written" in mj else math.nan
-    ref_ex = _at(s, "mujoco_written", "exact") if "mujoco_written" in mj else math.nan
-    for key, what in (("mujoco_default_solimp", "MuJoCo's default solimp alone (the file's solref)"),
-                      ("mujoco_defaults", "MuJoCo's default solref and solimp")):
+    ref_gap = _at(s, WRITTEN, "closure_position") if WRITTEN in mj else math.nan
+    ref_ex = _at(s, WRITTEN, "exact") if WRITTEN in mj else math.nan
+    for key, what in ((DEFAULT_SOLIMP_ONLY, f"{SOFT_NAME}'s default solimp alone (the file's solref)"),
+                      (DEFAULTS, f"{SOFT_NAME}'s default solref and solimp")):
         if key not in mj:
             continue
         gap = series(s, key, "closure_position")
@@ -434,9 +435,9 @@ def findings(s: SceneStudy, study: LoopStudy | None = None) -> list[str]:
     compliance = compliance_floors(s, floors)
     if compliance:
         out.append(compliance)
-    if has_exact(s) and "mujoco_written" in mj and "inhouse" in have:
-        out.append(f"At the scene's step MuJoCo's exact error with the MJCF's settings is "
-                   f"{_times(ref_ex, _at(s, 'inhouse', 'exact'))} the in-house engine's.")
+    if has_exact(s) and WRITTEN in mj and REFERENCE_ENGINE in have:
+        out.append(f"At the scene's step {SOFT_NAME}'s exact error with the MJCF's settings is "
+                   f"{_times(ref_ex, _at(s, REFERENCE_ENGINE, 'exact'))} the {display(REFERENCE_ENGINE)} engine's.")
     # 3. energy
     rows_e = [(k, _at(s, k, "energy")) for k in ideal + mj]
     rows_e = [(k, e) for k, e in rows_e if _ok(e)]
@@ -492,11 +493,11 @@ def compliance_floors(s: SceneStudy, floors: dict) -> str:
     """A sentence when the gap of the MJCF's settings and of MuJoCo's default solimp (same
     solref) both level off: the ratio of the floors against the ratio of the impedances'
     compliance (1 − d0)/d0 (d0 = solimp[0], the impedance at a gap well below solimp's width)."""
-    a, b = floors.get("mujoco_written"), floors.get("mujoco_default_solimp")
+    a, b = floors.get(WRITTEN), floors.get(DEFAULT_SOLIMP_ONLY)
     if a is None or b is None:
         return ""
     d_file = min(imp[0] for _, imp in s.written.values())
-    d_def = MUJOCO_DEFAULT_SOLIMP[0]
+    d_def = DEFAULT_SOLIMP[0]
     if not (0 < d_file < 1 and 0 < d_def < 1):
         return ""
     expected = ((1 - d_def) / d_def) / ((1 - d_file) / d_file)
@@ -554,7 +555,7 @@ def amplification(s: SceneStudy, base: SceneStudy) -> list[str]:
                 parts.append(f"{_fmt_ratio(r)} ({_short(s, key)})")
                 if VARIANT[key].ideal:
                     ideal += r
-        if VARIANT[key].engine == "mujoco":
+        if VARIANT[key].engine == SOFT_LOOP_ENGINE:
             r = ratios(key, "closure_position")
             if r:
                 gaps.append(f"{_fmt_ratio(r)} ({_short(s, key)})")
@@ -567,7 +568,7 @@ def amplification(s: SceneStudy, base: SceneStudy) -> list[str]:
                    f"error here is " + _join(parts) + f" that of `{base.scene.name}`"
                    + (" (runs whose error is near π left out)." if left_out else "."))
     if gaps:
-        out.append("MuJoCo's closure gap there is " + _join(gaps) + f" that of `{base.scene.name}`.")
+        out.append(f"{SOFT_NAME}'s closure gap there is " + _join(gaps) + f" that of `{base.scene.name}`.")
     return out
 
 

@@ -14,10 +14,12 @@ Variants (``VARIANTS``), each run at every step:
   ``solref``/``solimp`` (as written); ``solref`` = (2 dt, the file's damping ratio), the time
   constant following the step at MuJoCo's safe minimum (MuJoCo raises a smaller one to 2 dt),
   with the file's ``solimp``; the file's ``solref`` with MuJoCo's default ``solimp`` (the
-  impedance alone); and MuJoCo's defaults (``MUJOCO_DEFAULT_SOLREF``,
-  ``MUJOCO_DEFAULT_SOLIMP``: what a user who writes ``<connect>`` with no settings gets). The
+  impedance alone); and MuJoCo's defaults (``DEFAULT_SOLREF``,
+  ``DEFAULT_SOLIMP``: what a user who writes ``<connect>`` with no settings gets). The
   variants are the scene's MJCF with the loop equalities rewritten (``rewrite_loop_settings``)
-  and written to a temporary file (``mujoco_variant``);
+  and written to a temporary file (``soft_variant``). The study names MuJoCo once
+  (``harness.studies.loops.SOFT_LOOP_ENGINE``); the ideal-constraint engines are those the
+  registry declares so (``harness.engines.with_loops``);
 * Drake where the scene does not say it cannot run (``[not_run]``): otherwise a "not run" row
   with the scene's reason.
 
@@ -51,20 +53,24 @@ from typing import Callable
 
 import numpy as np
 
+from harness.engines import (ENGINE_NAMES, IDEAL, check_scene, declaration, display, engine_module, prepare, run_method,
+                             with_loops)
 from harness.judging import error_model
 from harness.model.errors import InputError
 from harness.model.scene import MODELS_DIR, Scene, available_scenes, load_scene
+from harness.studies.loops import SOFT_LOOP_ENGINE
 
 FACTORS = (2.0, 1.0, 0.5, 0.25)  # steps: the scene's dt times these
 QUICK_FACTORS = (2.0, 1.0)
 QUICK_T_END = 0.5  # s, the horizon of --quick (at most a tenth of a scene's own)
 IDEAL_CLOSURE = 1e-9  # m: the largest closure gap an ideal-constraint engine may leave (exit code)
 DEFAULT_TIMEOUT = 300.0  # s per run
-MUJOCO_INTEGRATOR = "RK4"
+SOFT_NAME = display(SOFT_LOOP_ENGINE)  # how the report writes the soft-loop engine
+SOFT_INTEGRATOR = "RK4"  # the integrator of its variants
 #: MuJoCo's defaults for an equality constraint: solref (time constant s, damping ratio) and
 #: solimp (d0, d_width, width m, midpoint, power); what ``<connect>`` without settings gets.
-MUJOCO_DEFAULT_SOLREF = (0.02, 1.0)
-MUJOCO_DEFAULT_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
+DEFAULT_SOLREF = (0.02, 1.0)
+DEFAULT_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
 
 
 @dataclass(frozen=True)
@@ -89,15 +95,17 @@ class Variant:
     loop: str = "engine"
 
 
+#: The keys of the soft-loop engine's four variants (module docstring).
+WRITTEN, TWO_DT, DEFAULT_SOLIMP_ONLY, DEFAULTS = (f"{SOFT_LOOP_ENGINE}_{loop}" for loop in
+                                                  ("written", "two_dt", "default_solimp", "defaults"))
 VARIANTS = (
-    Variant("inhouse", "inhouse", "in-house", True),
-    Variant("pinocchio", "pinocchio", "Pinocchio", True),
-    Variant("exudyn", "exudyn", "Exudyn", True),
-    Variant("mujoco_written", "mujoco", "MuJoCo, MJCF's solref/solimp", False, "written"),
-    Variant("mujoco_two_dt", "mujoco", "MuJoCo, solref 2·dt", False, "two_dt"),
-    Variant("mujoco_default_solimp", "mujoco", "MuJoCo, MJCF's solref, MuJoCo's default solimp", False, "default_solimp"),
-    Variant("mujoco_defaults", "mujoco", "MuJoCo, MuJoCo's default solref/solimp", False, "defaults"),
-    Variant("drake", "drake", "Drake", False),
+    *(Variant(e, e, display(e), True) for e in with_loops(IDEAL)),
+    Variant(WRITTEN, SOFT_LOOP_ENGINE, f"{SOFT_NAME}, MJCF's solref/solimp", False, "written"),
+    Variant(TWO_DT, SOFT_LOOP_ENGINE, f"{SOFT_NAME}, solref 2·dt", False, "two_dt"),
+    Variant(DEFAULT_SOLIMP_ONLY, SOFT_LOOP_ENGINE, f"{SOFT_NAME}, MJCF's solref, {SOFT_NAME}'s default solimp", False,
+            "default_solimp"),
+    Variant(DEFAULTS, SOFT_LOOP_ENGINE, f"{SOFT_NAME}, {SOFT_NAME}'s default solref/solimp", False, "defaults"),
+    *(Variant(e, e, display(e), False) for e in ENGINE_NAMES if e not in with_loops(IDEAL) and e != SOFT_LOOP_ENGINE),
 )
 VARIANT = {v.key: v for v in VARIANTS}
 
@@ -106,7 +114,7 @@ VARIANT = {v.key: v for v in VARIANTS}
 def loop_scenes(models_dir: Path | None = None) -> list[Scene]:
     """Every scene under ``models_dir`` (default: the project's) whose multibody has cut joints,
     by name. InputError when there is none: a study over nothing is bad input."""
-    scenes = [s for s in (load_scene(n, models_dir=models_dir) for n in available_scenes(models_dir))
+    scenes = [s for s in (check_scene(load_scene(n, models_dir=models_dir)) for n in available_scenes(models_dir))
               if s.multibody().loops]
     if not scenes:
         raise InputError(f"nothing to run: no scene with a closed kinematic loop (a cut joint) under "
@@ -117,12 +125,10 @@ def loop_scenes(models_dir: Path | None = None) -> list[Scene]:
 def integrator_of(scene: Scene, variant: Variant) -> str | None:
     """The integrator a variant runs: RK4 for MuJoCo, else the scene's ``[integrators]`` entry
     (None when the scene names none); for the in-house engine its compiled twin where the
-    compiled form models the scene (``harness.engines.inhouse.run_method``: ``rk4`` ->
-    ``rk4_compiled``, the same method as Numba kernels, as ``harness validate`` runs it)."""
-    if variant.engine == "mujoco":
-        return MUJOCO_INTEGRATOR
-    from harness.engines.inhouse import run_method
-
+    compiled form models the scene (``harness.engines.run_method``: ``rk4`` -> ``rk4_compiled``,
+    the same method as Numba kernels, as ``harness validate`` runs it)."""
+    if variant.engine == SOFT_LOOP_ENGINE:
+        return SOFT_INTEGRATOR
     return run_method(variant.engine, scene.integrators.get(variant.engine), scene)
 
 
@@ -153,8 +159,7 @@ Settings = dict[str, tuple[tuple[float, ...], tuple[float, ...]]]  # equality na
 def loop_equalities(scene: Scene) -> list[str]:
     """Names of the MJCF equalities that close the scene's loops (``<connect>`` per cut joint,
     ``harness.engines.mujoco.loops.connects``)."""
-    from harness.engines.mujoco.loops import connects
-
+    connects = engine_module(SOFT_LOOP_ENGINE, "loops").connects
     return [name for loop in scene.multibody().loops for name, *_ in connects(loop)]
 
 
@@ -183,9 +188,9 @@ def variant_settings(loop: str, dt: float, written: Settings) -> Settings | None
     if loop == "two_dt":
         return {name: ((2.0 * dt, ref[1] if ref[0] > 0 else 1.0), imp) for name, (ref, imp) in written.items()}
     if loop == "default_solimp":
-        return {name: (ref, MUJOCO_DEFAULT_SOLIMP) for name, (ref, _) in written.items()}
+        return {name: (ref, DEFAULT_SOLIMP) for name, (ref, _) in written.items()}
     if loop == "defaults":
-        return {name: (MUJOCO_DEFAULT_SOLREF, MUJOCO_DEFAULT_SOLIMP) for name in written}
+        return {name: (DEFAULT_SOLREF, DEFAULT_SOLIMP) for name in written}
     raise ValueError(f"unknown loop setting {loop!r} (known: written, two_dt, default_solimp, defaults)")
 
 
@@ -200,15 +205,13 @@ def rewrite_loop_settings(spec, settings: Settings, source: Path | str = "MJCF")
         found[name].solimp = [float(x) for x in solimp]
 
 
-def mujoco_variant(scene: Scene, settings: Settings | None, folder: Path, tag: str) -> Scene:
+def soft_variant(scene: Scene, settings: Settings | None, folder: Path, tag: str) -> Scene:
     """The scene with its MJCF's loop equalities rewritten to ``settings`` (None: the scene
     unchanged), written as ``folder/<scene>_<tag>.xml``; everything else in the file is kept
     (the harness rewrites the physics from the description when it loads the file)."""
     if settings is None:
         return scene
-    from harness.engines.mujoco.model import read_spec
-
-    spec = read_spec(scene.mjcf)
+    spec = engine_module(SOFT_LOOP_ENGINE, "model").read_spec(scene.mjcf)
     rewrite_loop_settings(spec, settings, scene.mjcf)
     path = Path(folder) / f"{scene.name}_{tag}.xml"
     path.write_text(spec.to_xml())
@@ -247,7 +250,7 @@ def measure(scene: Scene, traj, settings, engine: str) -> dict:
         closure = compare.loop_closure(traj, model)
         for key in ("position", "velocity", "axis", "axis_rate"):
             values = [c[key] for c in closure.values() if key in c]
-            out[f"closure_{key}"] = float(max(values)) if values else nan
+            out[f"closure_{key}"] = float(max(values)) if values else float("nan")
         if does_work(model):
             out["energy"], out["energy_quadrature"] = compare.energy_balance(traj, model)
         else:
@@ -336,8 +339,7 @@ def planned_runs(scenes: list[Scene], quick: bool = False) -> int:
 
 def _cost(scene: Scene, variant: Variant, dt: float, t_end: float) -> float:
     """A rough cost (arbitrary units) to start the longest runs first."""
-    weight = {"inhouse": 1.0, "pinocchio": 0.5, "exudyn": 0.2, "drake": 0.5}.get(variant.engine, 0.05)
-    return weight * len(scene.multibody().bodies) * t_end / dt
+    return declaration(variant.engine).cost_per_step * len(scene.multibody().bodies) * t_end / dt
 
 
 def loop_study(*, quick: bool = False, models_dir: Path | None = None, jobs: int | None = None,
@@ -348,8 +350,9 @@ def loop_study(*, quick: bool = False, models_dir: Path | None = None, jobs: int
     outcome)`` is called as each run ends (a progress bar). ``scenes``: the loop scenes
     (default ``loop_scenes(models_dir)``). InputError when a run reports bad input."""
     from harness.engines import get_engine
-    from harness.engines.mujoco.model import read_spec
     from harness.validate.workers import effective_jobs, run_cases
+
+    read_spec = engine_module(SOFT_LOOP_ENGINE, "model").read_spec
 
     t_start = time.perf_counter()
     scenes = loop_scenes(models_dir) if scenes is None else scenes
@@ -377,9 +380,9 @@ def loop_study(*, quick: bool = False, models_dir: Path | None = None, jobs: int
                     continue
                 for f, dt, save in zip(factors, study.steps, study.saves):
                     run_scene, loop = scene, ""
-                    if v.engine == "mujoco":
+                    if v.engine == SOFT_LOOP_ENGINE:
                         chosen = variant_settings(v.loop, dt, written)
-                        run_scene = mujoco_variant(scene, chosen, Path(tmp), f"{v.key}_{f:g}")
+                        run_scene = soft_variant(scene, chosen, Path(tmp), f"{v.key}_{f:g}")
                         loop = describe_settings(chosen or written)
                     key = (scene.name, v.key, f)
                     meta[key] = {"variant": v.key, "label": full_label(v, integrator), "engine": v.engine, "integrator": integrator,
@@ -387,10 +390,10 @@ def loop_study(*, quick: bool = False, models_dir: Path | None = None, jobs: int
                     cases.append((_cost(scene, v, dt, t_end),
                                   (key, run_case, (run_scene, v.engine, integrator, dt, t_end, save))))
         cases.sort(key=lambda c: -c[0])  # longest first: the last runs to end are short ones
-        from harness.engines.inhouse import load_compiled  # once here, not per worker
-
-        compiled_runs = [(m["integrator"], by_scene[k[0]].multibody()) for k, m in meta.items() if m["engine"] == "inhouse"]
-        load_compiled(compiled_runs)
+        for engine in dict.fromkeys(v.engine for v in VARIANTS):  # compiled kernels: once here, not per worker
+            if declaration(engine).compiled:
+                prepare(engine, [(m["integrator"], by_scene[k[0]].multibody()) for k, m in meta.items()
+                                 if m["engine"] == engine])
         outcomes = run_cases([c for _, c in cases], jobs, timeout, on_done=on_done)
     bad = [(k, o) for k, o in outcomes.items() if o.status == "input_error"]
     if bad:

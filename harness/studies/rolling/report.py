@@ -13,8 +13,12 @@ import math
 from pathlib import Path
 
 from harness.io import atomic
-from harness.io.provenance import made_with
-from harness.studies.rolling.run import threshold_agrees
+from harness.engines import REFERENCE_ENGINE, display, made_with
+from harness.studies.rolling.run import IDEAL_ENGINES, SETTINGS_ENGINE, SETTINGS_NAME, threshold_agrees
+
+SOFT = SETTINGS_NAME  # the engine whose contact settings the study measures, as the report writes it
+REF = display(REFERENCE_ENGINE)  # the reference engine, as the report writes it
+LEAN_HELD = 1e-11  # rad: the errata line names the ideal engines whose steady circle kept its lean this close
 
 
 def write_reports(result, out: Path, prov: dict, quick: bool, command: str | None = None) -> list[Path]:
@@ -71,9 +75,10 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool, command: str | N
         "",
         f"Scene `rolling_disk` (`models/rolling_disk/`): a uniform coin, m = {p['mass']:g} kg, R = {p['R'] * 1e3:g} mm, "
         f"half-thickness h = {p['h'] * 1e3:g} mm, rolling without slip on its lower rim edge on the plane z = 0, "
-        f"g = {p['g']:g} m/s². Step {scene.dt:g} s for every engine (in-house `rk4`, Pinocchio `rkmk4`, MuJoCo as its "
-        "MJCF says), samples every "
-        f"{scene.save_every:g} s. Judged against the in-house solver with DOP853 at rtol = atol = 1e-12.",
+        f"g = {p['g']:g} m/s². Step {scene.dt:g} s for every engine ("
+        + ", ".join(f"{display(e)} `{scene.integrators[e]}`" for e in IDEAL_ENGINES if e in scene.integrators)
+        + f", {SOFT} as its MJCF says), samples every "
+        f"{scene.save_every:g} s. Judged against the {REF} solver with DOP853 at rtol = atol = 1e-12.",
         "",
         "Measures: **energy** max |E − E0| over the energy scale (rolling without slip does no work); **slip** the "
         "largest horizontal speed of the disk's material point at the contact point (m/s); **penetration** the "
@@ -99,10 +104,10 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool, command: str | N
         lines.append("")
     best = best_setting(result)
     lines += [
-        "## MuJoCo's contact settings",
+        f"## {SOFT}'s contact settings",
         "",
-        "MuJoCo has no rolling constraint: the coin is a `cylinder` geom on a `plane` with frictional soft contact. "
-        "Each row starts from MuJoCo's own defaults (Euler, 2 ms, pyramidal cone, impratio 1, noslip 0, condim 3, "
+        f"{SOFT} has no rolling constraint: the coin is a `cylinder` geom on a `plane` with frictional soft contact. "
+        f"Each row starts from {SOFT}'s own defaults (Euler, 2 ms, pyramidal cone, impratio 1, noslip 0, condim 3, "
         "friction 1, solref 0.02 1, solimp 0.9 0.95 0.001) and changes what it says; the step is the scene's unless the "
         "row says otherwise. Cases: the steady circle (S) and the free transient (T), 1 s each.",
         "",
@@ -120,10 +125,10 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool, command: str | N
     lines += [""] + class_lines(result)
     lines += [
         "",
-        "What matters, in order. (1) The contact stiffness `solref`. MuJoCo's default time constant, 0.02 s, lets the "
+        f"What matters, in order. (1) The contact stiffness `solref`. {SOFT}'s default time constant, 0.02 s, lets the "
         "7.5 g coin sink 0.55–0.65 mm into the floor (4–5 % of R); the coin then rolls on a smaller, shifting radius, "
         "the material point at the ideal contact point slips at about 1 cm/s (of the order of ω × depth) and 11–17 % "
-        "of the energy is gone after 1 s. A time constant of 2 steps (the smallest MuJoCo takes without clamping it) "
+        f"of the energy is gone after 1 s. A time constant of 2 steps (the smallest {SOFT} takes without clamping it) "
         "cuts the penetration by three orders of magnitude and slip, energy loss and orbit error by 40–65 times; "
         "`solimp` 0.99 0.999 (impedance near 1) gains another factor 3. (2) The integrator. RK4 against "
         "implicitfast at the same step and stiff contact: the orbit error of implicitfast (first order) is 15–17 "
@@ -163,8 +168,8 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool, command: str | N
         "",
         "* Ex. 4.7.2 prints `v = 4 g r² cos β / ((6r + R cos β) sin β)`; the right side is a speed squared. Its moment "
         "line uses r as the lever arm of the contact force about the centre; it is R. Verified: the steady spin of "
-        "`harness.references.rolling_disk.steady_spin` keeps the lean constant to 1e-11 rad in the in-house and Pinocchio "
-        "runs, and reduces to the printed expression (as v²) for h = 0.",
+        f"`harness.references.rolling_disk.steady_spin` keeps the lean constant to {LEAN_HELD:g} rad in the "
+        f"{_lean_held(result)} runs, and reduces to the printed expression (as v²) for h = 0.",
         "* Ex. 5.2.3 substitutes the nonholonomic rolling constraint into T before applying Lagrange's equations "
         "(Ex. 5.2.1 warns against this): its φ and ψ equations (and the 'conserved' ∂T/∂φ̇, ∂T/∂ψ̇) are wrong; the θ "
         "equation happens to be right.",
@@ -174,6 +179,16 @@ def markdown(result, prov: dict, pngs: list[Path], quick: bool, command: str | N
     ]
     return "\n".join(lines)
 
+
+
+def _lean_held(result) -> str:
+    """The ideal engines whose steady-circle run kept its lean within ``LEAN_HELD``, as the
+    report writes them ("in-house and Pinocchio"); "no ideal engine's" when none did."""
+    held = [display(r["engine"]) for r in result.engines
+            if r["case"] == "steady_circle" and r["engine"] in IDEAL_ENGINES and r.get("lean", math.inf) <= LEAN_HELD]
+    if not held:
+        return "no ideal engine's"
+    return held[0] if len(held) == 1 else ", ".join(held[:-1]) + " and " + held[-1]
 
 
 def class_lines(result) -> list[str]:
@@ -189,9 +204,10 @@ def class_lines(result) -> list[str]:
              "(`harness.judging.error_model`): where a row has levels (the best settings at the scene's step and at "
              "finer steps, solref 2 steps each) by its error model against the step (order, floor, class); every "
              "other RK4 row at the scene's step has one step only, so no order: its error is set against the ideal "
-             f"engines' at the same step ({_e(ideal)}, in-house, Pinocchio, Exudyn: they converge at their order, so "
-             "their error is the step's share), and more than 10× it is a **model difference**: the soft contact "
-             "(MuJoCo has no rolling constraint; the scene declares it: `[model_differences.mujoco]`). First-order "
+             f"engines' at the same step ({_e(ideal)}, {', '.join(display(e) for e in IDEAL_ENGINES)}: they converge at "
+             "their order, so their error is the step's share), and more than 10× it is a **model difference**: the soft "
+             f"contact ({SOFT} has no rolling constraint; the scene declares it: `[model_differences.{SETTINGS_ENGINE}]`). "
+             "First-order "
              "integrators and other steps are not judged (their step error is not the ideal engines').", "",
              "| # | setting | S position | class | why |", "|---|---|---|---|---|"]
     for i, r in enumerate(result.settings, 1):
@@ -256,7 +272,7 @@ def plot_files(result) -> dict[str, bytes]:
         ax.annotate(str(i + 1), (a["slip"], a["position"]), fontsize=8, xytext=(3, 3), textcoords="offset points")
     ax.set_xlabel("max slip speed at the contact (m/s)")
     ax.set_ylabel("max position error / length scale")
-    ax.set_title("MuJoCo contact settings, steady circle (numbers: rows of the table)")
+    ax.set_title(f"{SOFT} contact settings, steady circle (numbers: rows of the table)")
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     files["rolling_disk_settings.png"] = png_bytes(fig, dpi=110)

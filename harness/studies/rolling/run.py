@@ -39,8 +39,9 @@ from harness.judging import error_model
 from harness.measure import compare
 from harness.measure import contact_metrics
 from harness.model import rotations
-from harness.engines import get_engine
+from harness.engines import IDEAL, REFERENCE_ENGINE, SOFT, display, engine_module, get_engine, with_rolling
 from harness.engines.base import RunSettings
+from harness.studies.rolling import SETTINGS_ENGINE
 from harness.model.scene import Scene, load_scene
 from harness.measure.trajectory import Trajectory
 
@@ -49,8 +50,9 @@ FALL_LEAN = 0.1  # rad: a straight-rolling run whose lean deviation exceeds this
 
 BEST_LABEL = "RK4, solref 2 dt, solimp, elliptic, impratio 100"  # the settings the scene's MJCF holds
 
+SETTINGS_NAME = display(SETTINGS_ENGINE)  # how the report writes the settings' engine
 # MuJoCo's own defaults (what a user who writes a cylinder on a plane gets).
-MUJOCO_DEFAULTS = dict(integrator="Euler", timestep=0.002, cone="pyramidal", impratio=1.0, noslip_iterations=0,
+DEFAULTS = dict(integrator="Euler", timestep=0.002, cone="pyramidal", impratio=1.0, noslip_iterations=0,
                        condim=3, friction=(1.0, 0.005, 0.0001), solref=(0.02, 1.0), solimp=(0.9, 0.95, 0.001, 0.5, 2.0))
 
 
@@ -135,7 +137,7 @@ def simulate_in_worker(engine: str, scene: Scene, settings: RunSettings,
 
 
 def reference(scene: Scene, t_end: float, save: float) -> Trajectory:
-    return simulate_in_worker("inhouse", scene, RunSettings(t_end, save, save, **REFERENCE))[0]
+    return simulate_in_worker(REFERENCE_ENGINE, scene, RunSettings(t_end, save, save, **REFERENCE))[0]
 
 
 def run_metrics(scene: Scene, traj: Trajectory, ref: Trajectory | None, wall: float) -> dict:
@@ -164,13 +166,13 @@ def run_metrics(scene: Scene, traj: Trajectory, ref: Trajectory | None, wall: fl
     return out
 
 
-def mujoco_variant(scene: Scene, options: dict | None, folder: Path, label: str) -> tuple[Scene, RunSettings | None]:
+def settings_variant(scene: Scene, options: dict | None, folder: Path, label: str) -> tuple[Scene, RunSettings | None]:
     """The scene with its MJCF rewritten by ``options`` (None: the MJCF as written), and the
     integrator/step the options ask for (None: the scene's)."""
     if options is None:
         return scene, None
-    from harness.engines.mujoco.model import read_spec
-    from harness.engines.mujoco.rolling import apply_options
+    read_spec = engine_module(SETTINGS_ENGINE, "model").read_spec
+    apply_options = engine_module(SETTINGS_ENGINE, "rolling").apply_options
 
     spec = read_spec(scene.mjcf)
     apply_options(spec, {k: v for k, v in options.items() if k not in ("integrator", "timestep")})
@@ -187,9 +189,9 @@ def run(scene: Scene, engine: str, t_end: float, *, dt: float | None = None, int
     return simulate_in_worker(engine, scene, settings)
 
 
-def mujoco_settings_rows(dt: float) -> list[tuple[str, dict | None]]:
+def settings_rows(dt: float) -> list[tuple[str, dict | None]]:
     """The settings study: (label, options) from MuJoCo's defaults; None = the scene's MJCF."""
-    d = MUJOCO_DEFAULTS
+    d = DEFAULTS
     stiff = (2.0 * dt, 1.0)
     hard = (0.99, 0.999, 0.001, 0.5, 2.0)
 
@@ -197,7 +199,7 @@ def mujoco_settings_rows(dt: float) -> list[tuple[str, dict | None]]:
         return {**d, "timestep": dt, **kw}
 
     return [
-        ("MuJoCo defaults (Euler, 2 ms, pyramidal, solref 0.02 1)", dict(d)),
+        (f"{SETTINGS_NAME} defaults (Euler, 2 ms, pyramidal, solref 0.02 1)", dict(d)),
         ("defaults at the scene step", v()),
         ("RK4", v(integrator="RK4")),
         ("implicitfast", v(integrator="implicitfast")),
@@ -253,9 +255,9 @@ def engine_study(scene: Scene, case_list: list[Case], result: StudyResult, defau
             result.engines.append({"case": case.name, "engine": "reference (DOP853 1e-12)",
                                    **run_metrics(sc, ref, ref, float(ref.stats.get("wall_s", math.nan)))})
             _tick(progress, f"{case.name} reference {ref.status}", float(ref.stats.get("wall_s", math.nan)))
-            runs = [("inhouse", sc, {}), ("pinocchio", sc, {}), ("exudyn", sc, {}), ("mujoco", sc, {})]
-            dsc, dset = mujoco_variant(sc, defaults_options, Path(tmp), "defaults")
-            runs.append(("mujoco (MuJoCo defaults)", dsc, {"dt": dset.dt, "integrator": dset.integrator}))
+            runs = [(e, sc, {}) for e in STUDY_ENGINES]
+            dsc, dset = settings_variant(sc, defaults_options, Path(tmp), "defaults")
+            runs.append((f"{SETTINGS_ENGINE} ({SETTINGS_NAME} defaults)", dsc, {"dt": dset.dt, "integrator": dset.integrator}))
             for label, s, kw in runs:
                 traj, wall = run(s, label.split()[0], case.t_end, **kw)
                 result.engines.append({"case": case.name, "engine": label, **run_metrics(sc, traj, ref, wall)})
@@ -267,7 +269,7 @@ def engine_study(scene: Scene, case_list: list[Case], result: StudyResult, defau
 
 def settings_study(scene: Scene, case_list: list[Case], result: StudyResult, rows: list[tuple[str, dict | None]],
                    progress=None) -> None:
-    """MuJoCo's settings ``rows`` (``mujoco_settings_rows``) on the steady and transient cases."""
+    """MuJoCo's settings ``rows`` (``settings_rows``) on the steady and transient cases."""
     picked = [c for c in case_list if c.name in ("steady_circle", "transient")]
     refs = {}
     for c in picked:
@@ -278,11 +280,11 @@ def settings_study(scene: Scene, case_list: list[Case], result: StudyResult, row
             row = {"setting": label, "options": options}
             for c in picked:
                 sc = scene.with_params(**c.params)
-                vs, vset = mujoco_variant(sc, options, Path(tmp), label)
+                vs, vset = settings_variant(sc, options, Path(tmp), label)
                 kw = {} if vset is None else {"dt": vset.dt, "integrator": vset.integrator}
-                traj, wall = run(vs, "mujoco", c.t_end, **kw)
+                traj, wall = run(vs, SETTINGS_ENGINE, c.t_end, **kw)
                 row[c.name] = run_metrics(sc, traj, refs[c.name], wall)
-                _tick(progress, f"{c.name} mujoco {label} {traj.status}", wall)
+                _tick(progress, f"{c.name} {SETTINGS_ENGINE} {label} {traj.status}", wall)
             result.settings.append(row)
 
 
@@ -332,28 +334,31 @@ def rolling_study(*, quick: bool = False, engines: list[str] | None = None, mode
     ``progress``: a bar (``harness.io.progress.make_bar``): its total is set to the runs, and it
     is ticked once per finished run; or None."""
     scene = load_scene("rolling_disk", models_dir=models_dir)
-    engines = engines or ["inhouse", "pinocchio", "exudyn", "mujoco"]
+    engines = engines or list(STUDY_ENGINES)
     result = StudyResult(scene=scene)
     case_list = cases(scene, quick)
     if quick:
         case_list = case_list[:1]
-    rows = mujoco_settings_rows(scene.dt)
+    rows = settings_rows(scene.dt)
     if quick:  # MuJoCo's defaults, the best settings (with its finer steps: its error model), the MJCF as written
-        rows = [r for r in rows if r[0].startswith(("MuJoCo defaults", "as written, step")) or r[0] == BEST_LABEL
+        rows = [r for r in rows if r[0].startswith((f"{SETTINGS_NAME} defaults", "as written, step")) or r[0] == BEST_LABEL
                 or r[1] is None]
     speeds = [0.15, 0.26] if quick else [0.10, 0.15, 0.18, 0.20, 0.21, 0.22, 0.23, 0.26, 0.32]
-    if progress is not None:  # the reference and 5 runs per case, the settings rows, the threshold runs
+    if progress is not None:  # the reference and a run per engine (and the defaults') per case, the settings rows, the threshold runs
         picked = sum(c.name in ("steady_circle", "transient") for c in case_list)
-        progress.total = 6 * len(case_list) + picked * (1 + len(rows)) + len(speeds) * len(engines)
+        progress.total = (2 + len(STUDY_ENGINES)) * len(case_list) + picked * (1 + len(rows)) + len(speeds) * len(engines)
         progress.refresh()
-    engine_study(scene, case_list, result, {**MUJOCO_DEFAULTS}, progress)
+    engine_study(scene, case_list, result, {**DEFAULTS}, progress)
     settings_study(scene, case_list, result, rows, progress)
     threshold_study(scene, result, speeds, engines, 0.3 if quick else 1.0, progress=progress)
     return result
 
 
 #: The engines whose contact is the ideal rolling constraint (the study's comparison for MuJoCo).
-IDEAL_ENGINES = ("inhouse", "pinocchio", "exudyn")
+IDEAL_ENGINES = with_rolling(IDEAL)
+#: The engines of the case and threshold runs: the ideal ones, then those with a soft rolling
+#: contact (the settings' engine among them), in registry order.
+STUDY_ENGINES = IDEAL_ENGINES + with_rolling(SOFT)
 FIRST_ORDER = ("Euler", "implicit", "implicitfast")  # MuJoCo's first-order integrators
 
 
@@ -405,7 +410,7 @@ def setting_models(result: StudyResult, case: str = "steady_circle", measure: st
         res = max(error_model.JUDGING_RESOLUTION, error_model.roundoff(t_end / min(lv.step for lv in levels)))
         m = error_model.fit(measure, "rel", 1.0, "fixed", 4.0, levels, res)
         reason = f"step ladder {', '.join(f'{lv.step * 1e3:g}' for lv in levels)} ms: {m.reason}"
-        declared = result.scene.model_differences.get("mujoco")
+        declared = result.scene.model_differences.get(SETTINGS_ENGINE)
         if declared:  # the scene's declared soft contact: the verdict validate gives (harness.judging.verdict)
             from harness.judging.verdict import ModelDifference, judge
 
@@ -416,7 +421,7 @@ def setting_models(result: StudyResult, case: str = "steady_circle", measure: st
     for r in rows:
         if r["setting"] in out:
             continue
-        o = r["options"] or {"integrator": result.scene.integrators.get("mujoco", "RK4"), "timestep": dt}
+        o = r["options"] or {"integrator": result.scene.integrators.get(SETTINGS_ENGINE, "RK4"), "timestep": dt}
         e = float(r[case].get(measure, math.nan)) if r[case].get("status") == "ok" else math.nan
         if o.get("timestep") != dt or o.get("integrator") in FIRST_ORDER:
             put(r["setting"], error_model.NOT_JUDGED, "one step only, a first-order integrator or another step: "

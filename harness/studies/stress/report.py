@@ -14,12 +14,14 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
+from harness.engines import REFERENCE_ENGINE, display
 from harness.io import atomic
 from harness.io.figures import new_figure, png_bytes
 from harness.studies.stress.run import (DIVERGED, FAILURE_MODES, QUANTITIES, MapRow, StressRun, TrialResult, Variant,
                                         judging_class)
 from harness.validate.workers import effective_jobs, run_cases
 
+REF = display(REFERENCE_ENGINE)  # the reference engine, as the report writes it
 PLOT_DIR = "stress"
 DIVERGENCE_COLUMNS = ("exact", "position", "orientation", "velocity", "energy")
 
@@ -124,6 +126,33 @@ def _labels(run: StressRun) -> list[str]:
     return out
 
 
+def _linestyle(label: str) -> str:
+    """The line style of an "<engine>/<integrator>" label: its engine's (``Declaration.linestyle``)."""
+    from harness.engines import ENGINES
+
+    engine = label.split("/")[0]
+    return ENGINES[engine].linestyle if engine in ENGINES else "-"
+
+
+def _adaptive_methods(run: StressRun) -> str:
+    """`` (in-house: RK45 and DOP853; Drake: RK3, RK5 and Radau3)``: the error-controlled
+    methods of ``run``'s map by engine, as the report's definitions name them ("" for none)."""
+    from harness.engines import get_engine
+
+    by_engine: dict[str, list[str]] = {}
+    for label in _labels(run):
+        engine, _, method = label.partition("/")
+        table = get_engine(engine).integrators
+        if method in table and table[method].adaptive and method not in by_engine.setdefault(engine, []):
+            by_engine[engine].append(method)
+    parts = [f"{display(e)}: {_and(ms)}" for e, ms in by_engine.items() if ms]
+    return f" ({'; '.join(parts)})" if parts else ""
+
+
+def _and(items: list[str]) -> str:
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
 def _row_of(run: StressRun, variant: str, label: str) -> MapRow | None:
     for m in run.rows:
         if m.variant == variant and m.label == label:
@@ -171,7 +200,8 @@ def markdown(run: StressRun, prov: dict, plots: dict[str, str], command: str | N
         "",
         "Definitions are in the docstring of `harness/studies/stress/run.py`; in short:",
         "",
-        "* **Stable**: the run reaches its horizon with a finite state, no MuJoCo bad-acceleration/state warning, "
+        "* **Stable**: the run reaches its horizon with a finite state, no engine's bad-acceleration/state guard "
+        "tripped (`badqacc`), "
         f"|E(t) - E(0)| <= {cat.bounds.energy_bound:g} x E_scale (E_scale = T(0) + M |g| l), speeds within "
         f"{cat.bounds.magnitude_bound:g} x the energy-scale speeds, and joint violation within "
         f"{cat.bounds.constraint_bound:g} x l (l: length scale). Stable does not mean accurate: a dissipative "
@@ -183,13 +213,13 @@ def markdown(run: StressRun, prov: dict, plots: dict[str, str], command: str | N
         f"{cat.bounds.quick_bisect_iters if run.quick else cat.bounds.bisect_iters} bisections, stop at a ratio "
         f"<= {1 + cat.bounds.precision:g}); each trial in its own worker. `≥x`: stable at the largest step tried; "
         "`<x`: no stable step found down to x (step budget or search limit); `x E`: stable at x, failure mode E "
-        "at the next larger step tried. Error-controlled methods (the in-house SciPy methods, Drake's RK3, RK5 and "
-        "Radau3) run once (rtol in the catalogue, largest step the save interval): `~h` is their "
-        "mean step, `✓` accurate, `✗acc` stable but outside the band. The in-house `rk4` and `DOP853` rows and "
+        f"at the next larger step tried. Error-controlled methods{_adaptive_methods(run)} run once (rtol in the "
+        "catalogue, largest step the save interval): `~h` is their "
+        f"mean step, `✓` accurate, `✗acc` stable but outside the band. The {REF} `rk4` and `DOP853` rows and "
         "the DOP853 references run their compiled twins (`rk4_compiled`: rk4's trajectory to round-off; "
         "`dop853_compiled`: the same method with its own step-size control).",
         f"* **Error**: `exact` ({_exact_measures(run)}), else the "
-        "largest relative trajectory error against the in-house DOP853 reference (rtol 1e-12), else the energy "
+        f"largest relative trajectory error against the {REF} DOP853 reference (rtol 1e-12), else the energy "
         "error. **First divergence**: the first saved time a quantity leaves its band, at the nominal step. "
         "A nominal run that diverged (" + ", ".join(f"`{m}`" for m in DIVERGED) + ") is marked **defect (diverged: "
         "mode)**, the judging vocabulary of `harness validate` (`harness.judging.error_model`: non-finite at the "
@@ -325,7 +355,7 @@ def closing_note(run: StressRun) -> list[str]:
             continue
         ref = run.references.get(v.name)
         if ref is not None:
-            out.append(f"* reference (in-house DOP853, rtol 1e-12) vs exact: {_time(ref.divergence.get('exact'))} "
+            out.append(f"* reference ({REF} DOP853, rtol 1e-12) vs exact: {_time(ref.divergence.get('exact'))} "
                        f"(max error {_fmt(ref.max_errors.get('exact'))})")
         for m in _rows_of(run, v.name):
             n = m.nominal
@@ -578,7 +608,7 @@ def variant_png(run: StressRun, v: Variant) -> bytes | None:
 
     colors = matplotlib.colormaps["tab20"]
     for k, (label, n) in enumerate(entries):
-        style = {"color": colors(k % 20), "lw": 1.0, "ls": "-" if "mujoco" not in label else "--"}
+        style = {"color": colors(k % 20), "lw": 1.0, "ls": _linestyle(label)}
         if label.startswith("reference"):
             style.update(color="k", lw=1.4, ls=":")
         t = n.series_t
@@ -627,7 +657,7 @@ def sweep_png(run: StressRun, group: str, variants: list[Variant]) -> bytes | No
     ax = fig.subplots()
     for label, p in pts.items():
         x, y, c = zip(*p)
-        line, = ax.plot(x, y, marker="o", lw=1.0, label=label, ls="--" if "mujoco" in label else "-")
+        line, = ax.plot(x, y, marker="o", lw=1.0, label=label, ls=_linestyle(label))
         cx = [a for a, cc in zip(x, c) if cc]
         cy = [b for b, cc in zip(y, c) if cc]
         if cx:

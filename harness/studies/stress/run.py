@@ -111,7 +111,8 @@ from harness.measure import compare
 from harness.measure import exact
 from harness.measure import invariants
 from harness.judging import quantities
-from harness.engines import ENGINE_NAMES, get_engine, preload
+from harness.engines import (ENGINE_NAMES, REFERENCE_ENGINE, check_scene, declaration, engine_module, fast_method,
+                             get_engine, prepare, preload, run_method)
 from harness.engines import integrator as integrator_record
 from harness.engines.base import RunSettings
 from harness.judging.error_model import DEFECT
@@ -131,7 +132,6 @@ FAILURE_MODES = {  # mode -> one-letter code of the map
     "nan": "N", "badqacc": "Q", "solver failure": "S", "magnitude growth": "M", "energy growth": "E",
     "constraint drift": "C", "singular constraint": "Z", "crash": "X", "timeout": "T", "error": "!",
 }
-_COST_PER_STEP = {"mujoco": 1e-5, "pinocchio": 2e-4, "inhouse": 4e-4}  # s, for scheduling only
 SERIES_POINTS = 600  # samples kept per series for the plots
 _MODEL_FAILURES = ("singular constraint", "solver failure", "constraint drift")
 #: Failure modes in which the state diverged: non-finite, MuJoCo's reset guards, speeds or energy
@@ -381,7 +381,7 @@ def skip_reason(variant: Variant, models_dir: Path | None = None) -> str | None:
 
 def variant_scene(variant: Variant, models_dir: Path | None = None) -> Scene:
     """The variant's scene: parameters overridden, bodies scaled."""
-    scene = load_scene(variant.scene, variant.params, models_dir=models_dir)
+    scene = check_scene(load_scene(variant.scene, variant.params, models_dir=models_dir))
     if variant.scale:
         fields = {f.name: getattr(scene, f.name) for f in dataclass_fields(Scene) if f.init}
         scene = ScaledScene(**fields, body_scale=tuple(sorted(variant.scale.items())))
@@ -390,14 +390,12 @@ def variant_scene(variant: Variant, models_dir: Path | None = None) -> Scene:
 
 
 def characteristic_rate(scene: Scene, t_end: float) -> float:
-    """The in-house engine's characteristic rate of the scene (rad/s): fastest body spin or
-    compound-pendulum frequency at t = 0 (``harness.engines.inhouse.characteristic_rate``)."""
-    from harness.engines.inhouse import build, initial_state
-    from harness.engines.inhouse import characteristic_rate as rate
-
+    """The reference engine's characteristic rate of the scene (rad/s): fastest body spin or
+    compound-pendulum frequency at t = 0 (the in-house engine's ``characteristic_rate``)."""
+    ref = engine_module(REFERENCE_ENGINE, "")
     model = scene.multibody()
-    nem = build(model)
-    return float(rate(nem, initial_state(model, nem), model.gravity_W, t_end))
+    nem = ref.build(model)
+    return float(ref.characteristic_rate(nem, ref.initial_state(model, nem), model.gravity_W, t_end))
 
 
 # ------------------------------------------------------------------------------------ trials
@@ -477,28 +475,15 @@ def settings_of(spec: TrialSpec) -> RunSettings:
     return RunSettings(spec.t_end, spec.dt, spec.save_every, spec.integrator, rtol=spec.rtol, atol=1e-2 * spec.rtol)
 
 
-def _quiet_mujoco() -> None:
-    """MuJoCo prints each of its warnings; the stress runs record them instead."""
-    try:
-        import mujoco
-
-        mujoco.set_mju_user_warning(lambda msg: None)
-    except Exception:  # pragma: no cover - the harness works without it
-        pass
-
-
 def run_settings(scene: Scene, spec: TrialSpec) -> RunSettings:
     """The settings a trial runs with: an in-house run takes the compiled twin of the trial's
-    method where the compiled form models the scene (``harness.engines.inhouse.run_method``)."""
-    from harness.engines.inhouse import run_method
-
+    method where the compiled form models the scene (``harness.engines.run_method``)."""
     settings = settings_of(spec)
     return replace(settings, integrator=run_method(spec.engine, settings.integrator, scene))
 
 
 def trial_case(scene: Scene, spec: TrialSpec, ref: Reference, bounds: Bounds) -> TrialResult:
-    """Worker body: make one run and evaluate it."""
-    _quiet_mujoco()
+    """Worker body: make one run and evaluate it (an engine's own warnings are captured by its run)."""
     t0 = time.perf_counter()
     traj = get_engine(spec.engine).simulate(scene, run_settings(scene, spec))
     return evaluate(traj, scene, spec, ref, bounds, time.perf_counter() - t0)
@@ -508,7 +493,7 @@ def reference_case(scene: Scene, spec: TrialSpec, judge: Reference, bounds: Boun
     """Worker body: the DOP853 reference run, and its own evaluation against the closed form
     (``judge`` without a trajectory)."""
     t0 = time.perf_counter()
-    traj = get_engine("inhouse").simulate(scene, run_settings(scene, spec))
+    traj = get_engine(REFERENCE_ENGINE).simulate(scene, run_settings(scene, spec))
     result = evaluate(traj, scene, spec, judge, bounds, time.perf_counter() - t0)
     return traj, result
 
@@ -542,7 +527,7 @@ def engine_mode(traj: Trajectory) -> str:
         return UNSUPPORTED
     msg = traj.message
     if traj.status == "blowup":
-        if "MuJoCo warning" in msg or "bad acceleration" in msg:
+        if "bad acceleration" in msg:  # MuJoCo's message: "bad acceleration/state, MuJoCo warning ..."
             return "badqacc"
         if "beyond" in msg:  # every engine's speed guard: "<speed> ... beyond <BLOWUP_SPEED>"
             return "magnitude growth"
@@ -1003,8 +988,8 @@ def select(catalogue: Catalogue, names: list[str] | None, engines: list[str] | N
 
 def _cost(spec: TrialSpec) -> float:
     if spec.role in ("adaptive", "reference"):  # error-controlled: ~20 steps per saved interval, a guess
-        return 20.0 * spec.t_end / spec.save_every * _COST_PER_STEP.get(spec.engine, 1e-4)
-    return spec.t_end / spec.dt * _COST_PER_STEP.get(spec.engine, 1e-4)
+        return 20.0 * spec.t_end / spec.save_every * declaration(spec.engine).cost_per_step
+    return spec.t_end / spec.dt * declaration(spec.engine).cost_per_step
 
 
 def run_dynamic(propose: Callable[[], list[tuple[Any, Callable, tuple, float, float]]],
@@ -1076,16 +1061,19 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
     if progress is not None:
         progress.total = len(searches)
         progress.refresh()
-    from harness.engines.inhouse import fast_method, load_compiled
-
-    # a compiled in-house method with a cold Numba cache: the parent says so once, not each worker,
-    # and loads the kernels once for the workers it forks (the runs' methods as run_settings picks them)
-    runs = []
-    inhouse_runs = {(s.integrator, s.variant.name) for s in searches if s.engine == "inhouse"}
-    for method, name in sorted(inhouse_runs | {("DOP853", name) for name in ref_todo}):
-        model = scenes[name].multibody()
-        runs.append((fast_method(method, model), model))
-    load_compiled(runs)
+    # a compiled method with a cold Numba cache: the parent says so once, not each worker, and loads
+    # the kernels once for the workers it forks (the runs' methods as run_settings picks them)
+    for engine in dict.fromkeys([*engines, REFERENCE_ENGINE]):
+        if not declaration(engine).compiled:
+            continue
+        own = {(s.integrator, s.variant.name) for s in searches if s.engine == engine}
+        if engine == REFERENCE_ENGINE:
+            own |= {("DOP853", name) for name in ref_todo}
+        runs = []
+        for method, name in sorted(own):
+            model = scenes[name].multibody()
+            runs.append((fast_method(engine, method, model), model))
+        prepare(engine, runs)
     if not dask:
         preload(engines)  # the engines' own lazy imports (Drake's), once for the forked workers
     in_flight = {id(s): 0 for s in searches}
@@ -1099,7 +1087,7 @@ def run_stress(catalogue: Catalogue, variants: list[Variant], engines: list[str]
             name, spec = ref_todo.popitem()
             v = by_name[name]
             judge = Reference(None, "exact" in v.references, dict(v.band))
-            run_spec = replace(spec, engine="inhouse", integrator="DOP853")
+            run_spec = replace(spec, engine=REFERENCE_ENGINE, integrator="DOP853")
             flying[("reference", name)] = spec
             out.append((("reference", name), reference_case, (scenes[name], run_spec, judge, bounds), math.inf,
                         4.0 * timeout))

@@ -16,10 +16,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from harness.engines import REFERENCE_ENGINE, display
 from harness.io import atomic
 from harness.io.figures import new_figure, png_bytes
 from harness.studies.sweep.run import CLASS_ORDER, DECLARED, DIMENSIONLESS, PointResult, SweepRun
 
+REF = display(REFERENCE_ENGINE)  # the reference engine, as the report writes it
 MAX_TABLE_ROWS = 400  # rows of the markdown table; the CSV always has them all
 _LETTER = {"crashed": "X", "timeout": "T", "error": "!", "blowup": "B", "failed": "F", "unsupported": "U",
            "not run": "-", "refused": "R"}
@@ -138,7 +140,7 @@ def markdown(run: SweepRun, prov: dict, png: str | None, command: str | None = N
         len({r.point for r in run.rows if r.status != "not run" and not r.refused})
     lines = [f"# Sweep: {run.scene}", "",
              f"{how}; engines {', '.join(run.engines)}; horizon {run.t_end:g} s. {len(run.points)} points, "
-             f"{n_runs} runs (each point's in-house DOP853 reference and each engine) in isolated worker processes "
+             f"{n_runs} runs (each point's {REF} DOP853 reference and each engine) in isolated worker processes "
              f"({where}, {run.timeout:g} s timeout each), {run.wall_s:.1f} s wall. Reproduce with `{command}`.", "",
              "| " + " | ".join(prov) + " |", "|" + "---|" * len(prov),
              "| " + " | ".join(str(v) for v in prov.values()) + " |", "",
@@ -149,7 +151,7 @@ def markdown(run: SweepRun, prov: dict, png: str | None, command: str | None = N
         lines += [f"![log10 largest error]({png})", ""]
     lines += ["## How to read it", "",
               "Each point is a case of `harness validate` with the swept parameters set: the engine at the scene's "
-              "default integrator and step, judged by the scene's own `[checks.*]` against the point's in-house "
+              f"default integrator and step, judged by the scene's own `[checks.*]` against the point's {REF} "
               "DOP853 reference (rtol 1e-12); definitions in the docstring of `harness/studies/sweep/run.py`.", "",
               "Each check of each run is judged by how its error converges (`harness validate`'s verdict: the "
               "engine rerun at twice the step, and half where undecided, or an error-controlled one at a 100x looser "

@@ -58,6 +58,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from harness.engines import REFERENCE_ENGINE, check_scene
 from harness.engines.base import RunSettings, check_settings
 from harness.judging.error_model import CONVERGES, DEFECT, MODEL_DIFFERENCE, NOT_JUDGED, UNRESOLVED_CLASS
 from harness.io.progress import case_label
@@ -213,7 +214,7 @@ def with_horizon(scene: Scene, t_end: float | None) -> Scene:
     short = replace(scene, t_end=float(t_end))
     save = save_interval(scene)
     try:
-        check_settings(RunSettings(short.t_end, save, save, REFERENCE_METHOD), [REFERENCE_METHOD], "inhouse")
+        check_settings(RunSettings(short.t_end, save, save, REFERENCE_METHOD), [REFERENCE_METHOD], REFERENCE_ENGINE)
     except InputError as err:
         raise InputError(f"--t-end {t_end:g}: {err}") from None
     check_steps(short.t_end, scene.dt, f"--t-end (at the scene's step dt = {scene.dt:g} s)")
@@ -446,7 +447,7 @@ def point_line(run: SweepRun, i: int, rows: list[PointResult]) -> str:
 
 def load_for_sweep(name: str, models_dir=None) -> Scene:
     """The scene at its defaults; InputError when it is unknown or declares no checks."""
-    scene = load_scene(name, models_dir=models_dir)
+    scene = check_scene(load_scene(name, models_dir=models_dir))
     if not scene.checks:
         raise InputError(f"{scene.directory / 'scene.toml'}: declares no [checks.<name>] table: a sweep would judge nothing")
     return scene

@@ -20,12 +20,16 @@ import math
 from pathlib import Path
 
 from harness.io import atomic
-from harness.studies.workprecision.run import (TARGET_RATIO, TARGET_THROUGHPUT, TARGETS, SceneSweep, SweepOptions, by_curve,
-                                               observed_order, points_table, time_table)
+from harness.engines import DECLARATIONS, ENGINE_NAMES, ENGINES, REFERENCE_ENGINE, display
+from harness.studies.workprecision.run import (BASE, BASELINE, BASELINE_RK4, NOT_REACHED_BASELINE, NOT_REACHED_EITHER,
+                                               NOT_REACHED_REFERENCE, REF, ROLLOUT, TARGET_RATIO, TARGET_THROUGHPUT, TARGETS,
+                                               SceneSweep, SweepOptions, by_curve, observed_order, points_table,
+                                               time_table)
 from harness.io.figures import new_figure, png_bytes
 
-ENGINE_COLORS = {"mujoco": "tab:blue", "pinocchio": "tab:green", "inhouse": "tab:red"}
 _MARKERS = "os^vDP*Xhp<>"
+#: The engines whose points time the engine's whole run (neither the baseline nor the reference engine).
+OTHERS = tuple(e for e in ENGINE_NAMES if e not in (BASELINE, REFERENCE_ENGINE))
 SAME_ERROR_RTOL = 1e-6   # two curves with errors this close at every common parameter ...
 SAME_TIME_FACTOR = 2.0   # ... and median run times within this factor lie on top of each other
 
@@ -35,24 +39,14 @@ def _fmt(x: float, spec: str = ".3g") -> str:
 
 
 def _style(label: str, index: int) -> dict:
-    engine = label.split()[0]
-    color = ENGINE_COLORS.get(engine, "black")
-    if engine == "mujoco":
-        integ = label.split()[1]
-        color = {"RK4": "tab:blue", "Euler": "tab:cyan", "implicit": "tab:purple", "implicitfast": "tab:olive"}[integ]
-    elif engine == "inhouse":
-        color = {"rk4": "salmon", "euler": "rosybrown", "RK45": "tab:pink", "DOP853": "tab:orange",
-                 "rk4_compiled": "magenta", "rkmk4_compiled": "darkred", "dop853_compiled": "tab:brown"}.get(
-                    label.split()[1], "black")
-    elif engine == "pinocchio":
-        color = {"rkmk4": "tab:green", "euler": "yellowgreen"}[label.split()[1]]
-    elif engine == "drake":
-        color = {"RK3": "dimgray", "RK5": "black", "Radau3": "darkgoldenrod", "RK3_fixed": "silver",
-                 "RK2": "tan"}.get(label.split()[1], "black")
-    elif engine == "exudyn":
-        color = {"GeneralizedAlpha": "teal", "TrapezoidalIndex2": "darkslateblue", "RK44": "steelblue",
-                 "RK67": "navy"}.get(label.split()[1], "black")
-    dashed = "(loop)" in label or "(per-state)" in label or engine == "pinocchio"
+    """A curve's line: the colour and dash its engine declares for it
+    (``harness.engines.Declaration.curves``; black and solid for a curve it does not declare)."""
+    engine, _, rest = label.partition(" ")
+    method, _, variant = rest.partition(" ")
+    variant = variant.strip("()")
+    declared = [c for c in (ENGINES[engine].curves if engine in ENGINES else ())
+                if c.integrator == method and c.variant == variant]
+    color, dashed = (declared[0].colour, declared[0].dashed) if declared else ("black", False)
     return {"color": color, "linestyle": "--" if dashed else "-", "marker": _MARKERS[index % len(_MARKERS)],
             "markersize": 4, "linewidth": 1.4}
 
@@ -125,7 +119,7 @@ def plot_scene(sweep: SceneSweep, provenance: dict) -> bytes:
             ax.axhline(target, color="grey", linewidth=0.8, linestyle=":")
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel("run time (s, median; MuJoCo rollout: time inside rollout)")
+        ax.set_xlabel(f"run time (s, median; {BASE} rollout: time inside rollout)")
         ax.set_ylabel(title)
         ax.set_ylim(1e-14, 10.0)
         ax.grid(True, which="major", alpha=0.3)
@@ -133,9 +127,8 @@ def plot_scene(sweep: SceneSweep, provenance: dict) -> bytes:
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=9, frameon=False)
     fig.suptitle(f"{sweep.scene}: work-precision, t_end = {sweep.t_end:g} s, errors at {len(_saves(sweep))} saved "
-                 f"times — MuJoCo {provenance.get('mujoco', '?')}, Pinocchio {provenance.get('pinocchio', '?')}, "
-                 f"Exudyn {provenance.get('exudyn', '?')}, "
-                 f"{provenance.get('date_utc', '')}", fontsize=11)
+                 "times — " + "".join(f"{d.display} {provenance.get(d.name, '?')}, " for d in DECLARATIONS if d.library)
+                 + f"{provenance.get('date_utc', '')}", fontsize=11)
     fig.subplots_adjust(left=0.06, right=0.99, bottom=0.23, top=0.9, wspace=0.18)  # as tight_layout(rect=(0, 0.14, 1, 0.95)), at half the cost
     return png_bytes(fig, dpi=110)
 
@@ -145,6 +138,11 @@ def class_cell(model) -> str:
     order left out where none was measured (``converges`` at the resolution, ``not judged``)."""
     order = model.observed_order
     return f"{model.classification} ({order:.2f})" if math.isfinite(order) else model.classification
+
+
+def _capital(text: str) -> str:
+    """``text`` with its first letter upper case ("in-house" -> "In-house", "MuJoCo" kept)."""
+    return text[:1].upper() + text[1:]
 
 
 def _saves(sweep: SceneSweep) -> range:
@@ -186,24 +184,24 @@ def markdown(results: list[SceneSweep], provenance: dict, options: SweepOptions,
               f"{options.repeats} timed runs (one only when the warm-up took more than {options.slow_run_s:g} s). "
               "Errors are against the reference at the saved times (`harness/studies/workprecision/run.py` defines them): "
               "state error = max over bodies and saved steps of max(|Δp|/L, geodesic angle, |Δv|/V, |Δω|/Ω); "
-              "energy and momentum errors relative to their scales. Times: MuJoCo `rollout` = time inside "
-              "`mujoco.rollout`; MuJoCo `loop` = the harness's Python stepping loop (with reading each saved "
-              "sample); Pinocchio, Drake, Exudyn and in-house `per-state` = the engine's run; in-house `compiled` = the "
-              "compiled integrator alone (compiled before the clock starts). Raw points: `workprecision.csv`.", "",
+              f"energy and momentum errors relative to their scales. Times: {BASE} `rollout` = time inside "
+              f"`{ROLLOUT}`; {BASE} `loop` = the harness's Python stepping loop (with reading each saved "
+              f"sample); {', '.join(display(e) for e in OTHERS)} and {REF} `per-state` = the engine's run; {REF} "
+              "`compiled` = the compiled integrator alone (compiled before the clock starts). Raw points: `workprecision.csv`.", "",
               budget_text(options), ""]
     lines += per_state_lines(results, options)
-    summary = ["## In-house against MuJoCo RK4, interpolated on the curves", "",
+    summary = [f"## {_capital(REF)} against {BASE} RK4, interpolated on the curves", "",
                "Time each reaches a target state error, interpolated in log-log on its curve (the head to head "
                "below times recorded runs again instead).", "",
-               "| scene | target | best in-house (time) | MuJoCo RK4 rollout | ratio | MuJoCo RK4 loop | ratio |",
+               f"| scene | target | best {REF} (time) | {BASE} RK4 rollout | ratio | {BASE} RK4 loop | ratio |",
                "|---|---|---|---|---|---|---|"]
     body: list[str] = []
     for sweep in results:
         rows = time_table(sweep)
         for target in TARGETS:
-            ih_label, ih_t = _best(rows, lambda s: s.startswith("inhouse"), target)
-            _, mr_t = _best(rows, lambda s: s == "mujoco RK4 (rollout)", target)
-            _, ml_t = _best(rows, lambda s: s == "mujoco RK4 (loop)", target)
+            ih_label, ih_t = _best(rows, lambda s: s.split()[0] == REFERENCE_ENGINE, target)
+            _, mr_t = _best(rows, lambda s: s == BASELINE_RK4["rollout"], target)
+            _, ml_t = _best(rows, lambda s: s == BASELINE_RK4["loop"], target)
             summary.append(f"| {sweep.scene} | {target:g} | {ih_label} ({_fmt(ih_t)} s) | {_fmt(mr_t)} s | "
                            f"{_fmt(ih_t / mr_t if mr_t else float('nan'), '.2f')} | {_fmt(ml_t)} s | "
                            f"{_fmt(ih_t / ml_t if ml_t else float('nan'), '.2f')} |")
@@ -253,7 +251,7 @@ def markdown(results: list[SceneSweep], provenance: dict, options: SweepOptions,
                         f"{_fmt(log.get('wall_s', float('nan')), '.2f')} | {log.get('stop', '—')} |")
         over = overhead_rows(sweep)
         if over:
-            body += ["", "MuJoCo through the harness's stepping loop against `mujoco.rollout` (medians over the "
+            body += ["", f"{BASE} through the harness's stepping loop against `{ROLLOUT}` (medians over the "
                      "timesteps both ran; the first ratio is the harness's own overhead):", "",
                      "| integrator | loop / rollout | rollout with conversion / rollout | loop with model compile / loop | timesteps |",
                      "|---|---|---|---|---|"]
@@ -276,8 +274,8 @@ def overhead_rows(sweep: SceneSweep) -> list[tuple[str, float, float, float, int
     import statistics
 
     out = []
-    pts = [p for p in sweep.points if p.engine == "mujoco" and p.ok]
-    for integrator in ("Euler", "implicit", "implicitfast", "RK4"):
+    pts = [p for p in sweep.points if p.engine == BASELINE and p.ok]
+    for integrator in dict.fromkeys(c.integrator for c in ENGINES[BASELINE].curves):
         roll = {p.param: p for p in pts if p.integrator == integrator and p.variant == "rollout"}
         loop = {p.param: p for p in pts if p.integrator == integrator and p.variant == "loop"}
         common = sorted(set(roll) & set(loop))
@@ -296,21 +294,21 @@ def h2h_section(results: list[SceneSweep]) -> list[str]:
     if not rows:
         return []
     out = ["## Head to head at equal state error (timed in alternation)", "",
-           "For each target, the cheapest recorded in-house run and MuJoCo RK4 run that reach it are timed again "
+           f"For each target, the cheapest recorded {REF} run and {BASE} RK4 run that reach it are timed again "
            "in alternation (rounds: at least 3, up to 5 while they take less than 2 s; medians), so that both see "
-           "the same machine load; MuJoCo's loop is timed at the rollout run's dt. Ratio < 1: the in-house solver "
-           "is faster. Where `mujoco.rollout` cannot run a scene (prescribed forces), MuJoCo RK4 is its loop.", "",
-           "| scene | target | in-house run | error | time (s) | MuJoCo RK4 run | error | time (s) | ratio | "
-           "MuJoCo RK4 loop time (s) | ratio to loop | rounds |",
+           f"the same machine load; {BASE}'s loop is timed at the rollout run's dt. Ratio < 1: the {REF} solver "
+           f"is faster. Where `{ROLLOUT}` cannot run a scene (prescribed forces), {BASE} RK4 is its loop.", "",
+           f"| scene | target | {REF} run | error | time (s) | {BASE} RK4 run | error | time (s) | ratio | "
+           f"{BASE} RK4 loop time (s) | ratio to loop | rounds |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for scene, h in rows:
         if h.get("status") != "ok":
             target = h.get("target")
             out.append(f"| {scene} | {_fmt(target, 'g') if target else '—'} | {h.get('status')} | | | | | | | | | |")
             continue
-        side = h.get("mujoco", "rollout")
-        ih, mj = h["inhouse"], h[f"mujoco RK4 ({side})"]
-        ml = h.get("mujoco RK4 (loop)")
+        side = h.get(BASELINE, "rollout")
+        ih, mj = h[REFERENCE_ENGINE], h[BASELINE_RK4[side]]
+        ml = h.get(BASELINE_RK4["loop"])
         out.append(f"| {scene} | {h['target']:g} | {ih['label']} at {ih['param']:.3g} | {ih['state_max']:.1e} | "
                    f"{ih['time_s']:.4g} | {side} dt {mj['param']:.3g} | {mj['state_max']:.1e} | {mj['time_s']:.4g} | "
                    f"{h['ratio']:.2f} | {_fmt(ml['time_s'] if ml else float('nan'), '.4g')} | "
@@ -318,7 +316,7 @@ def h2h_section(results: list[SceneSweep]) -> list[str]:
     return out
 
 
-MET, NOT_MET, NOT_REACHED, NOT_RUN = "met", "not met", "not reached by MuJoCo", "not run"
+MET, NOT_MET, NOT_REACHED, NOT_RUN = "met", "not met", f"not reached by {BASE}", "not run"
 
 
 def _h2h_cell(h: dict | None) -> dict:
@@ -326,16 +324,16 @@ def _h2h_cell(h: dict | None) -> dict:
     ``MET``, ``NOT_MET``, ``NOT_REACHED``, ``NOT_RUN``)."""
     nan = float("nan")
     if h is None:
-        return {"status": NOT_RUN, "value": nan, "note": "no head to head (MuJoCo and the in-house engine both needed)"}
+        return {"status": NOT_RUN, "value": nan, "note": f"no head to head ({BASE} and the {REF} engine both needed)"}
     status = h.get("status", "")
     if status == "ok":
         ratio = h["ratio"]
-        note = "against MuJoCo's loop: mujoco.rollout cannot run this scene" if h.get("mujoco") == "loop" else ""
+        note = f"against {BASE}'s loop: {ROLLOUT} cannot run this scene" if h.get(BASELINE) == "loop" else ""
         return {"status": MET if ratio <= TARGET_RATIO else NOT_MET, "value": ratio, "note": note}
-    if status in ("not reached by MuJoCo RK4", "not reached by either"):
+    if status in (NOT_REACHED_BASELINE, NOT_REACHED_EITHER):
         return {"status": NOT_REACHED, "value": nan, "note": ""}
-    if status == "not reached by the in-house solver":
-        return {"status": NOT_MET, "value": nan, "note": "the in-house solver did not reach it in the sweep"}
+    if status == NOT_REACHED_REFERENCE:
+        return {"status": NOT_MET, "value": nan, "note": f"the {REF} solver did not reach it in the sweep"}
     return {"status": NOT_RUN, "value": nan, "note": status}
 
 
@@ -345,15 +343,15 @@ def _batch_cell(b: dict | None) -> dict:
         return {"status": NOT_RUN, "value": nan, "note": "no batch benchmark (--batch 0, or an engine not selected)"}
     if "compiled_steps_per_s" not in b:
         return {"status": NOT_RUN, "value": nan, "note": str(b.get("status", ""))}
-    ratio = b["compiled_steps_per_s"] / b["mujoco_steps_per_s"]
+    ratio = b["compiled_steps_per_s"] / b[f"{BASELINE}_steps_per_s"]
     note = "" if b.get("status") == "ok" else str(b.get("status"))
     return {"status": MET if ratio >= TARGET_THROUGHPUT and not note else NOT_MET, "value": ratio, "note": note}
 
 
-def _mujoco_best(sweep: SceneSweep, side: str) -> str:
+def _baseline_best(sweep: SceneSweep, side: str) -> str:
     """How far MuJoCo RK4 (``side``: "rollout" or "loop") got: its best state error and why its
     curve stopped."""
-    label = f"mujoco RK4 ({side})"
+    label = BASELINE_RK4[side]
     best = min((p.state_max for p in sweep.points if p.label == label and p.ok), default=float("nan"))
     stop = sweep.curves.get(label, {}).get("stop")
     return f"best {_fmt(best, '.1e')}" + (f", {stop}" if stop else "") if math.isfinite(best) else ""
@@ -374,7 +372,7 @@ def target_rows(results: list[SceneSweep], targets=TARGETS) -> list[dict]:
                 h = sweep.head_to_head[0]  # the whole head to head failed: one row says why
             row[target] = _h2h_cell(h)
             if row[target]["status"] == NOT_REACHED:
-                row[target]["note"] = _mujoco_best(sweep, (h or {}).get("mujoco", "rollout"))
+                row[target]["note"] = _baseline_best(sweep, (h or {}).get(BASELINE, "rollout"))
         row["batch"] = _batch_cell(sweep.batch)
         out.append(row)
     return out
@@ -395,10 +393,10 @@ def targets_section(results: list[SceneSweep], options: SweepOptions, targets=TA
     (head to head) at each target, and the batched throughput over ``mujoco.rollout``'s."""
     rows = target_rows(results, targets)
     out = ["## Targets", "",
-           f"In-house time over MuJoCo RK4's at equal state error (head to head, below): target ≤ {TARGET_RATIO:g} at "
-           + " and ".join(f"{t:g}" for t in targets) + " on every scene MuJoCo reaches; batched throughput of the "
-           f"compiled in-house RK4 over `mujoco.rollout`'s (threads = cores): target ≥ {TARGET_THROUGHPUT:g}×. "
-           "Where MuJoCo RK4 does not reach a target, its best state error and why its curve stopped are given "
+           f"{_capital(REF)} time over {BASE} RK4's at equal state error (head to head, below): target ≤ {TARGET_RATIO:g} at "
+           + " and ".join(f"{t:g}" for t in targets) + f" on every scene {BASE} reaches; batched throughput of the "
+           f"compiled {REF} RK4 over `{ROLLOUT}`'s (threads = cores): target ≥ {TARGET_THROUGHPUT:g}×. "
+           f"Where {BASE} RK4 does not reach a target, its best state error and why its curve stopped are given "
            "(\"error stalled\": its error no longer falls as its step is halved, e.g. on soft loop or contact "
            "constraints).", "",
            "| scene | " + " | ".join(f"ratio at {t:g}" for t in targets) + " | batched throughput ratio |",
@@ -427,9 +425,9 @@ def budget_text(options: SweepOptions) -> str:
     return (f"Refinement: timesteps halved {start} down to save/2^{options.dt_levels - 1}, tolerances "
             f"{max(options.tolerances):g} to {min(options.tolerances):g}; a curve stops when its next point would "
             f"exceed its time budget (warm-up, repeats and errors of all its points: {b(options.curve_budget_s)}; "
-            f"{b(options.key_budget_s)} for the curves the targets are measured on, MuJoCo RK4 and the in-house DOP853, "
+            f"{b(options.key_budget_s)} for the curves the targets are measured on, {BASE} RK4 and the {REF} DOP853, "
             f"{b(options.reach_budget_s)} while one still converges at its order towards a target it must reach; "
-            f"{b(options.loop_budget_s)} for MuJoCo's other loop variants), after a run slower than {options.max_run_s:g} s, "
+            f"{b(options.loop_budget_s)} for {BASE}'s other loop variants), after a run slower than {options.max_run_s:g} s, "
             f"once its state error is below {options.stop_error:g}, when its error stalls or its runs fail. Each "
             "curve's wall time and why it stopped are in its scene's order table.")
 
@@ -440,7 +438,7 @@ def per_state_lines(results: list[SceneSweep], options: SweepOptions) -> list[st
     ran = [r.scene for r in results if any(p.variant == "per-state" for p in r.points)]
     if not omitted and not ran:
         return []
-    text = "Per-state in-house curves (the readable oracle, NumPy per step): "
+    text = f"Per-state {REF} curves (the readable oracle, NumPy per step): "
     if options.per_state == "uncovered":
         text += ("swept only where the compiled form does not model the scene"
                  + (f" ({', '.join(ran)})" if ran else " (none: it models every scene of this run)")
@@ -475,7 +473,7 @@ def walls_section(results: list[SceneSweep]) -> list[str]:
                f"{total['head_to_head']:.1f} | {total['batch']:.1f} | |")
     kernels = sum(r.walls.get("kernels", 0.0) for r in rows)
     if kernels:
-        out += ["", f"Loading the compiled in-house kernels before the scenes (compiling them, when Numba's cache does "
+        out += ["", f"Loading the compiled {REF} kernels before the scenes (compiling them, when Numba's cache does "
                 f"not hold them) took {kernels:.1f} s, outside the scenes' totals."]
     return out
 
@@ -486,29 +484,29 @@ def batch_section(results: list[SceneSweep]) -> list[str]:
         return []
     out = ["## Batched throughput: RK4 over many initial conditions", "",
            "Same batch of initial conditions (joint coordinates perturbed, `workprecision.batch_initial_states`), "
-           "same dt (the scene's), same number of steps, all timed in alternation (medians of up to 3 rounds): `mujoco.rollout` "
-           "against the compiled in-house RK4 (`rk4_compiled`'s kernel, `compiled.solver.run_batch`: one "
+           f"same dt (the scene's), same number of steps, all timed in alternation (medians of up to 3 rounds): `{ROLLOUT}` "
+           f"against the compiled {REF} RK4 (`rk4_compiled`'s kernel, `compiled.solver.run_batch`: one "
            "trajectory after another on each thread), each with threads = cores and with one thread. "
            "Trajectory-steps per second = nbatch × nstep / median wall time; nbatch is sized from a calibration run "
            "so that the timed runs fit the batch's time budget (at most `--batch`, at least one per thread). Ratios "
            "compare equal thread counts. "
-           "Last column: largest state difference between the MuJoCo and the in-house batch at the end "
+           f"Last column: largest state difference between the {BASE} and the {REF} batch at the end "
            "(relative, as the state error). On scenes with loop joints or rolling contacts the perturbed initial "
-           "states break the constraints, which each engine restores its own way (MuJoCo's soft constraints, the "
-           "in-house projection), so the two batches follow different motions there (differences of order 1); both "
+           f"states break the constraints, which each engine restores its own way ({BASE}'s soft constraints, the "
+           f"{REF} projection), so the two batches follow different motions there (differences of order 1); both "
            "still take nbatch × nstep RK4 steps.", "",
-           "| scene | nbatch × nstep | dt (s) | threads | rollout (steps/s) | in-house compiled (steps/s) | "
-           "compiled / rollout | rollout 1 thread | compiled 1 thread | ratio 1 thread | MuJoCo vs in-house |",
+           f"| scene | nbatch × nstep | dt (s) | threads | rollout (steps/s) | {REF} compiled (steps/s) | "
+           f"compiled / rollout | rollout 1 thread | compiled 1 thread | ratio 1 thread | {BASE} vs {REF} |",
            "|---|---|---|---|---|---|---|---|---|---|---|"]
     for b in rows:
         if "compiled_steps_per_s" not in b:
             out.append(f"| {b.get('scene')} | — | — | — | — | — | — | — | — | — | {b.get('status')} |")
             continue
         out.append(f"| {b['scene']} | {b['nbatch']} × {b['nstep']} | {b['dt']:g} | {b['threads']} | "
-                   f"{b['mujoco_steps_per_s']:.3g} | {b['compiled_steps_per_s']:.3g} | "
-                   f"{b['compiled_steps_per_s'] / b['mujoco_steps_per_s']:.2f} | {b['mujoco_1thread_steps_per_s']:.3g} | "
+                   f"{b[f'{BASELINE}_steps_per_s']:.3g} | {b['compiled_steps_per_s']:.3g} | "
+                   f"{b['compiled_steps_per_s'] / b[f'{BASELINE}_steps_per_s']:.2f} | {b[f'{BASELINE}_1thread_steps_per_s']:.3g} | "
                    f"{b['compiled_1thread_steps_per_s']:.3g} | "
-                   f"{b['compiled_1thread_steps_per_s'] / b['mujoco_1thread_steps_per_s']:.2f} | "
+                   f"{b['compiled_1thread_steps_per_s'] / b[f'{BASELINE}_1thread_steps_per_s']:.2f} | "
                    f"{b['max_state_difference']:.1e} |")
     return out
 

@@ -100,8 +100,9 @@ import numpy as np
 from harness.measure import compare
 from harness.measure import invariants
 from harness.judging import quantities
-from harness.engines import get_engine, integrator
+from harness.engines import ENGINE_NAMES, REFERENCE_ENGINE, declaration, display, engine_module, get_engine, integrator
 from harness.engines.base import RunSettings
+from harness.studies.workprecision import BASELINE
 from harness.judging import error_model
 from harness.model.scene import Scene
 from harness.measure.trajectory import UNSUPPORTED, Trajectory
@@ -113,6 +114,19 @@ TARGET_RATIO = 0.5  # the in-house solver's time at equal state error over MuJoC
 TARGET_THROUGHPUT = 5.0  # batched throughput of the compiled in-house RK4 over mujoco.rollout's: at least this
 ERROR_KEYS = ("state_final", "state_max", "energy_final", "energy_max", "momentum_final", "momentum_max")
 PER_STATE = ("uncovered", "all", "none")  # values of SweepOptions.per_state
+BASE, REF = display(BASELINE), display(REFERENCE_ENGINE)  # the head to head's two sides, as reports write them
+#: The baseline's curve the targets are measured on, by variant (``rollout``: ``mujoco.rollout``;
+#: ``loop``: the engine's stepping loop): the curves' labels.
+BASELINE_RK4 = {side: f"{BASELINE} RK4 ({side})" for side in ("rollout", "loop")}
+ROLLOUT = f"{declaration(BASELINE).library}.rollout"  # the baseline library's batch rollout, as reports name it
+NOT_REACHED_BASELINE = f"not reached by {BASE} RK4"  # head-to-head statuses
+NOT_REACHED_REFERENCE = f"not reached by the {REF} solver"
+NOT_REACHED_EITHER = "not reached by either"
+
+
+def _reference_part(part: str):
+    """Module ``part`` of the reference engine (its compiled form: ``compiled.solver``, ``model``)."""
+    return engine_module(REFERENCE_ENGINE, part)
 
 
 @dataclass(frozen=True)
@@ -372,14 +386,14 @@ def compiled_reference(scene: Scene, t_end: float, save: float, slices: int = RE
     every saved state is a step's end, never dense output. Returns (trajectory at the saved
     times, accepted steps, integration wall time s). NotImplementedError when the compiled form
     does not model the scene; RuntimeError when a slice fails."""
-    from harness.engines.inhouse import projection_tolerance
-    from harness.engines.inhouse.compiled import solver as compiled
-    from harness.engines.inhouse.model import build, initial_state, to_trajectory
+    projection_tolerance = _reference_part("").projection_tolerance
+    compiled = _reference_part("compiled.solver")
+    ref_model = _reference_part("model")
 
     model = scene.multibody()
-    nem = build(model)
+    nem = ref_model.build(model)
     packed = compiled.pack(nem)
-    y = initial_state(model, nem)
+    y = ref_model.initial_state(model, nem)
     proj_tol = projection_tolerance(nem)
     n = int(round(t_end / save))
     h = save / slices
@@ -394,7 +408,7 @@ def compiled_reference(scene: Scene, t_end: float, save: float, slices: int = RE
         wall += res.wall_s
         if (k + 1) % slices == 0:
             saved.append(np.array(y, dtype=float))
-    traj = to_trajectory(nem, np.arange(n + 1) * save, np.array(saved), "inhouse", "dop853_compiled")
+    traj = ref_model.to_trajectory(nem, np.arange(n + 1) * save, np.array(saved), REFERENCE_ENGINE, "dop853_compiled")
     return replace(traj, stats={"steps": steps, "wall_s": wall}), steps, wall
 
 
@@ -406,14 +420,13 @@ def reference(scene: Scene, t_end: float, save: float, method: str | None = None
     the scene, else (``pack`` raises NotImplementedError, or the compiled run fails) the
     per-state DOP853 at the same tolerance with steps capped at save / 10; "dop853_compiled" or
     "DOP853" forces one. RuntimeError when the reference run fails."""
-    from harness.engines.inhouse import ENGINE
-
+    engine = get_engine(REFERENCE_ENGINE)
     fine = save / 10.0
     why = ""
     if method in (None, "dop853_compiled"):
         try:
             traj, steps, wall = compiled_reference(scene, t_end, save)
-            how = (f"in-house compiled DOP853 (dop853_compiled's kernel), rtol = atol = {REFERENCE_TOL:g}, max step "
+            how = (f"{REF} compiled DOP853 (dop853_compiled's kernel), rtol = atol = {REFERENCE_TOL:g}, max step "
                    f"{save / REFERENCE_SLICES:g} s ({steps} steps, {wall:.3g} s)")
             return traj, how
         except (NotImplementedError, RuntimeError) as err:
@@ -422,11 +435,11 @@ def reference(scene: Scene, t_end: float, save: float, method: str | None = None
             why = (f"; the compiled form does not model this scene ({err})" if isinstance(err, NotImplementedError)
                    else f"; the compiled reference failed ({err})")
     settings = RunSettings(t_end, fine, fine, "DOP853", rtol=REFERENCE_TOL, atol=REFERENCE_TOL)
-    traj = ENGINE.simulate(scene, settings)
+    traj = engine.simulate(scene, settings)
     if not traj.ok:
         raise RuntimeError(f"reference run {traj.status}: {traj.message}")
     traj = _take(traj, slice(None, None, 10))
-    how = (f"in-house per-state engine, SciPy DOP853 rtol = atol = {REFERENCE_TOL:g}, max step {fine:g} s "
+    how = (f"{REF} per-state engine, SciPy DOP853 rtol = atol = {REFERENCE_TOL:g}, max step {fine:g} s "
            f"({traj.stats.get('steps', '?')} steps, {traj.stats.get('wall_s', float('nan')):.3g} s){why}")
     return traj, how
 
@@ -448,8 +461,8 @@ def reference_checks(scene: Scene, ref: Trajectory, t_end: float, save: float) -
 def compiled_covers(scene: Scene) -> tuple[bool, str]:
     """Whether the compiled in-house form models ``scene`` (``compiled.solver.pack`` accepts its
     model) and, when not, why. A model that does not build counts as covered: its runs say why."""
-    from harness.engines.inhouse.compiled import solver as compiled
-    from harness.engines.inhouse.model import build
+    compiled = _reference_part("compiled.solver")
+    build = _reference_part("model").build
 
     try:
         compiled.pack(build(scene.multibody()))
@@ -494,11 +507,11 @@ def _runner(scene: Scene, curve: Curve, settings: RunSettings) -> Run:
     """The timed unit of work of one point (see the module docstring): ``mujoco.rollout`` for
     MuJoCo's ``rollout`` variant, else the engine's ``simulate`` (engine time: its
     ``stats["wall_s"]``)."""
-    if curve.engine == "mujoco" and curve.variant == "rollout":
-        from harness.engines.mujoco import rollout as mujoco_rollout
+    if curve.engine == BASELINE and curve.variant == "rollout":
+        baseline_rollout = engine_module(BASELINE, "rollout")
 
         t0 = time.perf_counter()
-        rm = mujoco_rollout.prepare(scene, settings.dt, settings.integrator)
+        rm = baseline_rollout.prepare(scene, settings.dt, settings.integrator)
         setup = time.perf_counter() - t0
         nstep = settings.n_saves * settings.steps_per_save
         t_save = np.arange(settings.n_saves + 1) * settings.save_every
@@ -508,7 +521,7 @@ def _runner(scene: Scene, curve: Curve, settings: RunSettings) -> Run:
             start = time.perf_counter()
             states = rm.run(init, nstep)[0]
             engine = time.perf_counter() - start
-            saved = mujoco_rollout.saved_states(rm.state0, states, settings.steps_per_save)
+            saved = baseline_rollout.saved_states(rm.state0, states, settings.steps_per_save)
             traj = rm.trajectory(saved, t_save, settings.integrator)
             evals = float(4 * nstep if settings.integrator == "RK4" else nstep)
             return traj, engine, setup + time.perf_counter() - start, float(nstep), evals
@@ -574,23 +587,12 @@ TIMED_OUT = "timed out after"  # the message of a point over its wall-clock budg
 
 
 def curves(engines) -> list[Curve]:
-    """The curves of a sweep over ``engines`` (see the module docstring)."""
-    out: list[Curve] = []
-    if "mujoco" in engines:
-        for method in ("Euler", "implicit", "implicitfast", "RK4"):
-            out += [Curve("mujoco", method, "rollout"), Curve("mujoco", method, "loop")]
-    if "pinocchio" in engines:
-        out += [Curve("pinocchio", "rkmk4", ""), Curve("pinocchio", "euler", "")]
-    if "drake" in engines:  # error-controlled ones over target accuracies, fixed-step ones over timesteps
-        out += [Curve("drake", m, "") for m in ("RK3", "RK5", "Radau3", "RK3_fixed", "RK2")]
-    if "exudyn" in engines:  # implicit on every scene; explicit ones on free bodies only (else unsupported)
-        out += [Curve("exudyn", m, "") for m in ("GeneralizedAlpha", "TrapezoidalIndex2", "RK44", "RK67")]
-    if "inhouse" in engines:
-        from harness.engines.inhouse.integrators import COMPILED
-
-        out += [Curve("inhouse", m, "compiled" if m in COMPILED else "per-state")
-                for m in ("rk4", "euler", "RK45", "DOP853", "rk4_compiled", "rkmk4_compiled", "dop853_compiled")]
-    return out
+    """The curves of a sweep over ``engines`` (see the module docstring): each engine's declared
+    curves (``harness.engines.Declaration.curves``), the baseline's first and the reference
+    engine's last (what the reference engine's target curve must reach is the baseline's best,
+    ``reach``), the others in registry order between."""
+    order = [BASELINE, *(e for e in ENGINE_NAMES if e not in (BASELINE, REFERENCE_ENGINE)), REFERENCE_ENGINE]
+    return [Curve(e, c.integrator, c.variant) for e in order if e in engines for c in declaration(e).curves]
 
 
 def _ladder(curve: Curve, save: float, options: SweepOptions, scene_dt: float | None = None) -> list[float]:
@@ -630,12 +632,12 @@ def curve_role(curve: Curve, skipped: dict[str, str] | tuple = (), covered: bool
     (through the loop when ``skipped`` says rollout does not run the scene) and the in-house
     DOP853 (``dop853_compiled``; the per-state DOP853 when the compiled form does not model the
     scene, ``covered`` False); ``LOOP`` for MuJoCo's other ``loop`` variants; else ``ORDINARY``."""
-    if curve.engine == "mujoco" and curve.integrator == "RK4":
-        if curve.variant == "rollout" or "mujoco RK4 (rollout)" in skipped:
+    if curve.engine == BASELINE and curve.integrator == "RK4":
+        if curve.variant == "rollout" or BASELINE_RK4["rollout"] in skipped:
             return KEY
-    if curve.engine == "inhouse" and curve.integrator == ("dop853_compiled" if covered else "DOP853"):
+    if curve.engine == REFERENCE_ENGINE and curve.integrator == ("dop853_compiled" if covered else "DOP853"):
         return KEY
-    if curve.engine == "mujoco" and curve.variant == "loop":
+    if curve.engine == BASELINE and curve.variant == "loop":
         return LOOP
     return ORDINARY
 
@@ -720,16 +722,16 @@ def converging(history: list[tuple[WorkPrecisionPoint, float]], curve: Curve) ->
     return slope >= 0.5 * curve.nominal_order
 
 
-def reach(curve: Curve, role: str, mujoco_best: float | None, targets=TARGETS) -> float | None:
+def reach(curve: Curve, role: str, baseline_best: float | None, targets=TARGETS) -> float | None:
     """The state error a target curve (``role`` KEY) must reach for the head to head to judge
     every target it can: MuJoCo RK4, the smallest target; the in-house solver, the smallest
-    target MuJoCo RK4 reached (``mujoco_best``: its best state error, None when it did not run).
+    target MuJoCo RK4 reached (``baseline_best``: its best state error, None when it did not run).
     None for every other curve, or when MuJoCo RK4 reached no target."""
     if role != KEY:
         return None
-    if curve.engine == "mujoco":
+    if curve.engine == BASELINE:
         return min(targets)
-    reached = [t for t in targets if mujoco_best is not None and mujoco_best <= t]
+    reached = [t for t in targets if baseline_best is not None and baseline_best <= t]
     return min(reached) if reached else None
 
 
@@ -742,7 +744,7 @@ def _prepare_workers(scene: Scene, curve_list: list[Curve], ref: Trajectory | No
 
     engines = list(dict.fromkeys(c.engine for c in curve_list))
     preload(engines)
-    if any(c.engine == "inhouse" and c.variant == "compiled" for c in curve_list):
+    if any(c.engine == REFERENCE_ENGINE and c.variant == "compiled" for c in curve_list):
         warm_kernels([scene])
     if isinstance(ref, Trajectory):
         _reference_side(ref, model)
@@ -800,18 +802,18 @@ def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), p
     ref, how = run_stage(reference, (scene, t_end, save), "the reference run")
     result = SceneSweep(scene.name, t_end, save, how, reference_checks(scene, ref, t_end, save))
     result.walls["reference"] = _clock() - start
-    covered = compiled_covers(scene)[0] if "inhouse" in engines else True
+    covered = compiled_covers(scene)[0] if REFERENCE_ENGINE in engines else True
     if curve_list is None:
         curve_list, result.omitted = scene_curves(engines, options, covered)
     from harness.validate.workers import stream_case
 
     _prepare_workers(scene, curve_list, ref, model)
     start = _clock()
-    mujoco_best = None  # best state error of MuJoCo RK4's target curve
+    baseline_best = None  # best state error of MuJoCo RK4's target curve
     for curve in curve_list:
         role = curve_role(curve, result.skipped, covered)
         budget = base = role_budget(role, options)
-        goal = reach(curve, role, mujoco_best)
+        goal = reach(curve, role, baseline_best)
         longer = math.inf if options.reach_budget_s is None else max(base, float(options.reach_budget_s))
         ladder = _ladder(curve, save, options, scene.dt)
         history: list[tuple[WorkPrecisionPoint, float]] = []
@@ -843,8 +845,8 @@ def sweep_scene(scene: Scene, engines, options: SweepOptions = SweepOptions(), p
                 progress.advance(1, f"{scene.name}: {curve.label} {point.param:.1e}")
         if progress is not None:
             progress.advance(len(ladder) - len(history), f"{scene.name}: {curve.label} done")
-        if role == KEY and curve.engine == "mujoco":
-            mujoco_best = min((p.state_max for p, _ in history if p.ok), default=None)
+        if role == KEY and curve.engine == BASELINE:
+            baseline_best = min((p.state_max for p, _ in history if p.ok), default=None)
         result.curves[curve.label] = {"wall_s": spent, "points": len(history), "stop": stop,
                                       "budget_s": budget, "role": role}
     result.walls["curves"] = _clock() - start
@@ -878,30 +880,30 @@ def head_to_head(scene: Scene, sweep: SceneSweep, options: SweepOptions, targets
     MuJoCo's (``mujoco`` names the variant: "rollout" or "loop"); ``status`` "ok", or which side
     did not reach the target, or why MuJoCo RK4 did not run."""
     rounds = options.h2h_rounds if rounds is None else rounds
-    side = "loop" if "mujoco RK4 (rollout)" in sweep.skipped else "rollout"
+    side = "loop" if BASELINE_RK4["rollout"] in sweep.skipped else "rollout"
     out = []
     for target in targets:
-        row: dict = {"target": target, "mujoco": side}
-        if f"mujoco RK4 ({side})" in sweep.skipped:
-            row["status"] = f"MuJoCo RK4 not run: {sweep.skipped[f'mujoco RK4 ({side})']}"
+        row: dict = {"target": target, BASELINE: side}
+        if BASELINE_RK4[side] in sweep.skipped:
+            row["status"] = f"{BASE} RK4 not run: {sweep.skipped[BASELINE_RK4[side]]}"
             out.append(row)
             continue
         picks = {}
-        for key, pred in (("inhouse", lambda p: p.engine == "inhouse"),
-                          ("mujoco", lambda p: p.label == f"mujoco RK4 ({side})")):
+        for key, pred in ((REFERENCE_ENGINE, lambda p: p.engine == REFERENCE_ENGINE),
+                          (BASELINE, lambda p: p.label == BASELINE_RK4[side])):
             cands = [p for p in sweep.points if pred(p) and p.ok and p.state_max <= target]
             if cands:
                 picks[key] = min(cands, key=lambda p: p.time_s)
         if len(picks) < 2:
-            row["status"] = ("not reached by either" if not picks else
-                             "not reached by MuJoCo RK4" if "inhouse" in picks else "not reached by the in-house solver")
+            row["status"] = (NOT_REACHED_EITHER if not picks else
+                             NOT_REACHED_BASELINE if REFERENCE_ENGINE in picks else NOT_REACHED_REFERENCE)
             out.append(row)
             continue
-        ih, mj = picks["inhouse"], picks["mujoco"]
-        runs = {"inhouse": (ih, Curve(ih.engine, ih.integrator, ih.variant)),
-                f"mujoco RK4 ({side})": (mj, Curve("mujoco", "RK4", side))}
+        ih, mj = picks[REFERENCE_ENGINE], picks[BASELINE]
+        runs = {REFERENCE_ENGINE: (ih, Curve(ih.engine, ih.integrator, ih.variant)),
+                BASELINE_RK4[side]: (mj, Curve(BASELINE, "RK4", side))}
         if side == "rollout":  # the harness's loop at the same dt: its overhead at equal error
-            runs["mujoco RK4 (loop)"] = (mj, Curve("mujoco", "RK4", "loop"))
+            runs[BASELINE_RK4["loop"]] = (mj, Curve(BASELINE, "RK4", "loop"))
         max_dt = adaptive_step(scene, options)
         runners = {key: _runner(scene, c, _settings(c, sweep.t_end, sweep.save_every, p.param, max_dt))
                    for key, (p, c) in runs.items()}
@@ -909,12 +911,12 @@ def head_to_head(scene: Scene, sweep: SceneSweep, options: SweepOptions, targets
         for key, (p, c) in runs.items():
             row[key] = {"label": c.label, "param": p.param, "state_max": p.state_max,
                         "time_s": float(np.median(times[key])), "time_min_s": float(np.min(times[key]))}
-        row["rounds"] = len(times["inhouse"])
-        ih_t = row["inhouse"]["time_s"]
-        row["ratio"] = ih_t / row[f"mujoco RK4 ({side})"]["time_s"]
+        row["rounds"] = len(times[REFERENCE_ENGINE])
+        ih_t = row[REFERENCE_ENGINE]["time_s"]
+        row["ratio"] = ih_t / row[BASELINE_RK4[side]]["time_s"]
         if side == "rollout":
             row["ratio_rollout"] = row["ratio"]
-            row["ratio_loop"] = ih_t / row["mujoco RK4 (loop)"]["time_s"]
+            row["ratio_loop"] = ih_t / row[BASELINE_RK4["loop"]]["time_s"]
         else:
             row["ratio_loop"] = row["ratio"]
         row["status"] = "ok"
@@ -1028,21 +1030,17 @@ def batch_initial_states(scene: Scene, nbatch: int, seed: int = 0):
     """``nbatch`` initial conditions near the scene's: joint positions moved by N(0, 0.05) rad
     (``mj_integratePos``), joint velocities by N(0, 0.05) times their scale. Returns the rollout
     model, MuJoCo states (nbatch x nstate) and the same states as in-house vectors (nbatch x ny)."""
-    import mujoco
-
     from harness.model import rotations
-    from harness.engines.mujoco import rollout as mujoco_rollout
-    from harness.engines.inhouse.model import join
 
-    rm = mujoco_rollout.prepare(scene, scene.dt, "RK4")
+    join = _reference_part("model").join
+    rm = engine_module(BASELINE, "rollout").prepare(scene, scene.dt, "RK4")
     m = rm.m
     rng = np.random.default_rng(seed)
     qpos0, qvel0 = rm.d.qpos.copy(), rm.d.qvel.copy()
     vscale = max(1.0, float(np.max(np.abs(qvel0), initial=0.0)))
     S, Y = [], []
     for _ in range(nbatch):
-        qpos = qpos0.copy()
-        mujoco.mj_integratePos(m, qpos, 0.05 * rng.standard_normal(m.nv), 1.0)
+        qpos = rm.integrate_pos(qpos0, 0.05 * rng.standard_normal(m.nv))
         state = rm.state_from_joints(qpos, qvel0 + 0.05 * vscale * rng.standard_normal(m.nv))
         p, q, v, w_W = rm.read_bodies(state)
         R = rotations.matrix(q).reshape(-1, 3, 3)
@@ -1071,17 +1069,17 @@ def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3, opt
     rounds (past the first only while the rounds took less than the budget; medians). Also the
     largest state difference between the MuJoCo and the in-house batch at the end (relative, as
     ``errors``), over a sample of the trajectories."""
-    from harness.engines.mujoco import rollout as mujoco_rollout
-    from harness.engines.inhouse import projection_tolerance
-    from harness.engines.inhouse.compiled import solver as compiled
-    from harness.engines.inhouse.integrators import FIXED_STEP
-    from harness.engines.inhouse.model import build, to_trajectory
+    baseline_rollout = engine_module(BASELINE, "rollout")
+    projection_tolerance = _reference_part("").projection_tolerance
+    compiled = _reference_part("compiled.solver")
+    FIXED_STEP = _reference_part("integrators").FIXED_STEP
+    build, to_trajectory = _reference_part("model").build, _reference_part("model").to_trajectory
 
     options = replace(options or SweepOptions(batch_budget_s=None), batch=nbatch)
     budgeted = options.batch_budget_s is not None
     out: dict = {"scene": scene.name, "nbatch": nbatch, "nstep": nstep, "dt": scene.dt, "method": "RK4"}
     model = scene.multibody()
-    threads = mujoco_rollout.default_threads()
+    threads = baseline_rollout.default_threads()
     k = min(nbatch, threads)
     try:
         rm, S0, Y0 = batch_initial_states(scene, k if budgeted else nbatch)  # row i is the same for any batch size
@@ -1102,7 +1100,7 @@ def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3, opt
         def jit(nthread):
             box["jit"] = compiled.run_batch(packed, Y, nstep, scene.dt, tableau, threads=nthread, proj_tol=proj_tol)
 
-        return {"mujoco": lambda: mj(threads), "mujoco_1thread": lambda: mj(1),
+        return {BASELINE: lambda: mj(threads), f"{BASELINE}_1thread": lambda: mj(1),
                 "compiled": lambda: jit(threads), "compiled_1thread": lambda: jit(1)}
 
     def timed(fn) -> float:
@@ -1117,7 +1115,7 @@ def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3, opt
         if c > len(S0):
             _, S0, Y0 = batch_initial_states(scene, c)
         cal = runs(S0[:c], Y0[:c])
-        per_trajectory = max(timed(cal["mujoco_1thread"]), timed(cal["compiled_1thread"])) / c
+        per_trajectory = max(timed(cal[f"{BASELINE}_1thread"]), timed(cal["compiled_1thread"])) / c
         out["calibration_s_per_trajectory"] = per_trajectory
         nbatch = batch_size(per_trajectory, options, threads, rounds=max(1, repeats))
         if nbatch > len(S0):
@@ -1132,7 +1130,7 @@ def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3, opt
             break
         for key, fn in fns.items():
             times[key].append(timed(fn))
-    out["rounds"] = len(times["mujoco"])
+    out["rounds"] = len(times[BASELINE])
     work = nbatch * nstep
     for key, ts in times.items():
         out[f"{key}_s"] = float(np.median(ts))
@@ -1145,7 +1143,7 @@ def batch_benchmark(scene: Scene, nbatch: int, nstep: int, repeats: int = 3, opt
     t = np.array([0.0, nstep * scene.dt])
     for i in range(0, nbatch, max(1, nbatch // 20)):
         mj_traj = rm.trajectory(np.stack([S0[i], box["mj"][i, -1]]), t, "RK4")
-        ih_traj = to_trajectory(nem, t, np.stack([Y0[i], Yend[i]]), "inhouse", "rk4_compiled")
+        ih_traj = to_trajectory(nem, t, np.stack([Y0[i], Yend[i]]), REFERENCE_ENGINE, "rk4_compiled")
         scales = compare.motion_scales(mj_traj, model)
         diffs.append(_state_error(compare.trajectory_error(_take(ih_traj, [1]), _take(mj_traj, [1])), scales))
     out["max_state_difference"] = float(np.nanmax(diffs)) if np.any(np.isfinite(diffs)) else float("nan")
@@ -1165,11 +1163,11 @@ def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
     the in-house engine) and, unless ``options.batch`` is 0, the batched-throughput benchmark;
     the wall time of each stage in ``walls`` (``kernels``: loading the compiled kernels first,
     ``warm_kernels``, outside ``total``)."""
-    kernels_s = warm_kernels([scene]) if "inhouse" in engines else 0.0
+    kernels_s = warm_kernels([scene]) if REFERENCE_ENGINE in engines else 0.0
     start = time.perf_counter()
     res = sweep_scene(scene, engines, options, progress)
     res.walls["kernels"] = kernels_s
-    if "mujoco" in engines and "inhouse" in engines:
+    if BASELINE in engines and REFERENCE_ENGINE in engines:
         if progress is not None:
             progress.advance(0, f"{scene.name}: head to head")
         t0 = time.perf_counter()
@@ -1178,7 +1176,7 @@ def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
         except Exception as err:  # recorded, not raised
             res.head_to_head = [{"status": f"failed: {type(err).__name__}: {err}"}]
         res.walls["head_to_head"] = time.perf_counter() - t0
-    if options.batch and "mujoco" in engines and "inhouse" in engines:
+    if options.batch and BASELINE in engines and REFERENCE_ENGINE in engines:
         if progress is not None:
             progress.advance(0, f"{scene.name}: batch of up to {options.batch}")
         t0 = time.perf_counter()
@@ -1224,8 +1222,8 @@ def warm_kernels(scenes: list[Scene]) -> float:
     process: later calls only build and pack the model); returns the time it took (s)."""
     start = time.perf_counter()
     try:
-        from harness.engines.inhouse.compiled import solver as compiled
-        from harness.engines.inhouse.model import build, initial_state
+        compiled = _reference_part("compiled.solver")
+        build, initial_state = _reference_part("model").build, _reference_part("model").initial_state
     except ImportError:  # pragma: no cover - no Numba: the compiled runs say so
         return 0.0
     for scene in scenes:
