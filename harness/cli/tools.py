@@ -259,7 +259,8 @@ def _command_line(args) -> str:
 def cmd_zoo(args) -> int:
     from harness.io.atomic import REPORTS_DIR, check_writable, default_out_dir
     from harness.io.progress import make_bar
-    from harness.io.provenance import command_line, provenance
+    from harness.engines import provenance
+    from harness.io.provenance import command_line
     from harness.tools.zoo import collection, headline, made_line, run_zoo, select, write_zoo
 
     if args.jobs < 0:

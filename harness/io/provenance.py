@@ -97,23 +97,6 @@ def _load() -> str:
 LIBRARY_NAMES = {"numpy": "NumPy", "scipy": "SciPy", "python": "Python"}
 
 
-def drake_version() -> str:
-    """Drake's version (``pydrake.__version__`` where it has one, else the installed
-    distribution's; "?" when neither tells). Kept for ``harness.tools.check.reading``; the
-    registry's ``harness.engines.version`` gives every engine's."""
-    import pydrake
-
-    version = getattr(pydrake, "__version__", None)
-    if version:
-        return str(version)
-    from importlib.metadata import PackageNotFoundError, version as dist_version
-
-    try:
-        return dist_version("drake")
-    except PackageNotFoundError:
-        return "?"
-
-
 def made_with(prov: dict[str, str], engines: Mapping[str, str] | None = None) -> str:
     """``"MuJoCo 4.0.0, Pinocchio 4.1.0, Exudyn ..., NumPy ..., SciPy ..., Python ... on <machine>, load
     average 1.93 (1 min, at the end of the run)"``:

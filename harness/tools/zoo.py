@@ -115,7 +115,7 @@ import numpy as np
 
 from harness.io import atomic
 from harness.model.input_files import check_model_file, parse_xml
-from harness.io.provenance import made_with
+from harness.engines import made_with
 from harness.model.errors import InputError
 from harness.model.joints import FREE
 from harness.model.from_model_file import add_root_joint

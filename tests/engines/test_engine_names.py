@@ -71,9 +71,6 @@ EXCEPTIONS = (
                "the model layer cannot ask the registry"),
     Exception_("harness/model/input_files.py", "_check_urdf_references", ALL,
                "<mujoco><compiler meshdir> is an element of the URDF file, not the engine"),
-    Exception_("harness/io/provenance.py", "drake_version", ALL,
-               "kept for harness/tools/check/reading.py, which imports it; harness.engines.version gives "
-               "every engine's"),
     Exception_("references/errata.py", "", ALL, "an erratum cites the engines' runs that confirm it (its record's prose)"),
 )
 

@@ -46,6 +46,7 @@ import mujoco
 import numpy as np
 
 from harness.model.input_files import model_format, read_input_bytes
+from harness.model.joints import by_mujoco
 
 #: kg/m^3: the implied densities a rigid part can have. The uniform box with a body's principal
 #: moments is about as large as the body for a solid (a solid sphere: 1.13 times its density), larger
@@ -253,7 +254,7 @@ def find_defects(path: Path, spec: mujoco.MjSpec) -> list[Defect]:
     for body in spec.bodies:
         if body.name == "world":
             continue
-        owner, moving = _owner(body), body.first_joint() is not None
+        owner = _owner(body)
         el = f"{word} {body.name!r}"
         if not body.explicitinertial:
             continue
@@ -309,7 +310,8 @@ def find_defects(path: Path, spec: mujoco.MjSpec) -> list[Defect]:
                                   f"make {word} {body.name!r}'s <inertial> mass and its geoms' masses agree (or drop one)",
                                   owner, brief=f"{_num(mass)} kg against {_num(sum(stated))} kg"))
     for joint in spec.joints:
-        if joint.type in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+        kind = by_mujoco(mujoco.mjtJoint(joint.type).name)
+        if kind is not None and kind.axis is not None:
             if float(np.linalg.norm(np.asarray(joint.axis, dtype=float))) == 0.0:
                 at = (lines.get(("axis", joint.name)) or lines.get(("joint", joint.name))) if urdf else _spec_line(joint)
                 out.append(Defect("zero-length axis", path, at, f"joint {joint.name!r}", "axis of length 0",

@@ -17,9 +17,9 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
+from harness.engines import version as engine_version
 from harness.io import atomic
 from harness.model.input_files import check_input_file, check_model_file, parse_xml, read_input_text
-from harness.io.provenance import drake_version
 from harness.engines.mujoco.model import joint_kind as mujoco_joint_kind
 from harness.engines.mujoco.model import check_spec_inertials
 from harness.engines.pinocchio.model import root_joint_model
@@ -928,7 +928,7 @@ def _load_readings(mj_file: Path, other_file: Path, tmp: Path, *, root: str, str
             pinr.bodies = pinocchio_split_joint_bodies(pinr.model, pinr.slots)
             pinr.details = pinocchio_joint_details(pinr.model, pinr.slots)
             pinr.gravity = np.array(pinr.model.gravity.linear, dtype=float)
-    drr = Reading("Drake", other_file, drake_version())
+    drr = Reading("Drake", other_file, engine_version("drake"))
     try:
         with captured_native_stderr():
             load = load_drake(other_read, root_joint=root)

@@ -138,7 +138,8 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
                     tick(f"{name} free motion {k + 1}/{n_free}")
             w = res.witnesses
             if w is not None and not w.refusal:
-                wit.run(w, m, jmap, dc.random_states(jmap, n_free, seed + 1), t_end=t_end, dt=dt, save_every=save_every,
+                wit.run(w, m, jmap, dc.random_states(jmap, n_free, seed + 1)[:wit.FREE_STATES],
+                        t_end=min(t_end, wit.FREE_T_END), dt=dt, save_every=save_every,
                         rigid_at=lambda h: _rigid_copy(m, h))
             tick(f"{name} witness runs {'done' if w is not None and not w.refusal else 'not run'}")
         finally:
