@@ -398,6 +398,32 @@ def _massless_moving_link(res, vote, entry) -> bool:
     return False
 
 
+def _singular_moving_inertia(res, vote, entry) -> bool:
+    """A URDF link that a non-fixed joint moves, of positive mass, with a principal moment of inertia
+    below that of a body a tenth of a millimetre across (``defects.NEGLIGIBLE_LENGTH``): zero but for round-off."""
+    import numpy as np
+
+    from harness.tools.check.defects import NEGLIGIBLE_LENGTH
+
+    els = elements(_mjcf(res))
+    children = {e.attrs.get("link") for e in els if e.tag == "child" and e.parent >= 0
+                and els[e.parent].tag == "joint" and els[e.parent].attrs.get("type", "fixed") != "fixed"}
+    for i, e in enumerate(els):
+        if e.tag != "link" or e.attrs.get("name") not in children:
+            continue
+        inertial = next((j for j, x in enumerate(els) if x.tag == "inertial" and x.parent == i), None)
+        mass = next((x for x in els if x.tag == "mass" and x.parent == inertial), None) if inertial is not None else None
+        tensor = next((x for x in els if x.tag == "inertia" and x.parent == inertial), None) if inertial is not None else None
+        if mass is None or tensor is None or float(mass.attrs.get("value", "0")) <= 0:
+            continue
+        t = {k: float(tensor.attrs.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        moments = np.linalg.eigvalsh(np.array([[t["ixx"], t["ixy"], t["ixz"]], [t["ixy"], t["iyy"], t["iyz"]],
+                                               [t["ixz"], t["iyz"], t["izz"]]]))
+        if moments[0] <= float(mass.attrs["value"]) * NEGLIGIBLE_LENGTH**2:
+            return True
+    return False
+
+
 def explain_refusal(path: Path, loader: str, version: str) -> Limitation | None:
     """The entry that explains why ``loader`` refuses the file ``path`` (quantity ``refusal``), when
     no reading of it exists (MuJoCo's refusal stops the check)."""
@@ -414,6 +440,7 @@ def _dynamics_armature(res, vote, entry) -> bool:
 
 
 DETECTORS = {
+    "singular_moving_inertia": _singular_moving_inertia,
     "dynamics_armature": _dynamics_armature,
     "massless_moving_link": _massless_moving_link,
     "default_geom_mass": _default_geom_mass,
