@@ -121,6 +121,9 @@ DECLARATIONS: tuple[Declaration, ...] = (
                 reads=(URDF, MJCF), preflight=False, colour="#9467bd",
                 curves=_curves(("",), {"RK3": "dimgray", "RK5": "black", "Radau3": "darkgoldenrod",
                                        "RK3_fixed": "silver", "RK2": "tan"})),
+    Declaration("pybullet", "PyBullet", "harness.engines.pybullet.engine", library="pybullet", distribution="pybullet",
+                reads=(URDF,), colour="#8c564b", linestyle=":",
+                curves=_curves(("",), {"semi_implicit_euler": "sienna"})),
 )
 ENGINES = {d.name: d for d in DECLARATIONS}
 ENGINE_MODULES = {d.name: d.module for d in DECLARATIONS}

@@ -2,8 +2,8 @@
 the scene at the defaults of its ``scene.toml``, which the files must hold.
 
 ``load_mjcf``/``load_urdf`` overwrite mass properties with the scene's parameters, so an error in
-a file shows here only: MuJoCo compiles the MJCF (``read_spec().compile()``), Pinocchio and Drake
-read the URDF with their own parsers, and Exudyn (which reads no file) is built from the
+a file shows here only: MuJoCo compiles the MJCF (``read_spec().compile()``), Pinocchio, Drake and
+PyBullet read the URDF with their own parsers, and Exudyn (which reads no file) is built from the
 description. Every body's quantities are measured by ``harness.engines.loaded_models``
 (``body_discrepancies``). ``harness validate`` checks this at the start of every run (its
 ``model.*`` checks, ``harness.validate.run.model_checks``) and ``harness inspect`` shows it
@@ -42,6 +42,7 @@ AS_WRITTEN_RTOL = 1e-6   # the files carry rounded decimals (e.g. 0.083358333333
 APPLIED_RTOL = 1e-9
 MODEL_FILE_ENGINES = ("mujoco", "pinocchio")  # the engines that read a scene's model file (MJCF, URDF)
 MODEL_FILE_ENGINES = MODEL_FILE_ENGINES + ("drake",)  # Drake reads the URDF with its own parser
+MODEL_FILE_ENGINES = MODEL_FILE_ENGINES + ("pybullet",)  # PyBullet too (inertia from the file, URDF_USE_INERTIA_FROM_FILE)
 MODEL_ENGINES = MODEL_FILE_ENGINES + ("exudyn",)  # ... and those whose model as built is checked (Exudyn: from the description)
 
 
@@ -50,10 +51,12 @@ class AsWritten:
     """One engine's load of its model file as written, against the scene at its defaults.
 
     ``engine``: ``mujoco`` (the MJCF, ``read_spec().compile()``), ``pinocchio`` (the URDF,
-    ``read_urdf`` with the scene's root joint) or ``exudyn`` (no file: the system built from
+    ``read_urdf`` with the scene's root joint), ``drake``, ``pybullet`` (the URDF, PyBullet's ``loadURDF`` with
+    ``URDF_USE_INERTIA_FROM_FILE``) or ``exudyn`` (no file: the system built from
     the scene's description, ``harness.engines.exudyn.model``); ``path``: the file
     (``scene.toml`` for Exudyn); ``model``: the compiled ``MjModel``, ``pin.Model``, Drake's
-    ``(plant, joints)`` (``harness.engines.drake.model.parse``) or the ``ExudynSystem``; ``discrepancies``: every quantity of every body
+    ``(plant, joints)`` (``harness.engines.drake.model.parse``), PyBullet's ``LoadedBody`` list (its server is
+    closed: ``harness.engines.pybullet.model.pybullet_bodies``) or the ``ExudynSystem``; ``discrepancies``: every quantity of every body
     (``harness.engines.loaded_models.body_discrepancies`` at ``AS_WRITTEN_RTOL``) and, for the
     MJCF, its gravity (at ``APPLIED_RTOL``; a URDF cannot state gravity).
     """
@@ -97,6 +100,13 @@ def as_written(scene: Scene, engine: str, model0: Multibody | None = None) -> As
         plant, _, joints = parse(scene.urdf, scene.urdf_root_joint, model0, springs=False)
         return AsWritten(engine, scene.urdf, (plant, joints),
                          body_discrepancies(drake_bodies(plant, joints, model0), model0, rtol=AS_WRITTEN_RTOL))
+    if engine == "pybullet":  # the URDF as PyBullet's importer reads it, inertia from the file (a URDF cannot state gravity)
+        from harness.engines.pybullet.model import Server, pybullet_bodies, read_urdf
+
+        with Server() as client:
+            body = read_urdf(scene.urdf, scene.urdf_root_joint, client)
+            loaded = pybullet_bodies(body, client, model0, scene.urdf_root_joint)
+        return AsWritten(engine, scene.urdf, loaded, body_discrepancies(loaded, model0, rtol=AS_WRITTEN_RTOL))
     if engine == "exudyn":  # built from the description (Exudyn reads no model file): what it holds
         from harness.engines.exudyn.integrators import NODE_TYPE
         from harness.engines.exudyn.model import build

@@ -3,7 +3,8 @@
 ``mujoco_bodies`` / ``pinocchio_bodies`` / ``exudyn_bodies`` read back, per scene body: mass (kg), centre of mass in
 the body frame (m), inertia about the centre of mass in the body frame (kg m^2), the body
 frame's position in its parent (m), joint type and hinge axis (body frame); Drake's is
-``harness.engines.drake.model.drake_bodies`` (``LoadedBody`` records too, joint kinds by ``drake_joint_kind``).
+``harness.engines.drake.model.drake_bodies`` (``LoadedBody`` records too, joint kinds by ``drake_joint_kind``),
+PyBullet's ``harness.engines.pybullet.model.pybullet_bodies`` (``getDynamicsInfo``, ``getJointInfo``).
 ``body_discrepancies`` measures every quantity against the ``Multibody`` (``Discrepancy``: value,
 tolerance, unit, message); ``compare_bodies`` lists the disagreements beyond a relative tolerance.
 ``harness.engines.as_written`` applies them to a scene's model files as written (``validate``'s

@@ -1,0 +1,194 @@
+"""PyBullet engine: the scene's URDF as a Bullet ``btMultiBody`` (Featherstone, reduced
+coordinates), stepped by ``p.stepSimulation`` at the run's fixed step.
+
+The integrator is PyBullet's only one, and it is first order: each ``stepSimulation`` computes
+the joint accelerations at the current state (the articulated-body algorithm, gyroscopic terms
+included), updates the joint velocities with them and then the positions with the *new*
+velocities (semi-implicit, or symplectic, Euler; a ball joint's and the floating base's
+orientation by the exponential map of the new angular velocity). Its constraint solver
+(sequential impulses, ``numSolverIterations`` 50) runs every step but has nothing to solve here:
+no contact (no collision shapes), no joint limit, the joint motors switched off
+(``harness.engines.pybullet.model``). So the error falls as dt^1 (``Integrator.order`` 1).
+
+Forces: gravity (``setGravity``); a joint spring (``JointSpring``, the spring pendulum) has no
+PyBullet element and is applied as the joint's generalised force ``-k (q - q_ref)`` at the start
+of every step (``TORQUE_CONTROL``, which PyBullet applies for that step only), as the step's
+other forces are. Not modelled, run as "unsupported" with the reason
+(``harness.engines.pybullet.model.check_supported``): loop joints, rolling contact, prescribed
+point forces, joint torques and point springs.
+
+Maximal coordinates at every saved sample: each body's inertial frame (centre of mass, world
+position, orientation, velocity and angular velocity; ``getBasePositionAndOrientation``,
+``getBaseVelocity`` for a floating base, ``getLinkStates`` with ``computeLinkVelocity``), its
+body frame orientation from the inertial frame's orientation in it. PyBullet reports no system
+energy (the harness computes it from these). Joint reactions (``[checks.reaction]``): its joint
+force-torque sensors (``_reaction``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from harness.engines.base import Integrator, RunSettings, check_settings, integrator_table, maximal_blowup
+from harness.engines.pybullet.model import MAX_JOINT_VELOCITY, Server, build
+from harness.measure.trajectory import SampleBuffer, Trajectory, unsupported
+from harness.model import rotations
+from harness.model.joints import JOINTS, TRANSLATIONAL
+from harness.model.scene import Scene
+
+METHODS = integrator_table(
+    Integrator("semi_implicit_euler", "fixed", 1, 1,
+               "PyBullet stepSimulation: semi-implicit (symplectic) Euler on the btMultiBody's joint coordinates, "
+               "order 1; its sequential-impulse constraint solver idle (no contact, limits or motors)"),
+)
+
+
+class PyBulletEngine:
+    """Runs a scene in PyBullet from its URDF file."""
+
+    name = "pybullet"
+    integrators = METHODS
+
+    def load_model_file(self, scene: Scene, model) -> None:
+        """Load the scene's URDF into a PyBullet server as a run does (``read_urdf``): InputError
+        where PyBullet cannot, NotImplementedError for a scene that names only an MJCF
+        (``harness.engines.load_model_file``)."""
+        from harness.engines.pybullet.model import read_urdf
+
+        with Server() as client:
+            read_urdf(scene.urdf, scene.urdf_root_joint, client)
+
+    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
+        import pybullet as p
+
+        check_settings(settings, self.integrators, self.name)
+        model = scene.multibody()
+        names = tuple(model.body_names)
+        method = settings.integrator
+        start = time.perf_counter()
+        if self.name in scene.not_run:  # the scene says why PyBullet does not run it (its [not_run])
+            return unsupported(self.name, method, names, f"{method}: {scene.not_run[self.name]}")
+        with Server() as client:
+            try:
+                pm = build(scene, model, client, settings.dt)
+            except NotImplementedError as err:
+                return unsupported(self.name, method, names, f"{method}: {err}")
+            n = settings.n_saves + 1
+            buf = SampleBuffer(n, len(names))
+            jointed = [b for b in model.bodies if pm.links[b.name] >= 0] if "reaction" in scene.checks else []
+            for b in jointed:
+                p.enableJointForceTorqueSensor(pm.body, pm.links[b.name], 1, physicsClientId=client)
+            react = {b.name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for b in jointed}
+
+            def step(count: int) -> None:
+                for _ in range(count):
+                    for link, stiffness, q_ref in pm.springs:  # the spring's force at the step's start
+                        q = p.getJointState(pm.body, link, physicsClientId=client)[0]
+                        p.setJointMotorControl2(pm.body, link, p.TORQUE_CONTROL, force=-stiffness * (q - q_ref),
+                                                physicsClientId=client)
+                    p.stepSimulation(physicsClientId=client)
+
+            status, message, saved = "ok", "", 0
+            t0 = time.perf_counter()
+            for k in range(n):
+                if k > 0:  # with reactions, the interval's first step was taken to read sample k - 1's
+                    step(settings.steps_per_save - (1 if jointed else 0))
+                reason = _read(pm, model, k, buf)
+                if reason:
+                    status, message = "blowup", f"{reason} at t = {k * settings.save_every:.6g} s"
+                    break
+                if jointed:  # the sensors hold the reactions of the accelerations a step computes at its start
+                    step(1)
+                    for b in jointed:
+                        react[b.name][0][k], react[b.name][1][k] = _reaction(pm, model, b, k, buf)
+                saved = k + 1
+            solver = p.getPhysicsEngineParameters(physicsClientId=client)
+        stats = {"steps": max(saved - 1, 0) * settings.steps_per_save + (1 if react and saved else 0), "wall_s": time.perf_counter() - start,
+                 "wall_integrate_s": time.perf_counter() - t0, "settings": _describe(settings, scene, pm, solver)}
+        traj = buf.trajectory(self.name, method, names, settings.save_every, saved, stats, status, message)
+        traj = replace(traj, engine_energy={})  # PyBullet reports no system energy
+        if react:
+            traj = replace(traj, reactions={name: (f[:saved], m[:saved]) for name, (f, m) in react.items()})
+        return traj
+
+
+def _reaction(pm, model, body, k: int, buf: SampleBuffer) -> tuple[np.ndarray, np.ndarray]:
+    """``(force_W, moment_W)`` (N, N m) of ``body``'s joint at sample ``k``: PyBullet's joint
+    force-torque sensor (``enableJointForceTorqueSensor``; ``getJointState``'s reaction
+    ``[Fx, Fy, Fz, Mx, My, Mz]``: the force of the parent on the child, in the child's inertial
+    frame, the moment about its centre of mass) turned to world and its moment taken about the
+    joint point, without the component along a hinge's or slide's free direction (the joint
+    spring's force, which an ideal joint's reaction has none of). Read after the step that
+    follows the sample: the sensor holds the articulated-body solve at that step's start state,
+    the sample's."""
+    import pybullet as p
+
+    i = model.body_names.index(body.name)
+    F = np.asarray(p.getJointState(pm.body, pm.links[body.name], physicsClientId=pm.client)[2], dtype=float)
+    R_WB = rotations.matrix(buf.quat_WB[k, i])
+    R_WI = R_WB @ pm.R_BI[body.name]
+    f, m = R_WI @ F[:3], R_WI @ F[3:]
+    m = m + rotations.cross(R_WB @ pm.p_BCm_B[body.name], f)
+    for j, other in enumerate(model.bodies):  # the subtree's gyroscopic couples the sensor adds (docstring)
+        if _in_subtree(model, other.name, body.name):
+            R = rotations.matrix(buf.quat_WB[k, j])
+            w = buf.w_WB_W[k, j]
+            m = m - rotations.cross(w, R @ np.asarray(other.I_Cm_B, dtype=float) @ R.T @ w)
+    kind = JOINTS[body.joint]
+    if kind.axis is not None:
+        a = R_WB @ np.asarray(body.axis_B, dtype=float)
+        if kind.axis == TRANSLATIONAL:
+            f = f - (f @ a) * a
+        else:
+            m = m - (m @ a) * a
+    return f, m
+
+
+def _describe(settings: RunSettings, scene: Scene, pm, solver: dict) -> str:
+    from harness.engines import version
+
+    springs = ", joint springs as a generalised force at each step's start" if pm.springs else ""
+    return (f"PyBullet {version('pybullet')} stepSimulation: semi-implicit Euler, fixed step {settings.dt:g} s, "
+            f"btMultiBody (Featherstone, reduced coordinates) from {scene.urdf.name} (inertia from the file), "
+            f"constraint solver {solver.get('numSolverIterations', '?')} iterations (idle: no contact, limits or motors), "
+            f"damping 0, maxJointVelocity {MAX_JOINT_VELOCITY:g}{springs}")
+
+
+def _read(pm, model, k: int, buf: SampleBuffer) -> str:
+    """Fill sample ``k`` of ``buf`` (centre-of-mass position and velocity, body orientation,
+    world angular velocity); return why the state is a blow-up, or ""."""
+    import pybullet as p
+
+    c = pm.client
+    links = [pm.links[b.name] for b in model.bodies if pm.links[b.name] >= 0]
+    states = dict(zip(links, p.getLinkStates(pm.body, links, computeLinkVelocity=1, computeForwardKinematics=1,
+                                             physicsClientId=c))) if links else {}
+    for i, b in enumerate(model.bodies):
+        link = pm.links[b.name]
+        if link < 0:
+            pos, orn = p.getBasePositionAndOrientation(pm.body, physicsClientId=c)
+            vel, omega = p.getBaseVelocity(pm.body, physicsClientId=c)
+        else:
+            s = states[link]
+            pos, orn, vel, omega = s[0], s[1], s[6], s[7]
+        R_WI = rotations.matrix(rotations.xyzw_to_wxyz(np.asarray(orn, dtype=float)))
+        buf.p_WCm_W[k, i] = pos
+        buf.quat_WB[k, i] = rotations.from_matrix(R_WI @ pm.R_BI[b.name].T)
+        buf.v_WCm_W[k, i] = vel
+        buf.w_WB_W[k, i] = omega
+    return maximal_blowup(buf.p_WCm_W[k], buf.quat_WB[k], buf.v_WCm_W[k], buf.w_WB_W[k])
+
+
+def _in_subtree(model, name: str, root: str) -> bool:
+    """Whether body ``name`` is ``root`` or one of its descendants."""
+    while name is not None:
+        if name == root:
+            return True
+        name = model.body(name).parent
+    return False
+
+
+ENGINE = PyBulletEngine()
