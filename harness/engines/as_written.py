@@ -101,10 +101,11 @@ def as_written(scene: Scene, engine: str, model0: Multibody | None = None) -> As
         return AsWritten(engine, scene.urdf, (plant, joints),
                          body_discrepancies(drake_bodies(plant, joints, model0), model0, rtol=AS_WRITTEN_RTOL))
     if engine == "pybullet":  # the URDF as PyBullet's importer reads it, inertia from the file (a URDF cannot state gravity)
-        from harness.engines.pybullet.model import Server, pybullet_bodies, read_urdf
+        from harness.engines.pybullet.model import Server, pybullet_bodies
+        from harness.engines.pybullet.model import read_urdf as pybullet_read_urdf
 
         with Server() as client:
-            body = read_urdf(scene.urdf, scene.urdf_root_joint, client)
+            body = pybullet_read_urdf(scene.urdf, scene.urdf_root_joint, client)
             loaded = pybullet_bodies(body, client, model0, scene.urdf_root_joint)
         return AsWritten(engine, scene.urdf, loaded, body_discrepancies(loaded, model0, rtol=AS_WRITTEN_RTOL))
     if engine == "exudyn":  # built from the description (Exudyn reads no model file): what it holds

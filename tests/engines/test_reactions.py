@@ -9,22 +9,25 @@ from dataclasses import replace
 import numpy as np
 
 from harness.measure import compare
-from harness.engines import ENGINE_NAMES, get_engine
+from harness.engines import get_engine
 from harness.engines.base import RunSettings
 from harness.model.scene import load_scene
 from harness.io.trajectory_csv import to_frame
 from harness.measure.trajectory import REACTION_FIELDS
 
+#: The engines compared here at one fixed tolerance, each at a method of order 2 or more. PyBullet
+#: (semi-implicit Euler, order 1; joint forces from its sensors) is judged by how its error converges,
+#: in validate (tests/engines/pybullet/), not at a fixed tolerance set for the others.
 DEFAULT = {"inhouse": "rk4", "mujoco": "RK4", "pinocchio": "rkmk4", "exudyn": "GeneralizedAlpha", "drake": "RK5"}
 
 
 def with_reactions(scene):
-    return replace(scene, checks={**scene.checks, "reaction": {e: 1.0 for e in ENGINE_NAMES}})
+    return replace(scene, checks={**scene.checks, "reaction": {e: 1.0 for e in DEFAULT}})
 
 
 def runs(scene, t_end=1.0, dt=1e-3, save=0.01):
     out = {}
-    for e in ENGINE_NAMES:
+    for e in DEFAULT:
         tr = get_engine(e).simulate(scene, RunSettings(t_end, dt, save, DEFAULT[e]))
         assert tr.ok, tr.message
         out[e] = tr

@@ -8,13 +8,16 @@ import pytest
 
 from harness.measure import compare
 from harness.measure import invariants
-from harness.engines import ENGINE_NAMES, get_engine
+from harness.engines import get_engine
 from harness.engines.base import RunSettings
 from harness.engines.mujoco.model import load_mjcf, read_spec
 from harness.engines.loaded_models import mujoco_spring_problems
 from harness.model.scene import load_scene
 from harness.io.trajectory_csv import to_frame
 
+#: The engines compared here at one fixed tolerance, each at a method of order 2 or more. PyBullet
+#: (semi-implicit Euler, order 1; joint forces from its sensors) is judged by how its error converges,
+#: in validate (tests/engines/pybullet/), not at a fixed tolerance set for the others.
 DEFAULT = {"inhouse": "rk4", "mujoco": "RK4", "pinocchio": "rkmk4", "exudyn": "GeneralizedAlpha", "drake": "RK5"}
 
 
@@ -47,7 +50,7 @@ def test_elastic_energy_column_and_slide_coordinate():
 def test_engines_agree_with_a_spring_on_a_turning_slide():
     scene = load_scene("spring_pendulum", {"theta0": 0.8, "dtheta0": -2.0, "dr0": 0.3})
     model = scene.multibody()
-    runs = {e: get_engine(e).simulate(scene, RunSettings(0.5, 5e-4, 0.01, DEFAULT[e])) for e in ENGINE_NAMES}
+    runs = {e: get_engine(e).simulate(scene, RunSettings(0.5, 5e-4, 0.01, DEFAULT[e])) for e in DEFAULT}
     assert all(r.ok for r in runs.values())
     for e in ("mujoco", "pinocchio"):
         err = compare.trajectory_error(runs[e], runs["inhouse"])

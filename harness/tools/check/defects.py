@@ -47,6 +47,7 @@ import numpy as np
 
 from harness.model.input_files import model_format, read_input_bytes
 from harness.model.joints import by_mujoco
+from harness.tools.check.file_elements import elements
 
 #: kg/m^3: the implied densities a rigid part can have. The uniform box with a body's principal
 #: moments is about as large as the body for a solid (a solid sphere: 1.13 times its density), larger
@@ -326,8 +327,6 @@ def _urdf_limit_defects(path: Path) -> list[Defect]:
     """A URDF joint's ``<limit>`` that contradicts its type: a revolute or prismatic joint without
     ``lower`` or ``upper`` (the URDF makes a missing bound 0: locked at [0, 0]), one with ``lower ==
     upper`` (locked), a continuous joint with bounds (it has none)."""
-    from harness.tools.check.known_limitations import elements
-
     els = elements(path)
     out = []
     for i, e in enumerate(els):

@@ -32,12 +32,15 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-import xml.parsers.expat
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
-from harness.model.input_files import model_format, read_input_bytes
+import numpy as np
+
+from harness.model.input_files import model_format
+from harness.tools.check.defects import NEGLIGIBLE_LENGTH
+from harness.tools.check.file_elements import elements
 
 TABLE = Path(__file__).with_name("known_limitations.toml")
 FIELDS = ("id", "loaders", "format", "versions", "element", "behaviour", "quantities", "detect", "workaround", "upstream",
@@ -127,34 +130,6 @@ def match(res, vote, groups: tuple[tuple[str, ...], ...]) -> Limitation | None:
 
 
 # --------------------------------------------------------------------------- the file's elements
-
-
-@dataclass(frozen=True)
-class XmlElement:
-    tag: str
-    attrs: dict
-    line: int
-    parent: int   # index of the parent element, -1 for the root
-
-
-@cache
-def elements(path: Path) -> tuple[XmlElement, ...]:
-    """Every element of an XML file with its attributes, line and parent, in document order."""
-    out: list[XmlElement] = []
-    stack: list[int] = []
-    parser = xml.parsers.expat.ParserCreate()
-
-    def start(tag, attrs):
-        out.append(XmlElement(tag, dict(attrs), parser.CurrentLineNumber, stack[-1] if stack else -1))
-        stack.append(len(out) - 1)
-
-    parser.StartElementHandler = start
-    parser.EndElementHandler = lambda tag: stack.pop()
-    try:
-        parser.Parse(read_input_bytes(path, model_format(path)), True)
-    except xml.parsers.expat.ExpatError:
-        return ()
-    return tuple(out)
 
 
 def match_refusal(res, loader: str) -> Limitation | None:
@@ -401,10 +376,6 @@ def _massless_moving_link(res, vote, entry) -> bool:
 def _singular_moving_inertia(res, vote, entry) -> bool:
     """A URDF link that a non-fixed joint moves, of positive mass, with a principal moment of inertia
     below that of a body a tenth of a millimetre across (``defects.NEGLIGIBLE_LENGTH``): zero but for round-off."""
-    import numpy as np
-
-    from harness.tools.check.defects import NEGLIGIBLE_LENGTH
-
     els = elements(_mjcf(res))
     children = {e.attrs.get("link") for e in els if e.tag == "child" and e.parent >= 0
                 and els[e.parent].tag == "joint" and els[e.parent].attrs.get("type", "fixed") != "fixed"}
