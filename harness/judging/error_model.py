@@ -261,15 +261,19 @@ def judge_refinement(measure, steps: tuple[float, ...], formal_order: float, sca
     ``steps``: the base step first, then the others (e.g. ``(h, 2 h)``); ``scales``: quantity ->
     (unit, scale in that unit); ``n_steps``: steps of the base run (its round-off). The resolution
     of each quantity is the larger of the round-off ``N eps scale`` and ``JUDGING_RESOLUTION scale``.
-    Where the levels leave a quantity's class undecided (``needs_finer_level``), the runs are made
-    once more at half the finest step and every quantity's fit uses that level too."""
+    Where the levels leave a quantity's class undecided (``needs_finer_level``), or a coarser level
+    diverged where the base one did not, the runs are made once more at half the finest step and
+    every quantity's fit uses that level too."""
     measured = {h: measure(h) for h in steps}
     resolution = {q: max(roundoff(n_steps, scale), JUDGING_RESOLUTION * scale) for q, (_, scale) in scales.items()}
 
     def levels(q: str) -> list[Level]:
         return [Level(h, float(errors[q])) for h, errors in measured.items()]
 
-    if any(needs_finer_level(levels(q), formal_order, resolution[q]) for q in scales):
-        finest = min(measured) / 2.0
+    base = measured[steps[0]]
+    coarse_lost = any(math.isfinite(base[q]) and not math.isfinite(errors[q])
+                      for h, errors in measured.items() if h != steps[0] for q in scales)
+    if coarse_lost or any(needs_finer_level(levels(q), formal_order, resolution[q]) for q in scales):
+        finest = min(measured) / 2.0   # a coarse level that diverged, or one that leaves the class open
         measured[finest] = measure(finest)
     return {q: fit(q, unit, scale, "fixed", formal_order, levels(q), resolution[q]) for q, (unit, scale) in scales.items()}

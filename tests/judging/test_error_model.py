@@ -152,3 +152,17 @@ def test_needs_finer_level_reads_the_finest_two():
 def test_roundoff_is_steps_times_eps_times_scale():
     assert error_model.roundoff(1000, 2.0) == pytest.approx(1000 * error_model.EPS * 2.0)
     assert error_model.roundoff(0) == error_model.EPS  # at least one step
+
+
+def test_judge_refinement_measures_a_finer_level_where_the_coarse_one_diverged():
+    """A pair of runs at the base step h and at 2 h, the coarse one gone non-finite (a stiff motion
+    past its stability limit): the pair runs once more at h / 2 and the fourth-order fall decides."""
+    calls = []
+
+    def measure(h):
+        calls.append(h)
+        return {"x": float("nan") if h > 1.5e-3 else 1e-2 * (h / 1e-3) ** 4}
+
+    (model,) = error_model.judge_refinement(measure, (1e-3, 2e-3), 4.0, {"x": ("m", 1.0)}, 1000).values()
+    assert calls == [1e-3, 2e-3, 5e-4]
+    assert model.classification == error_model.CONVERGES and model.observed_order == pytest.approx(4.0)

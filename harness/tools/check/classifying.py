@@ -221,6 +221,8 @@ def classify(res: CheckResult) -> Classification:
     bad = [f for f in res.free if not f.passed]
     if res.free and not bad:
         out.agreeing += 1
+    elif bad and all(m.classification == "not judged" for f in bad for m in f.models.values()):
+        pass   # nothing to fit (no other level ran to the end): listed under not compared (``uncompared``)
     elif bad and loader_pair not in model_pairs and not any(x.element == "dynamics" for x in out.disagreements):
         f = bad[0]
         e = next(m for m in f.models.values() if m.classification != "converges") if f.models else None
@@ -273,6 +275,10 @@ def uncompared(res: CheckResult) -> list[Uncompared]:
             out.append(Uncompared(f"{r.loader}'s dynamics terms", r.dynamics))
     if res.free_skipped:
         out.append(Uncompared("free motion", res.free_skipped))
+    unjudged = [f for f in res.free if f.models and all(m.classification == "not judged" for m in f.models.values())]
+    if unjudged:
+        out.append(Uncompared(f"free motion from state {unjudged[0].state}",
+                              next(iter(unjudged[0].models.values())).reason))
     return out
 
 
