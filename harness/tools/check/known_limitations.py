@@ -124,9 +124,18 @@ def match(res, vote, groups: tuple[tuple[str, ...], ...]) -> Limitation | None:
         readers = [res.readings[k] for k in sides[0] if k in entry.loaders]
         if any(model_format(r.source) != entry.format or not entry.covers(r.loader, r.version) for r in readers):
             continue
-        if DETECTORS[entry.detect](res, vote, entry):
+        if _detects(entry, res, vote):
             return entry
     return None
+
+
+def _detects(entry: Limitation, res, vote) -> bool:
+    """The entry's detector on the file; a file whose attributes it cannot read (a malformed
+    number) shows no element of it, never an error (the loaders have judged the file already)."""
+    try:
+        return bool(DETECTORS[entry.detect](res, vote, entry))
+    except (ValueError, IndexError, KeyError, TypeError):
+        return False
 
 
 # --------------------------------------------------------------------------- the file's elements
@@ -137,7 +146,7 @@ def match_refusal(res, loader: str) -> Limitation | None:
     r = res.readings[loader]
     for entry in table():
         if ("refusal" in entry.quantities and loader in entry.loaders and model_format(r.source) == entry.format
-                and entry.covers(loader, r.version) and DETECTORS[entry.detect](res, None, entry)):
+                and entry.covers(loader, r.version) and _detects(entry, res, None)):
             return entry
     return None
 

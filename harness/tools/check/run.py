@@ -157,9 +157,9 @@ def _file_defects(files: list[Path], floating_base: bool) -> list[Defect]:
         try:
             spec = read_mujoco_spec(path)
             add_root_joint(spec, FREE.name if floating_base else "none", path)
-        except InputError:
+            out += find_defects(path, spec)
+        except (InputError, ValueError, KeyError):   # a file the parser refuses, or a malformed number in it
             continue
-        out += find_defects(path, spec)
     return out
 
 
