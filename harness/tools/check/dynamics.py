@@ -59,11 +59,12 @@ def _pybullet_table(mjr: Reading, r: Reading) -> dict | None:
     MuJoCo's, or the base floats (``calculateInverseDynamics`` and ``calculateMassMatrix`` of a floating
     base put its 6 dofs in PyBullet's own base coordinates, at the centre of mass: not mapped), or a joint
     is neither a hinge nor a slide."""
+    # the base's dofs are PyBullet's own (its inertial frame); only a fixed base is mapped
     kinds = {x.joint: x.kind for x in r.bodies}
     why = _joint_set_problem(mjr, kinds, r)
     if not why and not r.model.fixed_base:
-        why = ("its floating base's 6 dofs are PyBullet's own (its centre of mass, not the link frame), not mapped to "
-               "the common coordinates")
+        why = ("a floating base: the 6 base dofs of PyBullet's calculateMassMatrix and calculateInverseDynamics are "
+               "not mapped to the common coordinates yet (a fixed base is compared)")
     odd = [n for n, k in kinds.items() if JOINTS.get(k) is None or JOINTS[k].nq != 1]
     if not why and odd:
         why = f"joints {', '.join(odd)} are neither hinges nor slides, whose PyBullet coordinates are not mapped"

@@ -1,4 +1,4 @@
-"""Reading a model file in the three loaders (MuJoCo, Pinocchio, Drake): the file checks, the copies the
+"""Reading a model file in the four loaders (MuJoCo, Pinocchio, Drake, PyBullet for a URDF): the file checks, the copies the
 loaders read (geometry stripped, inertials frozen, names given), the joint map between an MJCF and a URDF,
 and ``load_models``, every loader's ``Reading`` of the file(s)."""
 

@@ -43,7 +43,7 @@ def verdict(res: CheckResult) -> str:
     for key, group in c.groups():
         parts.append(f"{IMPORTER}: {_group_text(group)}")
     if not parts:
-        parts.append(f"{CONSISTENT}: {' and '.join(loaders_loaded(res))} agree on {c.agreeing} compared quantities "
+        parts.append(f"{CONSISTENT}: {_who(loaders_loaded(res))} agree on {c.agreeing} compared quantities "
                      "and terms")
     if c.uncompared:
         parts.append(f"{NOT_COMPARED}: " + _few([u.what for u in c.uncompared], 3))
@@ -224,7 +224,8 @@ def render_report(res: CheckResult, command: str) -> str:
     L += ["", "## Dynamics terms at random states", "",
           f"{res.settings.get('states')} seeded random states (hinge angles within MuJoCo's limits where limited, rates "
           "~N(0, 1)); M(q), C(q,v)v and g(q) from MuJoCo `mj_fullM`/`qfrc_bias`, Pinocchio `crba`/`nonLinearEffects`/"
-          "`computeGeneralizedGravity`, Drake `CalcMassMatrix`/`CalcBiasTerm`/`CalcGravityGeneralizedForces`, in "
+          "`computeGeneralizedGravity`, Drake `CalcMassMatrix`/`CalcBiasTerm`/`CalcGravityGeneralizedForces`, PyBullet `calculateMassMatrix`/"
+          "`calculateInverseDynamics` (zero accelerations; zero velocities too for gravity), in "
           f"common coordinates; sources compared: {', '.join(sources) or 'none'}. Relative = max abs difference / "
           "largest entry.", ""]
     L += [f"- {r.loader} not compared: {r.dynamics}" for r in res.readings.values() if r.loaded and r.dynamics]
