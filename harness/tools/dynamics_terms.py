@@ -420,6 +420,31 @@ def drake_terms(plant, jmap: JointMap, q: np.ndarray, v: np.ndarray, context=Non
     return Terms(T @ M @ T.T, T @ cv, T @ g)
 
 
+def pybullet_terms(load, jmap: JointMap, index: Mapping[str, int], q: np.ndarray, v: np.ndarray,
+                   gravity: np.ndarray) -> Terms:
+    """PyBullet's terms of a fixed-base URDF it loaded (``harness.tools.loaded_models.PyBulletLoad``):
+    M from ``calculateMassMatrix``, C v + g from ``calculateInverseDynamics`` at zero acceleration, g
+    from it at zero velocity too, with ``setGravity(gravity)`` (m/s^2, world: the comparison's, PyBullet's
+    default is zero). ``index``: joint name -> PyBullet's dof index (its movable joints in link order);
+    hinge and slide coordinates are the common ones; joints not in the map at 0, at rest."""
+    from harness.tools.loaded_models import _pybullet
+
+    p = _pybullet()
+    c = load.client
+    n = max(index.values(), default=-1) + 1
+    qp, vp = [0.0] * n, [0.0] * n
+    for s in jmap.slots:
+        if s.joint.nq != 1:
+            raise MappingError(f"joint {s.name!r}: no PyBullet coordinates for a {s.kind} joint")
+        qp[index[s.name]], vp[index[s.name]] = float(s.q(q)[0]), float(s.v(v)[0])
+    p.setGravity(*np.asarray(gravity, dtype=float).tolist(), physicsClientId=c)
+    M = np.array(p.calculateMassMatrix(load.body, qp, physicsClientId=c), dtype=float)
+    total = np.array(p.calculateInverseDynamics(load.body, qp, vp, [0.0] * n, physicsClientId=c), dtype=float)
+    g = np.array(p.calculateInverseDynamics(load.body, qp, [0.0] * n, [0.0] * n, physicsClientId=c), dtype=float)
+    idx = np.array([index[s.name] for s in jmap.slots], dtype=int)
+    return Terms(M[np.ix_(idx, idx)], (total - g)[idx], g[idx])
+
+
 def inhouse_terms(model: Multibody, jmap: JointMap, q: np.ndarray, v: np.ndarray) -> Terms:
     """The scene's ``Multibody`` through ``kinematics.forward`` and ``invariants.energies``
     (slot names must be body names; see the module docstring for the method)."""

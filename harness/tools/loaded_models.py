@@ -10,6 +10,7 @@ composite joints split back into the file's joints (``pinocchio_joint_slots``). 
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -519,3 +520,265 @@ def pinocchio_joint_details(pmodel: pin.Model, slots: dict[str, PinocchioSlot]) 
                                 float(pmodel.armature[s.idx_v]) if one else None,
                                 float(pmodel.friction[s.idx_v]) if one else None))
     return out
+
+
+# --------------------------------------------------------------------------- PyBullet: a fourth reader of a URDF
+#
+# ``harness check`` reads a URDF with PyBullet's importer too (``p.loadURDF`` into a DIRECT server),
+# with ``URDF_USE_INERTIA_FROM_FILE`` (without it PyBullet derives every link's inertia from its
+# collision shapes: the trap ``harness check`` names, loading the file a second time without the
+# flag). Fixed links are NOT merged (no ``URDF_MERGE_FIXED_LINKS``): PyBullet keeps each link with
+# its own inertial, and ``pybullet_joint_bodies`` merges a moving joint's fixed children itself,
+# exactly as the other readers (``_composite``), keeping each as a ``Part`` (the merge flag would
+# give only the merged body, without its parts).
+#
+# PyBullet's link frame is the link's inertial frame; ``getDynamicsInfo`` gives the mass, the
+# principal moments and the inertial frame's pose in the URDF link frame; ``getJointInfo`` the
+# joint frame's position in the parent's inertial frame and its orientation, and the axis in the
+# child's inertial frame. The URDF link frames are rebuilt from these (``_pybullet_link_frames``).
+
+
+#: the name of the free joint ``--floating-base`` adds (as MuJoCo, Pinocchio and Drake name it)
+ROOT_JOINT = "root_joint"
+
+
+class PyBulletRefusal(Exception):
+    """PyBullet's importer refuses a model file; ``str(err)`` is the reason, one line."""
+
+
+@contextmanager
+def _quiet_native():
+    """Capture what PyBullet prints on file descriptors 1 and 2 (its build time on import, the
+    importer's warnings); yields a dict whose ``"text"`` holds it afterwards."""
+    import os
+    import sys
+    import tempfile
+
+    holder = {"text": ""}
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 1)
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield holder
+        finally:
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+            tmp.seek(0)
+            holder["text"] = tmp.read().decode(errors="replace")
+
+
+def _pybullet():
+    with _quiet_native():
+        import pybullet
+    return pybullet
+
+
+@dataclass
+class PyBulletLoad:
+    """A URDF as PyBullet holds it: its server (``client``, DIRECT mode, disconnected when this
+    record is collected), the multibody's id, whether the base is fixed, whether the file's
+    inertia was used (``URDF_USE_INERTIA_FROM_FILE``), the root joint (``none`` or ``free``) and
+    what PyBullet printed while loading (``warnings``, one line each)."""
+
+    client: int
+    body: int
+    fixed_base: bool
+    inertia_from_file: bool
+    root_joint: str = "none"
+    warnings: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        import weakref
+
+        p = _pybullet()
+        weakref.finalize(self, _disconnect, p, self.client)
+
+
+def _disconnect(p, client: int) -> None:
+    try:
+        p.disconnect(physicsClientId=client)
+    except Exception:  # noqa: BLE001 - already disconnected
+        pass
+
+
+def load_pybullet(path, *, root_joint: str = "none", inertia_from_file: bool = True) -> PyBulletLoad:
+    """``p.loadURDF(path, useFixedBase=root_joint != "free", flags=URDF_USE_INERTIA_FROM_FILE
+    (when ``inertia_from_file``))`` in a new DIRECT server, reduced coordinates, default gravity
+    (PyBullet's is zero; ``harness check`` sets the comparison's for the dynamics terms).
+    ``PyBulletRefusal`` (one line) when PyBullet does not load the file: an MJCF (its ``loadMJCF``
+    makes separate bodies without ``<default>`` classes, ``harness check`` compares its URDF reader
+    only), a missing mesh, a parse error."""
+    from harness.model.input_files import check_input_file, model_format
+
+    path = Path(path)
+    fmt = model_format(path)
+    check_input_file(path, fmt)
+    if fmt != "URDF":
+        raise PyBulletRefusal("PyBullet reads an MJCF only in part (loadMJCF: a separate multibody per top-level "
+                              "body, no <default> classes, no compiler settings): compared on a URDF only")
+    if root_joint not in ("none", FREE.name):
+        raise PyBulletRefusal(f"a {root_joint} root joint is not supported for PyBullet")
+    p = _pybullet()
+    with _quiet_native() as said:
+        client = p.connect(p.DIRECT)
+        try:
+            flags = p.URDF_USE_INERTIA_FROM_FILE if inertia_from_file else 0
+            body = p.loadURDF(str(path), useFixedBase=root_joint != FREE.name, useMaximalCoordinates=False,
+                              flags=flags, physicsClientId=client)
+        except Exception:  # noqa: BLE001 - pybullet.error("Cannot load URDF file.")
+            body = None
+    lines = [" ".join(ln.split()) for ln in said["text"].splitlines() if ln.strip()]
+    lines = [ln.replace(str(path), path.name) for ln in lines if not ln.startswith("pybullet build time")]
+    if body is None:
+        _disconnect(p, client)
+        why = [ln for ln in lines if "cannot find" in ln or "failed" in ln.lower() or "error" in ln.lower()]
+        detail = "; ".join(dict.fromkeys(why))[:300]
+        raise PyBulletRefusal("cannot load the URDF" + (f" ({detail})" if detail else ""))
+    return PyBulletLoad(client, body, root_joint != FREE.name, inertia_from_file, root_joint, tuple(lines))
+
+
+def _xyzw_matrix(q) -> np.ndarray:
+    from harness.model import rotations
+
+    return rotations.matrix(rotations.xyzw_to_wxyz(np.asarray(q, dtype=float)))
+
+
+@dataclass(frozen=True)
+class _PyBulletLink:
+    """One PyBullet link (index -1: the base): name, joint (name, PyBullet type, axis in the URDF
+    link frame), parent index, mass (kg), centre of mass and inertia about it in the URDF link frame,
+    and the URDF link frame's pose in the parent's URDF frame at zero joint coordinates."""
+
+    index: int
+    name: str
+    joint: str
+    jtype: int
+    parent: int
+    mass: float
+    com: np.ndarray
+    inertia: np.ndarray
+    p_PL: np.ndarray
+    R_PL: np.ndarray
+    axis: np.ndarray
+    info: tuple = ()
+
+
+def _pybullet_links(load: PyBulletLoad) -> list[_PyBulletLink]:
+    """Every link of the loaded body, the base first (``_PyBulletLink``)."""
+    p = _pybullet()
+    c, b = load.client, load.body
+    dyn = {k: p.getDynamicsInfo(b, k, physicsClientId=c) for k in range(-1, p.getNumJoints(b, physicsClientId=c))}
+
+    def inertial(k):
+        d = dyn[k]
+        R = _xyzw_matrix(d[4])
+        return float(d[0]), np.asarray(d[3], dtype=float), R, R @ np.diag(np.asarray(d[2], dtype=float)) @ R.T
+
+    m0, c0, _, I0 = inertial(-1)
+    out = [_PyBulletLink(-1, p.getBodyInfo(b, physicsClientId=c)[0].decode(), "", -1, -1, m0, c0, I0,
+                         np.zeros(3), np.eye(3), np.zeros(3))]
+    for k in range(p.getNumJoints(b, physicsClientId=c)):
+        info = p.getJointInfo(b, k, physicsClientId=c)
+        m, com, R_LI, I = inertial(k)
+        parent = int(info[16])
+        _, c_P, R_PI, _ = inertial(parent)
+        # getJointInfo: the joint point in the parent's inertial frame, and the rotation taking the parent's
+        # inertial frame to the child's (its transpose: the child's inertial frame in the parent's)
+        R_PL = R_PI @ _xyzw_matrix(info[15]).T @ R_LI.T
+        p_PL = c_P + R_PI @ np.asarray(info[14], dtype=float)
+        axis = R_LI @ np.asarray(info[13], dtype=float)
+        n = np.linalg.norm(axis)
+        out.append(_PyBulletLink(k, info[12].decode(), info[1].decode(), int(info[2]), parent, m, com, I, p_PL, R_PL,
+                                 axis / n if n > 0 else axis, tuple(info)))
+    return out
+
+
+def _pybullet_kind(jtype: int) -> str:
+    from harness.engines.pybullet.model import joint_kind
+
+    return joint_kind(jtype)
+
+
+def pybullet_joint_bodies(load: PyBulletLoad) -> list[JointBody]:
+    """Per moving PyBullet joint (PyBullet's link order; a floating base first, as the free joint
+    ``root_joint``): the composite body it moves, its fixed children merged (``_composite``, each a
+    ``Part``), in the child's URDF link frame, at zero joint coordinates, as
+    ``pinocchio_joint_bodies`` gives Pinocchio's. With a fixed base the base link and the links
+    fixed to it are the world's."""
+    p = _pybullet()
+    links = _pybullet_links(load)
+    fixed = p.JOINT_FIXED
+    # world pose of every URDF link frame at zero joint coordinates (base at the origin)
+    R_W, p_W = {-1: np.eye(3)}, {-1: np.zeros(3)}
+    for x in links[1:]:   # PyBullet lists a parent before its children
+        R_W[x.index] = R_W[x.parent] @ x.R_PL
+        p_W[x.index] = p_W[x.parent] + R_W[x.parent] @ x.p_PL
+    moving = {x.index for x in links[1:] if x.jtype != fixed} | (set() if load.fixed_base else {-1})
+    by_index = {x.index: x for x in links}
+
+    def owner(k: int) -> int | None:
+        while k not in moving:
+            if k == -1:
+                return None
+            k = by_index[k].parent
+        return k
+
+    out = []
+    for x in links:
+        if x.index not in moving:
+            continue
+        B = x.index
+        parts = []
+        for y in links:
+            if owner(y.index) == B:
+                R_BY = R_W[B].T @ R_W[y.index]
+                parts.append(Part(y.name, y.mass, R_W[B].T @ (p_W[y.index] + R_W[y.index] @ y.com - p_W[B]),
+                                  R_BY @ y.inertia @ R_BY.T))
+        mass, com, inertia = _composite(parts)
+        if B == -1:
+            out.append(JointBody(ROOT_JOINT, x.name, FREE.name, mass, com, inertia, "world", np.zeros(3), np.eye(3),
+                                 np.zeros(3), tuple(parts)))
+            continue
+        P = owner(x.parent)
+        R_P, p_P = (R_W[P], p_W[P]) if P is not None else (np.eye(3), np.zeros(3))
+        if P is None and not load.fixed_base:
+            P = -1
+        out.append(JointBody(x.joint, x.name, _pybullet_kind(x.jtype), mass, com, inertia,
+                             by_index[P].name if P is not None else "world", R_P.T @ (p_W[B] - p_P), R_P.T @ R_W[B],
+                             x.axis, tuple(parts)))
+    return out
+
+
+def pybullet_joint_details(load: PyBulletLoad) -> list[JointDetails]:
+    """Per moving PyBullet joint (as ``pybullet_joint_bodies``): the joint point (the child's URDF
+    link origin: zeros), the limits of a revolute or prismatic joint (``getJointInfo``'s lower and
+    upper; PyBullet gives a continuous joint lower 0 > upper -1: unlimited), its damping and
+    friction (``<dynamics damping friction>``); no armature (a URDF cannot state one)."""
+    fixed = _pybullet().JOINT_FIXED
+    out = []
+    for x in _pybullet_links(load):
+        if x.index == -1:
+            if not load.fixed_base:
+                out.append(JointDetails(ROOT_JOINT, np.zeros(3), None, None, None, None))
+            continue
+        if x.jtype == fixed:
+            continue
+        kind = _pybullet_kind(x.jtype)
+        one = has_axis(kind)
+        lo, hi = float(x.info[8]), float(x.info[9])
+        limits = _limits(lo, hi) if one and lo <= hi else None
+        out.append(JointDetails(x.joint, np.zeros(3), limits, float(x.info[6]) if one else None, None,
+                                float(x.info[7]) if one else None))
+    return out
+
+
+def pybullet_gravity(load: PyBulletLoad) -> np.ndarray:
+    """PyBullet's gravity (m/s^2, world) in the server after loading: its default, zero (a URDF
+    cannot state gravity; a PyBullet user calls ``setGravity``)."""
+    params = _pybullet().getPhysicsEngineParameters(physicsClientId=load.client)
+    return np.array([params.get(f"gravityAcceleration{k}", 0.0) for k in "XYZ"], dtype=float)

@@ -126,7 +126,7 @@ from harness.tools.check.defects import (DENSITY_RANGE, MARGIN_MIN, BodyPlausibi
                                          spec_plausibility)
 from harness.tools.check.classifying import witness_line
 from harness.tools.check.report import top_findings
-from harness.tools.loaded_models import load_drake
+from harness.tools.loaded_models import load_drake, load_pybullet
 from harness.validate.workers import Outcome, effective_jobs, run_cases
 
 COLLECTIONS = ("example-robot-data", "dm_control")
@@ -346,7 +346,8 @@ class ModelRow:
 
     @property
     def loaded_by_all(self) -> bool:
-        return len(self.loads) == len(LOADERS) and not any(self.loads.values())
+        """Every loader that reads the model's format loads it (PyBullet reads a URDF only: ``OTHER_FORMAT``)."""
+        return len(self.loads) == len(LOADERS) and not any(v for v in self.loads.values() if v != OTHER_FORMAT)
 
 
 def check_command(model: ZooModel, floating: bool, strip: bool, witnesses: bool = True) -> str:
@@ -401,7 +402,19 @@ def probe_loaders(model: ZooModel, floating: bool, strip: bool) -> tuple[dict[st
         loads["Drake"] = ""
     except Exception as err:  # DrakeRefusal, or whatever its parser raises
         loads["Drake"] = _without_path(err, model) or type(err).__name__
+    if model.urdf is None:
+        loads["PyBullet"] = OTHER_FORMAT
+    else:
+        try:
+            load_pybullet(model.urdf, root_joint=root)
+            loads["PyBullet"] = ""
+        except Exception as err:  # PyBulletRefusal, or whatever its importer raises
+            loads["PyBullet"] = _without_path(err, model) or type(err).__name__
     return loads, m
+
+
+#: A loader that does not read the model's format (PyBullet: a URDF only), not a refusal.
+OTHER_FORMAT = "reads a URDF only"
 
 
 AS_MUJOCO_HOLDS = ("as MuJoCo holds it (fixed children merged; masses from geoms where the file gives no "
@@ -589,7 +602,7 @@ def _load_cell(row: ModelRow, loader: str) -> str:
     if loader not in row.loads:
         return "?"
     why = row.loads[loader]
-    return "yes" if not why else f"**no**: {_cell(why)}"
+    return "yes" if not why else f"({why})" if why == OTHER_FORMAT else f"**no**: {_cell(why)}"
 
 
 def report_path(coll: Collection, row: ModelRow) -> str:
@@ -598,12 +611,12 @@ def report_path(coll: Collection, row: ModelRow) -> str:
 
 
 def headline(zoo: Zoo) -> str:
-    """Models, loaded in all three, the count per class, suspicious inertias, wall time."""
+    """Models, loaded by every loader of their format, the count per class, suspicious inertias, wall time."""
     rows = zoo.rows
     suspicious = sum(bool(r.suspicious) for r in rows)
     known = sum(r.counts.get("known", 0) for r in rows)
     unexplained = sum(r.counts.get("unexplained", 0) for r in rows)
-    return (f"{len(rows)} models; loaded in all three engines: {sum(r.loaded_by_all for r in rows)}; class: "
+    return (f"{len(rows)} models; loaded by every loader of their format: {sum(r.loaded_by_all for r in rows)}; class: "
             + ", ".join(f"{zoo.count(c)} {c}" for c in ROW_CLASSES)
             + f"; importer disagreements: {known} known, {unexplained} unexplained; {suspicious} model(s) with a "
             f"suspicious inertia; {zoo.wall_s:.0f} s wall on {zoo.jobs} worker(s)"
@@ -629,8 +642,9 @@ def render_table(zoo: Zoo, made: str, command: str) -> str:
              "not compared; the first finding with its fix (the whole list: the model's report); the witnesses (the "
              "in-house engine and Exudyn, judged by convergence, never a vote on the file); the run time. Per-model "
              f"reports: `{coll.name}/check_<model>.md`.",
-             "", "| model | base | MuJoCo | Pinocchio | Drake | class | defects | known | unexplained | not compared "
-             "| first finding and its fix | witnesses | run time (s) |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "", "| model | base | " + " | ".join(LOADERS) + " | class | defects | known | unexplained | not compared "
+             "| first finding and its fix | witnesses | run time (s) |", "|---|---|" + "---|" * len(LOADERS)
+             + "---|---|---|---|---|---|---|---|"]
     for r in zoo.rows:
         name = f"[{r.name}]({report_path(coll, r)})" if r.report else r.name
         n = r.counts
@@ -667,7 +681,8 @@ def render_csv(zoo: Zoo) -> str:
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(CSV_COLUMNS)
     for r in zoo.rows:
-        loads = [x for k in LOADERS for x in (("" if k not in r.loads else "no" if r.loads[k] else "yes"), r.loads.get(k, ""))]
+        loads = [x for k in LOADERS for x in (("" if k not in r.loads else "n/a" if r.loads[k] == OTHER_FORMAT
+                                               else "no" if r.loads[k] else "yes"), r.loads.get(k, ""))]
         n = r.counts
         w.writerow([zoo.collection.name, r.name, ";".join(r.files), r.base, *loads, r.cls, r.reason,
                     n.get("defects", ""), n.get("known", ""), n.get("unexplained", ""), n.get("not compared", ""),

@@ -80,7 +80,7 @@ def test_folder_pairs_models_and_gives_a_malformed_file_its_row(tmp_path, capsys
     assert arm["base"] == "fixed"  # a URDF alone whose root link is `world` stays welded
     assert rod["class"] == arm["class"] == "consistent"
     assert rod["defects"] == rod["known"] == rod["unexplained"] == "0"
-    assert {rod[f"{k}_loads"] for k in ("mujoco", "pinocchio", "drake")} == {"yes"}
+    assert {rod[f"{k}_loads"] for k in ("mujoco", "pinocchio", "drake", "pybullet")} == {"yes"}   # PyBullet: the URDF
     assert broken["class"] == "refused" and "cannot load" in broken["reason"]
     assert broken["mujoco_loads"] == broken["pinocchio_loads"] == broken["drake_loads"] == "no"
     assert all(broken[f"{k}_refusal"] for k in ("mujoco", "pinocchio", "drake"))
@@ -89,7 +89,7 @@ def test_folder_pairs_models_and_gives_a_malformed_file_its_row(tmp_path, capsys
     assert arm["bodies"] == "1" and arm["suspicious_bodies"] == "0"
     assert float(arm["run_time_s"]) > 0
     md = (out / "my_models.md").read_text()
-    assert ("**3 models; loaded in all three engines: 2; class: 0 defect in your file, 0 importer disagreement, "
+    assert ("**3 models; loaded by every loader of their format: 2; class: 0 defect in your file, 0 importer disagreement, "
             "2 consistent, 1 refused, 0 crashed; importer disagreements: 0 known, 0 unexplained; 1 model(s) with a "
             "suspicious inertia;") in md
     assert "[rod](my_models/check_rod.md)" in md and "- rod: rod (triangle margin 0.0005 < 0.001)" in md

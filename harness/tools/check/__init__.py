@@ -1,21 +1,38 @@
-"""``harness check``: read any MJCF/URDF model with three independent importers (MuJoCo,
-Pinocchio and Drake), say which agree on what, check the dynamics with two more engines built
+"""``harness check``: read any MJCF/URDF model with four independent importers (MuJoCo,
+Pinocchio, Drake and, for a URDF, PyBullet), say which agree on what, check the dynamics with two more engines built
 from MuJoCo's reading (the in-house engine and Exudyn), then write a report.
 
 Loads (``load_models``):
 
-* ``--mjcf`` and ``--urdf``: MuJoCo from the MJCF, Pinocchio and Drake from the URDF;
-* ``--urdf`` alone: all three from the URDF (MuJoCo compiles URDF itself);
-* ``--mjcf`` alone: all three from the MJCF (``pinocchio.buildModelFromMJCF``, Drake's
-  ``Parser(plant).AddModels`` into a continuous ``MultibodyPlant``).
+* ``--mjcf`` and ``--urdf``: MuJoCo from the MJCF, Pinocchio, Drake and PyBullet from the URDF;
+* ``--urdf`` alone: all four from the URDF (MuJoCo compiles URDF itself);
+* ``--mjcf`` alone: MuJoCo, Pinocchio and Drake from the MJCF (``pinocchio.buildModelFromMJCF``, Drake's
+  ``Parser(plant).AddModels`` into a continuous ``MultibodyPlant``). PyBullet is not asked: its
+  ``loadMJCF`` reads an MJCF in part (measured on dm_control's acrobot and cartpole: no ``<default>``
+  classes, so geoms and joints typed by a class are dropped; bodies renamed); its reading is a one-line
+  refusal shown with the loads (``Reading.other_format``), neither a refusal nor "not compared", and
+  the three others compare exactly as without it.
+
+PyBullet (``harness.tools.loaded_models.load_pybullet``) loads the URDF with
+``URDF_USE_INERTIA_FROM_FILE`` (``useFixedBase`` unless ``--floating-base``), fixed links not merged by
+PyBullet (each link keeps its own inertial; the check merges them, as for the others). Its gravity is
+not compared (a URDF states none and PyBullet's default is zero); its M, bias and gravity come from
+``calculateMassMatrix`` and ``calculateInverseDynamics`` (zero accelerations; zero velocities too for
+gravity) with MuJoCo's gravity, on a fixed base (a floating base's dofs are not mapped: said in the
+report). *Its inertia trap*: the URDF is loaded a second time without the flag (PyBullet's default:
+inertia from the collision shapes; the file as written, even with ``--strip-geometry``, where PyBullet
+finds its meshes; a link without a collision shape gets mass x 6.67e-7 m^2 on its diagonal); where its
+inertias differ, the known limitation ``pybullet-urdf-inertia-from-collision-by-default`` is named in
+one line of the summary, in the verdict and in the report's importer section (``Classification.trap``),
+apart from the vote: it does not change the file's class.
 
 MuJoCo is required: a file it does not load is bad input. Pinocchio and Drake may refuse a file
 (a parser error, or a joint the harness cannot compare, such as Pinocchio's planar joint): the
 refusal is one line in the result and the report ("Drake: does not load: <reason>") and the
 other loaders still compare; when only MuJoCo loads there is nothing to compare (bad input).
 
-The robot is fixed-base (a URDF's root link is welded to the world in all three) unless
-``floating_base`` adds a free joint named ``root_joint`` to the root body in all three. Joints are
+The robot is fixed-base (a URDF's root link is welded to the world in every loader) unless
+``floating_base`` adds a free joint named ``root_joint`` to the root body in every loader. Joints are
 matched by name (MuJoCo's URDF import keeps the URDF joint names), or through a joint map
 (``joint_map``, ``--joint-map FILE`` / ``--map mjcf=urdf``: the URDF's joints compared under the
 MJCF's names, ``apply_joint_map``; a name neither file has is bad input); a free joint Drake names
@@ -47,11 +64,12 @@ Then, in order:
 
 * the models (``vote``): per joint and per quantity (``QUANTITIES``: type, mass, centre of mass,
   inertia about it, position and orientation in the parent, axis, joint point, range, damping,
-  friction loss, armature) and for gravity, which loaders agree within the tolerance. Where two
-  agree against the third, the third is *the odd one out* and the report names it with both
+  friction loss, armature) and for gravity, which loaders agree within the tolerance. Where all
+  the others agree against one (2 against 1, 3 against 1), that one is *the odd one out* (2 against
+  2: no majority), and the report names it with both
   values and by how much they differ ("Pinocchio is the odd one out: 8.37758 kg where MuJoCo and
   Drake read 1 kg; they differ by 7.37758 kg (88.1% of 8.37758 kg)"). The odd one out reads the
-  file differently from the two others: usually the importer that is wrong, but the file decides
+  file differently from all the others: usually the importer that is wrong, but the file decides
   (only MuJoCo honours ``<compiler settotalmass>``, for instance). The joint settings (range rad
   or m, damping, friction loss, armature) of an MJCF and a URDF are listed, not counted (a URDF
   cannot state an armature); friction loss never counts (only MuJoCo applies it, Drake's parsers

@@ -32,7 +32,7 @@ from types import SimpleNamespace
 from harness.model.input_files import model_format
 from harness.tools.check.defects import Defect
 from harness.tools.check.known_limitations import Limitation, elements, match, match_refusal
-from harness.tools.check.results import LOADERS, CheckResult
+from harness.tools.check.results import LOADERS, TRAP_QUANTITY, CheckResult, _who
 
 DEFECT = "defect in your file"
 IMPORTER = "importer disagreement"
@@ -87,6 +87,9 @@ class Classification:
     disagreements: list[Disagreement] = field(default_factory=list)
     uncompared: list[Uncompared] = field(default_factory=list)
     agreeing: int = 0   # compared quantities and terms on which the loaders agree
+    #: PyBullet's inertia trap (``inertia_trap``): its default load against the file, one per joint; named
+    #: apart (the summary's line, the report's importer section), never a disagreement between the loaders
+    trap: list = field(default_factory=list)
 
     @property
     def importer(self) -> list[Disagreement]:
@@ -138,7 +141,7 @@ def _involved(v) -> tuple[str, ...]:
 
 def _between(v) -> str:
     if v.odd is not None:
-        return f"{v.odd} against {' and '.join(v.groups[0])}"
+        return f"{v.odd} against {_who(v.groups[0])}"
     return " vs ".join("/".join(g) for g in v.groups)
 
 
@@ -197,6 +200,7 @@ def classify(res: CheckResult) -> Classification:
         limitation = None if cause is not None else match(res, v, v.groups)
         element = f"joint {v.joint!r} (body {v.body!r})" if v.joint else "model"
         out.disagreements.append(Disagreement(element, v.quantity, involved, _between(v), v.message, limitation, cause))
+    out.trap = inertia_trap(res)
     # the dynamics terms: a pair whose models differ differs in its terms as a consequence
     model_pairs = _pairs_with_model_differences(res)
     odd = dynamics_odd(res.dynamics)
@@ -212,7 +216,7 @@ def classify(res: CheckResult) -> Classification:
         probe = SimpleNamespace(joint="", body="", quantity=f"dynamics {d.term}", hint="", odd=None, groups=())
         limitation = match(res, probe, ((d.a,), (d.b,)) if d.term not in odd else
                            (tuple(k for k in (d.a, d.b) if k != odd[d.term]), (odd[d.term],)))
-        between = (f"{loaders[0]} against the two others" if len(loaders) == 1 else f"{d.a} vs {d.b}")
+        between = (f"{loaders[0]} against the others" if len(loaders) == 1 else f"{d.a} vs {d.b}")
         out.disagreements.append(Disagreement("dynamics", d.term, loaders, between,
                                               f"dynamics {d.term}: max abs {d.max_abs:.3g}, max relative "
                                               f"{d.max_rel:.2g} ({d.a} vs {d.b})", limitation))
@@ -230,6 +234,25 @@ def classify(res: CheckResult) -> Classification:
         out.disagreements.append(Disagreement("free motion", "free motion", ("MuJoCo", "Pinocchio"), "MuJoCo vs Pinocchio",
                                               f"free motion from state {f.state}: {why}"))
     out.uncompared = uncompared(res)
+    return out
+
+
+def inertia_trap(res: CheckResult) -> list[Disagreement]:
+    """PyBullet's inertia trap: per joint whose inertia PyBullet reads otherwise without
+    ``URDF_USE_INERTIA_FROM_FILE`` (its default; ``Reading.inertia_trap``), an importer disagreement of
+    PyBullet's default against the file, matched against the known limitations (known where the entry
+    covers the version: it does not fail the check)."""
+    r = res.readings.get("PyBullet")
+    if r is None or not r.loaded:
+        return []
+    others = tuple(k for k in LOADERS if k != r.loader and k in res.readings and res.readings[k].loaded)
+    out = []
+    for t in r.inertia_trap:
+        probe = SimpleNamespace(joint=t.joint, body=t.body, quantity=TRAP_QUANTITY, hint="", odd=r.loader,
+                                groups=(others, (r.loader,)))
+        out.append(Disagreement(f"joint {t.joint!r} (body {t.body!r})", TRAP_QUANTITY, (r.loader,),
+                                f"{r.loader} without URDF_USE_INERTIA_FROM_FILE against the file", t.text,
+                                match(res, probe, probe.groups)))
     return out
 
 
@@ -267,7 +290,7 @@ def uncompared(res: CheckResult) -> list[Uncompared]:
                 "Pinocchio reads no actuators; MuJoCo's and Drake's gears are listed in the report, not compared")
         out.append(Uncompared(line, kind))
     for r in res.readings.values():
-        if not r.loaded:
+        if not r.loaded and not r.other_format:
             known = match_refusal(res, r.loader)
             out.append(Uncompared(f"{r.loader}'s reading", f"it does not load the file: {r.refusal}"
                                   + (f" (known: {known.id}; workaround: {known.workaround})" if known else "")))
@@ -313,4 +336,4 @@ def witness_line(res: CheckResult) -> str:
 
 
 def loaders_loaded(res: CheckResult) -> list[str]:
-    return [k for k in LOADERS if res.readings[k].loaded]
+    return [k for k in LOADERS if k in res.readings and res.readings[k].loaded]

@@ -272,16 +272,19 @@ def vote(readings: dict[str, Reading], rtol: float) -> list[Vote]:
 
 
 def dynamics_odd(diffs: list[dc.TermDiff]) -> dict[str, str]:
-    """Term -> the loader the two others agree against (three loaders: exactly one pair agrees).
-    Only the loaders vote here; the witnesses are judged by ``witness_odd``."""
+    """Term -> the loader all the others agree against (three or four loaders compared pair by pair:
+    every pair without it agrees, every pair with it differs). Only the loaders vote here; the
+    witnesses are judged by ``witness_odd``."""
     out = {}
     for term in dc.TERMS:
         rows = [d for d in diffs if d.term == term and d.a in LOADERS and d.b in LOADERS]
         sources = {s for d in rows for s in (d.a, d.b)}
-        ok = [d for d in rows if d.passed]
-        if len(sources) == 3 and len(rows) == 3 and len(ok) == 1:
-            (odd,) = sources - {ok[0].a, ok[0].b}
-            out[term] = odd
+        n = len(sources)
+        if n < 3 or len(rows) != n * (n - 1) // 2:
+            continue
+        for odd in sources:
+            if all(d.passed != (odd in (d.a, d.b)) for d in rows):
+                out[term] = odd
     return out
 
 

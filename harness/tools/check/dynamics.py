@@ -53,6 +53,27 @@ def _drake_table(mjr: Reading, r: Reading) -> dict | None:
             for x, j in zip(r.bodies, moving)}
 
 
+def _pybullet_table(mjr: Reading, r: Reading) -> dict | None:
+    """Joint name -> PyBullet's dof index (its movable joints in link order) for
+    ``dynamics_terms.pybullet_terms``; None (with ``r.dynamics`` saying why) when its joints are not
+    MuJoCo's, or the base floats (``calculateInverseDynamics`` and ``calculateMassMatrix`` of a floating
+    base put its 6 dofs in PyBullet's own base coordinates, at the centre of mass: not mapped), or a joint
+    is neither a hinge nor a slide."""
+    # the base's dofs are PyBullet's own (its inertial frame); only a fixed base is mapped
+    kinds = {x.joint: x.kind for x in r.bodies}
+    why = _joint_set_problem(mjr, kinds, r)
+    if not why and not r.model.fixed_base:
+        why = ("a floating base: the 6 base dofs of PyBullet's calculateMassMatrix and calculateInverseDynamics are "
+               "not mapped to the common coordinates yet (a fixed base is compared)")
+    odd = [n for n, k in kinds.items() if JOINTS.get(k) is None or JOINTS[k].nq != 1]
+    if not why and odd:
+        why = f"joints {', '.join(odd)} are neither hinges nor slides, whose PyBullet coordinates are not mapped"
+    if why:
+        r.dynamics = why
+        return None
+    return {x.joint: k for k, x in enumerate(r.bodies)}
+
+
 def _whole_trees(mjr: Reading, missing: list[str]) -> list[str]:
     """The root bodies of MuJoCo's kinematic trees (bodies on the world) that hold ``missing``
     joints, when every joint of those trees is missing (whole trees); else []."""

@@ -3,7 +3,7 @@
 The table is ``known_limitations.toml`` next to this module (one ``[[limitation]]`` per entry):
 
 * ``id``: kebab-case, unique; ``loaders``: the importers that read the element this way (MuJoCo,
-  Pinocchio, Drake); ``format``: ``MJCF`` or ``URDF``; ``versions``: per loader, the versions it
+  Pinocchio, Drake, PyBullet); ``format``: ``MJCF`` or ``URDF``; ``versions``: per loader, the versions it
   was verified on, ``"4.1.0"`` or an inclusive range ``"3.4.0 - 4.1.0"``;
 * ``element``: the file element that triggers it; ``behaviour``: what the importer does;
   ``quantities``: the compared quantities it changes (``harness.tools.check.comparing.QUANTITIES``,
@@ -414,6 +414,34 @@ def explain_refusal(path: Path, loader: str, version: str) -> Limitation | None:
     return match_refusal(res, loader)
 
 
+def _pybullet_inertia_default(res, vote, entry) -> bool:
+    """PyBullet, loaded a second time without ``URDF_USE_INERTIA_FROM_FILE``, reads another inertia for
+    the vote's joint than with the flag (``Reading.inertia_trap``), and the URDF states an ``<inertia>``."""
+    r = res.readings.get("PyBullet")
+    if r is None or not any(t.joint == vote.joint for t in r.inertia_trap):
+        return False
+    return any(e.tag == "inertia" for e in elements(r.source))
+
+
+def _pybullet_products_of_inertia(res, vote, entry) -> bool:
+    """A link merged into the vote's joint body in PyBullet's reading whose URDF ``<inertia>`` states a
+    non-zero product of inertia (PyBullet diagonalizes it)."""
+    r = res.readings.get("PyBullet")
+    body = next((x for x in r.bodies if x.joint == vote.joint), None) if r is not None and r.loaded else None
+    if body is None:
+        return False
+    names = {p.name for p in body.parts}
+    els = elements(r.source)
+    for i, e in enumerate(els):
+        if e.tag != "link" or e.attrs.get("name") not in names:
+            continue
+        for t in els:
+            if (t.tag == "inertia" and t.parent >= 0 and els[t.parent].tag == "inertial" and els[t.parent].parent == i
+                    and any(float(t.attrs.get(k, "0")) != 0.0 for k in ("ixy", "ixz", "iyz"))):
+                return True
+    return False
+
+
 def _dynamics_armature(res, vote, entry) -> bool:
     """M differs by exactly an armature on its diagonal (a ``dynamics armature`` finding, ``harness.tools.check.causes``)."""
     return any(f.kind == "dynamics armature" for f in res.findings)
@@ -422,6 +450,8 @@ def _dynamics_armature(res, vote, entry) -> bool:
 DETECTORS = {
     "singular_moving_inertia": _singular_moving_inertia,
     "dynamics_armature": _dynamics_armature,
+    "pybullet_inertia_default": _pybullet_inertia_default,
+    "pybullet_products_of_inertia": _pybullet_products_of_inertia,
     "massless_moving_link": _massless_moving_link,
     "default_geom_mass": _default_geom_mass,
     "visual_geom_mass": _visual_geom_mass,

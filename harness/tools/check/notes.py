@@ -36,7 +36,7 @@ def _first_tree_note(readings: dict[str, Reading]) -> list[str]:
 
 def importer_notes(readings: dict[str, Reading]) -> list[str]:
     """What the importers do differently beyond the compared quantities (not counted as failures)."""
-    mjr, pinr, drr = (readings[k] for k in LOADERS)
+    mjr, pinr, drr = (readings[k] for k in LOADERS[:3])
     m, mj_file = mjr.model, mjr.source
     notes = []
     if pinr.loaded:

@@ -1,4 +1,4 @@
-"""Reading a model file in the three loaders (MuJoCo, Pinocchio, Drake): the file checks, the copies the
+"""Reading a model file in the four loaders (MuJoCo, Pinocchio, Drake, PyBullet for a URDF): the file checks, the copies the
 loaders read (geometry stripped, inertials frozen, names given), the joint map between an MJCF and a URDF,
 and ``load_models``, every loader's ``Reading`` of the file(s)."""
 
@@ -29,6 +29,10 @@ from harness.model.from_model_file import add_root_joint
 from harness.model.joints import FREE, JOINTS, by_pinocchio
 from harness.tools.loaded_models import (
     DrakeRefusal,
+    PyBulletRefusal,
+    load_pybullet,
+    pybullet_joint_bodies,
+    pybullet_joint_details,
     check_joint_bodies_physical,
     drake_gravity,
     drake_joint_bodies,
@@ -42,7 +46,7 @@ from harness.tools.loaded_models import (
     pinocchio_joint_slots,
     pinocchio_split_joint_bodies,
 )
-from harness.tools.check.results import Reading
+from harness.tools.check.results import SAME_FILE_RTOL, InertiaTrap, Reading
 
 
 # --------------------------------------------------------------------------- loading any file
@@ -617,8 +621,8 @@ def load_models(mjcf: Path | None, urdf: Path | None, *, floating_base: bool = F
         check_model_file(path, allowed_dirs)
     if joint_map and (mjcf is None or urdf is None):
         raise InputError("--joint-map and --map rename the URDF's joints to the MJCF's: they need both --mjcf and --urdf")
-    mode = {(True, True): "MJCF -> MuJoCo, URDF -> Pinocchio and Drake",
-            (False, True): "URDF -> MuJoCo, Pinocchio and Drake",
+    mode = {(True, True): "MJCF -> MuJoCo, URDF -> Pinocchio, Drake and PyBullet",
+            (False, True): "URDF -> MuJoCo, Pinocchio, Drake and PyBullet",
             (True, False): "MJCF -> MuJoCo, Pinocchio and Drake"}[(mjcf is not None, urdf is not None)]
     root = FREE.name if floating_base else "none"
     # Parse and check the file-level inertials first, so that every bad value gets the same message.
@@ -938,13 +942,83 @@ def _load_readings(mj_file: Path, other_file: Path, tmp: Path, *, root: str, str
         drr.model, drr.parser = load, load.warnings
         drr.bodies, drr.details, drr.gravity = drake_joint_bodies(load), drake_joint_details(load), drake_gravity(load)
         notes += [f"Drake: {n}" for n in load.notes]
+    pbr = _pybullet_reading(other_file, other_read, tmp, root=root, rtol=SAME_FILE_RTOL)
+    notes += [f"PyBullet: {n}" for n in _pybullet_notes(pbr)]
     if copy is not None:
         copies += copy.changes
-    readings = {r.loader: r for r in (mjr, pinr, drr)}
-    if not pinr.loaded and not drr.loaded:
+    readings = {r.loader: r for r in (mjr, pinr, drr, pbr)}
+    if not pinr.loaded and not drr.loaded and not pbr.loaded:
         raise InputError(f"{other_file}: only MuJoCo loads the model, nothing to compare it with: "
-                         + "; ".join(f"{r.loader}: {r.refusal}" for r in (pinr, drr)))
+                         + "; ".join(f"{r.loader}: {r.refusal}" for r in (pinr, drr, pbr)))
     return readings, notes, copies
+
+
+#: What PyBullet does without URDF_USE_INERTIA_FROM_FILE to a link without collision shapes (measured,
+#: PyBullet 3.2.7: a stripped copy of ur5_robot.urdf): a diagonal inertia of mass x 6.667e-7 m^2, as of a
+#: solid cube 2 mm across, whatever the file states.
+NO_COLLISION_INERTIA = "mass x 6.67e-7 m^2 on the diagonal, a 2 mm cube's"
+
+
+def _pybullet_reading(other_file: Path, other_read: Path, tmp: Path, *, root: str, rtol: float) -> Reading:
+    """PyBullet's reading of the URDF (or its copy ``other_read``) with ``URDF_USE_INERTIA_FROM_FILE``, and
+    the file as written (its collision shapes, where PyBullet finds their meshes; else the copy) loaded
+    a second time without the flag, PyBullet's default (``Reading.inertia_trap``, ``Reading.trap``); a
+    refusal in one line for what PyBullet does not load (an MJCF, a missing mesh)."""
+    from harness.tools.loaded_models import _pybullet
+
+    _pybullet()   # imported quietly (it prints its build time on import)
+    r = Reading("PyBullet", other_file, engine_version("pybullet"))
+    try:
+        load = load_pybullet(other_read, root_joint=root)
+    except PyBulletRefusal as err:
+        r.refusal = _one_line(str(err).replace(str(tmp), ""))
+        r.other_format = file_format(other_read) != "URDF"
+        return r
+    r.model, r.parser = load, load.warnings
+    r.bodies, r.details = pybullet_joint_bodies(load), pybullet_joint_details(load)
+    odd = [x for x in r.bodies if x.kind not in JOINTS]
+    if odd:   # a URDF planar or floating joint: PyBullet's own kind, which the check does not map
+        r.refusal = (f"joint {odd[0].joint!r} of {odd[0].kind} cannot be compared between engines ({supported_joints()})")
+        r.model, r.parser, r.bodies, r.details = None, (), [], []
+        return r
+    r.gravity = None   # a URDF states no gravity; PyBullet's default is zero: not compared (module docstring)
+    bare = ""
+    try:
+        default = load_pybullet(other_file, root_joint=root, inertia_from_file=False)
+    except PyBulletRefusal as err:
+        if other_read == other_file:
+            r.trap = f"not loaded without the flag: {_one_line(err)}"
+            return r
+        default = load_pybullet(other_read, root_joint=root, inertia_from_file=False)
+        bare = (f" (the file as written does not load in PyBullet, {_one_line(err)}; read without geometry: no collision "
+                f"shape, so PyBullet gives each link {NO_COLLISION_INERTIA})")
+    with_flag = {x.joint: x for x in r.bodies}
+    for x in pybullet_joint_bodies(default):
+        y = with_flag.get(x.joint)
+        if y is None or y.mass <= 0:
+            continue
+        scale = max(float(np.abs(y.I_Cm_B).max()), 1e-300)
+        if float(np.abs(x.I_Cm_B - y.I_Cm_B).max()) > rtol * scale:
+            r.inertia_trap.append(InertiaTrap(x.joint, x.body, y.mass, y.I_Cm_B, x.I_Cm_B))
+    n = len(r.inertia_trap)
+    r.trap = (f"loaded again without URDF_USE_INERTIA_FROM_FILE from {other_file.name} as written{bare}: "
+              + (f"{n} of {len(r.bodies)} joints' bodies get another inertia" if n else "the same inertias"))
+    return r
+
+
+def _pybullet_notes(r: Reading) -> list[str]:
+    """PyBullet's importer warnings (one line each, counted) and what its second load found."""
+    notes = []
+    if r.loaded and r.parser:
+        said = [ln for ln in r.parser if not ln.startswith("b3Warning[") and not ln.startswith("b3Printf")]
+        if said:
+            notes.append(f"its importer warned {len(said)} time(s): " + "; ".join(list(dict.fromkeys(said))[:6]))
+    if r.trap:
+        notes.append(r.trap)
+    if r.loaded:
+        notes.append("a URDF states no gravity and PyBullet's default is zero (its users call setGravity): gravity is "
+                     "not compared; its dynamics terms use MuJoCo's")
+    return notes
 
 
 def _with_lost(err: InputError, frozen: GeomInertials | None, copy: bool = False) -> InputError:

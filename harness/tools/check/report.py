@@ -43,10 +43,13 @@ def verdict(res: CheckResult) -> str:
     for key, group in c.groups():
         parts.append(f"{IMPORTER}: {_group_text(group)}")
     if not parts:
-        parts.append(f"{CONSISTENT}: {' and '.join(loaders_loaded(res))} agree on {c.agreeing} compared quantities "
+        parts.append(f"{CONSISTENT}: {_who(loaders_loaded(res))} agree on {c.agreeing} compared quantities "
                      "and terms")
     if c.uncompared:
         parts.append(f"{NOT_COMPARED}: " + _few([u.what for u in c.uncompared], 3))
+    if c.trap:
+        parts.append(f"PyBullet's inertia trap: without URDF_USE_INERTIA_FROM_FILE, other inertias on {len(c.trap)} "
+                     f"joint(s)" + (f" (known: {c.trap[0].limitation.id})" if c.trap[0].limitation else " (unexplained)"))
     return "; ".join(parts)
 
 
@@ -68,13 +71,26 @@ def _fix_text(group) -> str:
             "(the report has the figures)")
 
 
-def top_findings(res: CheckResult) -> list[tuple[str, str]]:
+def top_findings(res: CheckResult, trap: bool = True) -> list[tuple[str, str]]:
     """(what, what to do) of every finding, in the order a user acts on them: the defects with
     their fix, then the importer disagreements (unexplained first: report upstream; then the known
-    limitations with their workaround)."""
+    limitations with their workaround); ``trap=False``: without PyBullet's inertia trap (``trap_line``)."""
     c = res.classes
     return ([(d.short, f"fix: {d.fix}") for d in c.defects]
-            + [(_group_text(g), _fix_text(g)) for _, g in c.groups()])
+            + [(_group_text(g), _fix_text(g)) for _, g in c.groups()]
+            + ([(_group_text(c.trap), _fix_text(c.trap))] if trap and c.trap else []))
+
+
+def trap_line(res: CheckResult) -> str:
+    """PyBullet's inertia trap in one line of the summary ("" when PyBullet reads the file's inertias
+    without ``URDF_USE_INERTIA_FROM_FILE`` too, or does not load the file)."""
+    g = res.classes.trap
+    if not g:
+        return ""
+    n = len(g)
+    lim = g[0].limitation
+    known = "known trap" if lim is not None else "unexplained at this version"
+    return f"PyBullet without URDF_USE_INERTIA_FROM_FILE (its default) reads other inertias on {n} joint(s): {known}"
 
 
 WIDTH = 120   # characters of a terminal line
@@ -91,7 +107,7 @@ def summary_lines(res: CheckResult, report: Path | str | None = None) -> list[st
     c = res.classes
     lines = _wrapped(f"{res.name}: {c.file_class.upper()} ({res.mode}, {res.base} base)", "", "  ")
     lines += _wrapped(c.counts_line(), "  ", "    ")
-    items = top_findings(res)
+    items = top_findings(res, trap=False)
     for k, (what, fix) in enumerate(items[:3], 1):
         lines += _wrapped(what, f"  {k}. ", "     ")
         lines += _wrapped(fix, "     ", "       ")
@@ -100,6 +116,7 @@ def summary_lines(res: CheckResult, report: Path | str | None = None) -> list[st
     follow = len(c.disagreements) - len(c.importer)
     if follow:
         lines += _wrapped(f"{follow} loader disagreement(s) follow from the defect(s) above", "  ", "    ")
+    lines += _wrapped(trap_line(res), "  ", "    ") if trap_line(res) else []
     if c.uncompared:
         lines += _wrapped(f"{NOT_COMPARED}: " + _few([u.what for u in c.uncompared], 3), "  ", "    ")
     for refusal in res.refusals:
@@ -161,10 +178,10 @@ def render_report(res: CheckResult, command: str) -> str:
     loaded = [r.loader for r in res.readings.values() if r.loaded]
     L += ["", "### Which loaders agree", "",
           f"Per joint and quantity, among the loaders that read the file ({', '.join(loaded)}): `=` all agree (with the "
-          "loaders in brackets when not all of them read it); a loader's name in bold: **the odd one out**, the one the two "
+          "loaders in brackets when not all of them read it); a loader's name in bold: **the odd one out**, the one all the "
           "others agree against; **differ**: no majority; empty: the quantity does not apply (e.g. no axis on a free "
           f"joint). Tolerance: relative {res.settings.get('rtol_model')} (lengths against the body's size, at least "
-          "1 mm). The odd one out reads the file differently from the two others: usually the importer that is wrong, "
+          "1 mm). The odd one out reads the file differently from all the others: usually the importer that is wrong, "
           "but the file decides (e.g. only MuJoCo honours `<compiler settotalmass>`).", "",
           "| joint | body | present | " + " | ".join(_CELL_QUANTITIES) + " |",
           "|---|---|---|" + "---|" * len(_CELL_QUANTITIES)]
@@ -207,7 +224,8 @@ def render_report(res: CheckResult, command: str) -> str:
     L += ["", "## Dynamics terms at random states", "",
           f"{res.settings.get('states')} seeded random states (hinge angles within MuJoCo's limits where limited, rates "
           "~N(0, 1)); M(q), C(q,v)v and g(q) from MuJoCo `mj_fullM`/`qfrc_bias`, Pinocchio `crba`/`nonLinearEffects`/"
-          "`computeGeneralizedGravity`, Drake `CalcMassMatrix`/`CalcBiasTerm`/`CalcGravityGeneralizedForces`, in "
+          "`computeGeneralizedGravity`, Drake `CalcMassMatrix`/`CalcBiasTerm`/`CalcGravityGeneralizedForces`, PyBullet `calculateMassMatrix`/"
+          "`calculateInverseDynamics` (zero accelerations; zero velocities too for gravity), in "
           f"common coordinates; sources compared: {', '.join(sources) or 'none'}. Relative = max abs difference / "
           "largest entry.", ""]
     L += [f"- {r.loader} not compared: {r.dynamics}" for r in res.readings.values() if r.loaded and r.dynamics]
@@ -223,7 +241,7 @@ def render_report(res: CheckResult, command: str) -> str:
     for loader in LOADERS:
         terms = [t for t, k in odd_terms.items() if k == loader]
         if terms:
-            L += ["", f"{loader} is the odd one out in {', '.join(terms)} (the two others agree)."]
+            L += ["", f"{loader} is the odd one out in {', '.join(terms)} (the others agree)."]
     for label, terms in witness_odd(res.dynamics + w_dyn).items():
         L += ["", f"{label} is the odd one out in {', '.join(terms)} (MuJoCo, whose reading it was built from, agrees "
               "with another loader)."]
@@ -292,6 +310,16 @@ def verdict_section(res: CheckResult) -> list[str]:
         L += [f"  - {x.text}" for x in group]
     if not groups:
         L.append("- none")
+    if c.trap:
+        lim = c.trap[0].limitation
+        L += ["", "PyBullet's inertia trap: the URDF loaded a second time in PyBullet without `URDF_USE_INERTIA_FROM_FILE` "
+              "(`loadURDF`'s default), against its reading with the flag (the file's; that reading is the one compared "
+              "above). Not a disagreement between the loaders: what a PyBullet user gets who does not pass the flag.", ""]
+        L.append(f"- known **{lim.id}** (PyBullet {lim.versions.get('PyBullet', '')}): PyBullet {lim.behaviour}. "
+                 f"Workaround: {lim.workaround}." + (f" Upstream: {lim.upstream}." if lim.upstream else "")
+                 if lim is not None else "- **unexplained** at this PyBullet version (the table's entry "
+                 "pybullet-urdf-inertia-from-collision-by-default names the versions it was verified on):")
+        L += [f"  - {x.text}" for x in c.trap]
     L += ["", f"### {NOT_COMPARED.capitalize()}", ""]
     L += [f"- {u.what}: {u.why}" for u in c.uncompared] or ["- nothing"]
     L += ["", "### Witnesses", "", "The in-house engine and Exudyn, built from MuJoCo's reading, never vote on the file: "

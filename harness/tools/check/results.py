@@ -25,7 +25,33 @@ TWO_FILES_RTOL = 1e-6   # when MJCF and URDF were written separately (decimals i
 
 # --------------------------------------------------------------------------- the check
 
-LOADERS = ("MuJoCo", "Pinocchio", "Drake")
+LOADERS = ("MuJoCo", "Pinocchio", "Drake", "PyBullet")
+
+
+#: The quantity of PyBullet's inertia trap (``InertiaTrap``), matched against the known limitations.
+TRAP_QUANTITY = "inertia without URDF_USE_INERTIA_FROM_FILE"
+
+
+@dataclass(frozen=True)
+class InertiaTrap:
+    """One joint's body as PyBullet reads it without ``URDF_USE_INERTIA_FROM_FILE`` (its default:
+    inertia from the collision shapes) against its reading with the flag (the file's): inertia
+    about the centre of mass in the joint's body frame (kg m^2), and the mass (kg, the file's in both)."""
+
+    joint: str
+    body: str
+    mass: float
+    file_inertia: np.ndarray
+    default_inertia: np.ndarray
+
+    @property
+    def text(self) -> str:
+        a, b = np.linalg.eigvalsh(self.file_inertia), np.linalg.eigvalsh(self.default_inertia)
+        diff = float(np.abs(self.file_inertia - self.default_inertia).max())
+        big = max(float(np.abs(self.file_inertia).max()), 1e-300)
+        return (f"joint {self.joint!r} (body {self.body!r}): principal moments [{', '.join(f'{x:.4g}' for x in b)}] "
+                f"kg m^2 without the flag, [{', '.join(f'{x:.4g}' for x in a)}] kg m^2 in the file; they differ by up "
+                f"to {diff:.3g} kg m^2 in an entry ({100 * diff / big:.3g}% of the file's largest)")
 
 
 @dataclass
@@ -55,13 +81,13 @@ class Reading:
     """One importer's reading of the model.
 
     Attributes:
-        loader: ``MuJoCo``, ``Pinocchio`` or ``Drake``; ``source``: the file it read; ``version``.
+        loader: ``MuJoCo``, ``Pinocchio``, ``Drake`` or ``PyBullet``; ``source``: the file it read; ``version``.
         refusal: why it does not load the file (one line), None when it does.
         bodies, details: per joint, the body it moves (with its merged parts) and the joint's
             point, range, damping, armature and friction loss (``harness.tools.loaded_models``:
             ``JointBody``, ``JointDetails``).
         gravity: m/s^2, world.
-        model: what it holds (``MjModel``, ``pin.Model``, ``DrakeLoad``).
+        model: what it holds (``MjModel``, ``pin.Model``, ``DrakeLoad``, ``PyBulletLoad``).
         slots: Pinocchio only: joint name -> ``PinocchioSlot`` (composite joints split).
         parser: what its parser said while loading (Drake's warnings, one line each).
         dynamics: why its dynamics terms are not compared with MuJoCo's ("" when they are).
@@ -73,6 +99,11 @@ class Reading:
             (``apply_joint_map``): name in its file -> name in the comparison.
         partial: MuJoCo's joints this loader lacks, whole kinematic trees of their own: its
             dynamics terms and free motion are compared on the other trees (``_joint_set_problem``).
+        inertia_trap: PyBullet only: the joints whose inertia PyBullet reads otherwise without
+            ``URDF_USE_INERTIA_FROM_FILE`` (``InertiaTrap``); ``trap``: what that second load read
+            and what it found, one line ("" when not loaded).
+        other_format: the loader does not read this format (PyBullet an MJCF): its refusal is shown with
+            the loads, not as a refusal nor as "not compared".
     """
 
     loader: str
@@ -90,10 +121,22 @@ class Reading:
     geom_masses: dict = field(default_factory=dict)
     names: dict = field(default_factory=dict)
     partial: list = field(default_factory=list)
+    inertia_trap: list = field(default_factory=list)
+    trap: str = ""
+    other_format: bool = False
 
     @property
     def loaded(self) -> bool:
         return self.refusal is None
+
+
+_NUMBERS = {3: "three", 4: "four"}
+
+
+def _who(loaders) -> str:
+    """``A``, ``A and B``, ``A, B and C``."""
+    loaders = list(loaders)
+    return " and ".join(loaders) if len(loaders) <= 2 else ", ".join(loaders[:-1]) + " and " + loaders[-1]
 
 
 @dataclass(frozen=True)
@@ -129,8 +172,9 @@ class Vote:
 
     @property
     def odd(self) -> str | None:
-        """The loader the two others agree against (three loaders read it, two agree), else None."""
-        if len(self.groups) == 2 and len(self.groups[0]) == 2 and len(self.groups[1]) == 1:
+        """The loader all the others agree against (three or four loaders read it: 2 vs 1, 3 vs 1),
+        else None (no majority: 2 vs 2, or no two agree)."""
+        if len(self.groups) == 2 and len(self.groups[0]) >= 2 and len(self.groups[1]) == 1:
             return self.groups[1][0]
         return None
 
@@ -143,19 +187,20 @@ class Vote:
             have = [k for k, v in self.values.items() if v == "present"]
             lack = [k for k, v in self.values.items() if v != "present"]
             if odd is not None:
-                others = " and ".join(k for k in self.values if k != odd)
+                others = _who(k for k in self.values if k != odd)
                 text = (f"{odd} is the odd one out: it has no such joint; {others} have it" if odd in lack
                         else f"{odd} is the odd one out: only it has this joint, {others} do not")
             else:
-                text = f"only in {' and '.join(have)}, not in {' and '.join(lack)}"
+                text = f"only in {_who(have)}, not in {_who(lack)}"
             return f"{who}: {text}{hint}"
         detail = f"; {self.detail}" if self.detail else ""
         if odd is not None:
-            a, b = self.groups[0]
-            return (f"{who}: {self.quantity}: {odd} is the odd one out: {self.values[odd]} where {a} and {b} read "
-                    f"{self.values[a]}{detail}{hint}")
+            a = self.groups[0][0]
+            return (f"{who}: {self.quantity}: {odd} is the odd one out: {self.values[odd]} where {_who(self.groups[0])} "
+                    f"read {self.values[a]}{detail}{hint}")
         parts = ", ".join(f"{v} in {k}" for k, v in self.values.items())
-        lead = "all three differ: " if len(self.groups) == 3 else ""
+        lead = (f"all {_NUMBERS.get(len(self.groups), len(self.groups))} differ: "
+                if len(self.groups) == len(self.values) and len(self.groups) >= 3 else "")
         return f"{who}: {self.quantity}: {lead}{parts}{detail}{hint}"
 
 
@@ -244,7 +289,8 @@ class CheckResult:
     @property
     def refusals(self) -> list[str]:
         """``"<loader>: does not load: <reason>"`` for each loader that refused the file."""
-        return [f"{r.loader}: does not load: {r.refusal}" for r in self.readings.values() if not r.loaded]
+        return [f"{r.loader}: does not load: {r.refusal}" for r in self.readings.values()
+                if not r.loaded and not r.other_format]
 
     @property
     def free_passed(self) -> bool:

@@ -17,7 +17,8 @@ from harness.model.from_model_file import add_root_joint
 from harness.model.joints import FREE
 from harness.model.scene import check_steps
 from harness.tools.check.results import CheckResult, LOADERS, Reading, SAME_FILE_RTOL, TWO_FILES_RTOL
-from harness.tools.check.dynamics import _drake_table, _pinocchio_frames, _pinocchio_table, _rigid_copy, free_motion
+from harness.tools.check.dynamics import (_drake_table, _pinocchio_frames, _pinocchio_table, _pybullet_table, _rigid_copy,
+                                          free_motion)
 from harness.tools.check.notes import _first_tree_note, importer_notes, not_compared
 from harness.tools.check.classifying import DEFECT, classify, urdf_mimics
 from harness.tools.check.defects import Defect, find_defects
@@ -81,7 +82,7 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
     res.defects = [d for d in _file_defects(files, floating_base) if not d.fatal]
     res.not_compared = not_compared(readings["MuJoCo"].model)
     res.mapped = sum(1 for k, v in readings["Pinocchio"].names.items() if k != v)
-    mjr, pinr, drr = (readings[k] for k in LOADERS)
+    mjr, pinr, drr, pbr = (readings[k] for k in LOADERS)
     m = mjr.model
     rtol = SAME_FILE_RTOL if len({r.source for r in readings.values() if r.loaded}) == 1 else TWO_FILES_RTOL
     res.votes = vote(readings, rtol)
@@ -89,8 +90,10 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
     res.notes += importer_notes(readings)
     pin_table = _pinocchio_table(mjr, pinr) if pinr.loaded else None
     drake_table = _drake_table(mjr, drr) if drr.loaded else None
+    pybullet_table = _pybullet_table(mjr, pbr) if pbr.loaded else None
     res.notes += _first_tree_note(readings)
-    lacking = {n for r, t in ((pinr, pin_table), (drr, drake_table)) if t is not None for n in r.partial}
+    lacking = {n for r, t in ((pinr, pin_table), (drr, drake_table), (pbr, pybullet_table)) if t is not None
+               for n in r.partial}
     jmap = dc.joint_map(m, pin_table, drake_table, only=[x.joint for x in mjr.bodies if x.joint not in lacking])
     states = dc.random_states(jmap, n_states, seed)
     res.settings = {"seed": seed, "states": n_states, "free_runs": n_free, "t_end": t_end, "dt": dt,
@@ -104,6 +107,9 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
         plant = drr.model.plant
         context = plant.CreateDefaultContext()
         sources["Drake"] = lambda q, v: dc.drake_terms(plant, jmap, q, v, context)
+    if pybullet_table is not None:
+        pb_load, g_mj = pbr.model, mjr.gravity
+        sources["PyBullet"] = lambda q, v: dc.pybullet_terms(pb_load, jmap, pybullet_table, q, v, g_mj)
     if witnesses:
         res.witnesses = _witnesses(res, mjr, jmap, sources)
     tick(f"{name} witnesses {'built' if witnesses else 'not asked for'}")

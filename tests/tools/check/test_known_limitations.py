@@ -15,7 +15,7 @@ def test_every_entry_is_complete_and_has_its_detector():
     table = kl.table()
     assert len(table) >= 20 and len({e.id for e in table}) == len(table)
     for e in table:
-        assert e.loaders and set(e.loaders) <= {"MuJoCo", "Pinocchio", "Drake"}, e.id
+        assert e.loaders and set(e.loaders) <= {"MuJoCo", "Pinocchio", "Drake", "PyBullet"}, e.id
         assert set(e.versions) == set(e.loaders), e.id   # a verified version for each loader it names
         assert e.format in ("MJCF", "URDF") and e.element and e.behaviour and e.workaround and e.quantities, e.id
         assert e.detect in kl.DETECTORS and e.brief and len(e.brief) < len(e.behaviour) + 1, e.id
