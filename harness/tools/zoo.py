@@ -481,6 +481,8 @@ def check_model(model: ZooModel, base: str, strip: bool, log_path: str | None = 
     row.cls = c.file_class
     row.reason = check_verdict(res)
     row.loads = {r.loader: r.refusal or "" for r in res.readings.values()}
+    if model.urdf is None and "PyBullet" in row.loads:   # an MJCF alone: PyBullet is not a loader of its format
+        row.loads["PyBullet"] = OTHER_FORMAT
     row.counts = {"defects": len(c.defects), "known": len(c.known), "unexplained": len(c.unexplained),
                   "not compared": len(c.uncompared)}
     found = top_findings(res)

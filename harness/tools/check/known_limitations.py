@@ -423,6 +423,24 @@ def _pybullet_inertia_default(res, vote, entry) -> bool:
     return any(e.tag == "inertia" for e in elements(r.source))
 
 
+def _pybullet_parts_without_inertial(res, vote) -> list[str]:
+    """The URDF links merged into the vote's joint body in PyBullet's reading that state no ``<inertial>``."""
+    r = res.readings.get("PyBullet")
+    body = next((x for x in r.bodies if x.joint == vote.joint), None) if r is not None and r.loaded else None
+    if body is None:
+        return []
+    names = {p.name for p in body.parts} | {vote.body}
+    els = elements(r.source)
+    with_inertial = {els[e.parent].attrs.get("name") for e in els if e.tag == "inertial" and e.parent >= 0}
+    return [e.attrs["name"] for e in els if e.tag == "link" and e.attrs.get("name") in names
+            and e.attrs["name"] not in with_inertial]
+
+
+def _pybullet_missing_inertial(res, vote, entry) -> bool:
+    """A URDF link merged into the vote's joint body that states no ``<inertial>`` (PyBullet gives it 1 kg)."""
+    return bool(_pybullet_parts_without_inertial(res, vote))
+
+
 def _pybullet_products_of_inertia(res, vote, entry) -> bool:
     """A link merged into the vote's joint body in PyBullet's reading whose URDF ``<inertia>`` states a
     non-zero product of inertia (PyBullet diagonalizes it)."""
@@ -431,6 +449,8 @@ def _pybullet_products_of_inertia(res, vote, entry) -> bool:
     if body is None:
         return False
     names = {p.name for p in body.parts}
+    if _pybullet_parts_without_inertial(res, vote):   # PyBullet's 1 kg default explains it, not the rounding
+        return False
     els = elements(r.source)
     for i, e in enumerate(els):
         if e.tag != "link" or e.attrs.get("name") not in names:
@@ -448,6 +468,7 @@ def _dynamics_armature(res, vote, entry) -> bool:
 
 
 DETECTORS = {
+    "pybullet_missing_inertial": _pybullet_missing_inertial,
     "singular_moving_inertia": _singular_moving_inertia,
     "dynamics_armature": _dynamics_armature,
     "pybullet_inertia_default": _pybullet_inertia_default,

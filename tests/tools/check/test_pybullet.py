@@ -131,3 +131,19 @@ def test_an_mjcf_is_not_pybullets_format_and_the_three_compare_as_before(tmp_pat
     assert not r.loaded and r.other_format and "compared on a URDF only" in r.refusal
     assert not res.refusals and not any("PyBullet" in u.what for u in res.classes.uncompared)
     assert res.passed and all(set(v.values) <= {"MuJoCo", "Pinocchio", "Drake"} for v in res.votes)
+
+
+def test_a_link_without_inertial_weighs_1_kg_in_pybullet_a_known_limitation(tmp_path):
+    """A tool flange on a fixed joint with no <inertial>: MuJoCo, Pinocchio and Drake read no mass,
+    PyBullet 1 kg with a unit inertia; the disagreement is matched to its entry, none unexplained."""
+    flange = ('  <joint name="tool" type="fixed"><parent link="box"/><child link="flange"/><origin xyz="0 0 0.3"/></joint>\n'
+              '  <link name="flange"/>\n</robot>')
+    path = tmp_path / "box.urdf"
+    path.write_text(BOX.replace("</robot>", flange))
+    res = run_check(None, path, n_states=1, n_free=0, witnesses=False)
+    (mass,) = [v for v in res.votes if v.quantity == "mass" and not v.agree]
+    assert mass.odd == "PyBullet" and mass.values["PyBullet"] == "3 kg" and mass.values["MuJoCo"] == "2 kg"
+    c = res.classes
+    assert not c.unexplained and not c.defects
+    assert {d.limitation.id for d in c.known} >= {"pybullet-urdf-missing-inertial-one-kg"}
+    assert all(d.limitation.id == "pybullet-urdf-missing-inertial-one-kg" for d in c.known if d.quantity == "mass")
