@@ -573,9 +573,9 @@ def _quiet_native():
 
 
 def _pybullet():
-    with _quiet_native():
-        import pybullet
-    return pybullet
+    from harness.engines.pybullet.model import pybullet_module
+
+    return pybullet_module()
 
 
 @dataclass

@@ -33,7 +33,7 @@ from dataclasses import replace
 import numpy as np
 
 from harness.engines.base import Integrator, RunSettings, check_settings, integrator_table, maximal_blowup
-from harness.engines.pybullet.model import MAX_JOINT_VELOCITY, Server, build
+from harness.engines.pybullet.model import MAX_JOINT_VELOCITY, Server, build, pybullet_module
 from harness.measure.trajectory import SampleBuffer, Trajectory, unsupported
 from harness.model import rotations
 from harness.model.joints import JOINTS, TRANSLATIONAL
@@ -62,7 +62,7 @@ class PyBulletEngine:
             read_urdf(scene.urdf, scene.urdf_root_joint, client)
 
     def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
-        import pybullet as p
+        p = pybullet_module()
 
         check_settings(settings, self.integrators, self.name)
         model = scene.multibody()
@@ -124,7 +124,7 @@ def _reaction(pm, model, body, k: int, buf: SampleBuffer) -> tuple[np.ndarray, n
     spring's force, which an ideal joint's reaction has none of). Read after the step that
     follows the sample: the sensor holds the articulated-body solve at that step's start state,
     the sample's."""
-    import pybullet as p
+    p = pybullet_module()
 
     i = model.body_names.index(body.name)
     F = np.asarray(p.getJointState(pm.body, pm.links[body.name], physicsClientId=pm.client)[2], dtype=float)
@@ -160,7 +160,7 @@ def _describe(settings: RunSettings, scene: Scene, pm, solver: dict) -> str:
 def _read(pm, model, k: int, buf: SampleBuffer) -> str:
     """Fill sample ``k`` of ``buf`` (centre-of-mass position and velocity, body orientation,
     world angular velocity); return why the state is a blow-up, or ""."""
-    import pybullet as p
+    p = pybullet_module()
 
     c = pm.client
     links = [pm.links[b.name] for b in model.bodies if pm.links[b.name] >= 0]

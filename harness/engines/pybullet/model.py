@@ -36,6 +36,9 @@ the parent's inertial frame. Units SI; PyBullet's quaternions are ``xyzw``.
 
 from __future__ import annotations
 
+import os
+import sys
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -51,10 +54,24 @@ from harness.model.multibody import Multibody
 MAX_JOINT_VELOCITY = 1e6
 
 
-def _pybullet():
-    import pybullet
-
+def pybullet_module():
+    """``pybullet``, imported with its build banner ("pybullet build time: ...", printed by its C
+    code on file descriptor 1 at import) kept off the output."""
+    if "pybullet" in sys.modules:
+        return sys.modules["pybullet"]
+    sys.stdout.flush()
+    saved, devnull = os.dup(1), os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        import pybullet
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
     return pybullet
+
+
+_pybullet = pybullet_module
 
 
 def joint_kind(code: int) -> str:
