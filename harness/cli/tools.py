@@ -63,9 +63,9 @@ def add_parsers(sub) -> None:
     d.add_argument("--models-dir", type=_models_dir, metavar="DIR", help=MODELS_DIR_HELP)
     add_per_state(d)
 
-    c = sub.add_parser("check", help="read a model (MJCF and/or URDF) with MuJoCo, Pinocchio and Drake; name the odd one "
+    c = sub.add_parser("check", help="read a model (MJCF and/or URDF) with MuJoCo, Pinocchio, Drake (and PyBullet: a URDF); name the odd one "
                                      "out; write a report",
-                       description="Load a model with three importers (MuJoCo, Pinocchio, Drake); find the defects "
+                       description="Load a model with MuJoCo, Pinocchio and Drake (and a URDF with PyBullet); find the defects "
                                    "of the file itself (element, line, fix); per joint and quantity say which importers "
                                    "agree, name the odd one out and match it against the known importer limitations; "
                                    "compare the dynamics terms at random states and MuJoCo's free motion against "
