@@ -264,6 +264,13 @@ def version(name: str) -> str:
     d = declaration(name)
     if not d.library:
         return ""
+    if d.distribution:   # the distribution's own record: no import (PyBullet's prints a banner; pydrake has no __version__)
+        from importlib.metadata import PackageNotFoundError, version as dist_version
+
+        try:
+            return dist_version(d.distribution)
+        except PackageNotFoundError:
+            pass
     value = getattr(importlib.import_module(d.library), "__version__", None)
     if value:
         return str(value)

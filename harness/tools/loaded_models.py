@@ -578,6 +578,12 @@ def _pybullet():
     return pybullet_module()
 
 
+def connect_direct() -> int:
+    from harness.engines.pybullet.model import connect_direct as connect
+
+    return connect()
+
+
 @dataclass
 class PyBulletLoad:
     """A URDF as PyBullet holds it: its server (``client``, DIRECT mode, disconnected when this
@@ -625,7 +631,7 @@ def load_pybullet(path, *, root_joint: str = "none", inertia_from_file: bool = T
         raise PyBulletRefusal(f"a {root_joint} root joint is not supported for PyBullet")
     p = _pybullet()
     with _quiet_native() as said:
-        client = p.connect(p.DIRECT)
+        client = connect_direct()
         try:
             flags = p.URDF_USE_INERTIA_FROM_FILE if inertia_from_file else 0
             body = p.loadURDF(str(path), useFixedBase=root_joint != FREE.name, useMaximalCoordinates=False,

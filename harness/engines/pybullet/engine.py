@@ -39,10 +39,16 @@ from harness.model import rotations
 from harness.model.joints import JOINTS, TRANSLATIONAL
 from harness.model.scene import Scene
 
+#: Substeps of ``semi_implicit_euler_16``: PyBullet stepped at dt / 16, 16 steps per step of the run.
+SUBSTEPS = 16
+
 METHODS = integrator_table(
     Integrator("semi_implicit_euler", "fixed", 1, 1,
                "PyBullet stepSimulation: semi-implicit (symplectic) Euler on the btMultiBody's joint coordinates, "
                "order 1; its sequential-impulse constraint solver idle (no contact, limits or motors)"),
+    Integrator("semi_implicit_euler_16", "fixed", 1, SUBSTEPS,
+               f"the same, stepped at dt/{SUBSTEPS} ({SUBSTEPS} steps per step of the run, as PyBullet users set a "
+               "smaller fixedTimeStep or numSubSteps): order 1 in dt, its error 16 times smaller"),
 )
 
 
@@ -71,9 +77,10 @@ class PyBulletEngine:
         start = time.perf_counter()
         if self.name in scene.not_run:  # the scene says why PyBullet does not run it (its [not_run])
             return unsupported(self.name, method, names, f"{method}: {scene.not_run[self.name]}")
+        sub = SUBSTEPS if method.endswith(f"_{SUBSTEPS}") else 1
         with Server() as client:
             try:
-                pm = build(scene, model, client, settings.dt)
+                pm = build(scene, model, client, settings.dt / sub)
             except NotImplementedError as err:
                 return unsupported(self.name, method, names, f"{method}: {err}")
             n = settings.n_saves + 1
@@ -95,7 +102,7 @@ class PyBulletEngine:
             t0 = time.perf_counter()
             for k in range(n):
                 if k > 0:  # with reactions, the interval's first step was taken to read sample k - 1's
-                    step(settings.steps_per_save - (1 if jointed else 0))
+                    step(settings.steps_per_save * sub - (1 if jointed else 0))
                 reason = _read(pm, model, k, buf)
                 if reason:
                     status, message = "blowup", f"{reason} at t = {k * settings.save_every:.6g} s"
@@ -106,8 +113,9 @@ class PyBulletEngine:
                         react[b.name][0][k], react[b.name][1][k] = _reaction(pm, model, b, k, buf)
                 saved = k + 1
             solver = p.getPhysicsEngineParameters(physicsClientId=client)
-        stats = {"steps": max(saved - 1, 0) * settings.steps_per_save + (1 if react and saved else 0), "wall_s": time.perf_counter() - start,
-                 "wall_integrate_s": time.perf_counter() - t0, "settings": _describe(settings, scene, pm, solver)}
+        stats = {"steps": max(saved - 1, 0) * settings.steps_per_save * sub + (1 if react and saved else 0),
+                 "wall_s": time.perf_counter() - start, "wall_integrate_s": time.perf_counter() - t0,
+                 "settings": _describe(settings, scene, pm, solver, sub)}
         traj = buf.trajectory(self.name, method, names, settings.save_every, saved, stats, status, message)
         traj = replace(traj, engine_energy={})  # PyBullet reports no system energy
         if react:
@@ -147,11 +155,12 @@ def _reaction(pm, model, body, k: int, buf: SampleBuffer) -> tuple[np.ndarray, n
     return f, m
 
 
-def _describe(settings: RunSettings, scene: Scene, pm, solver: dict) -> str:
+def _describe(settings: RunSettings, scene: Scene, pm, solver: dict, sub: int = 1) -> str:
     from harness.engines import version
 
     springs = ", joint springs as a generalised force at each step's start" if pm.springs else ""
-    return (f"PyBullet {version('pybullet')} stepSimulation: semi-implicit Euler, fixed step {settings.dt:g} s, "
+    step = f"fixed step {settings.dt:g} s" if sub == 1 else f"fixed step {settings.dt / sub:g} s ({sub} per step of {settings.dt:g} s)"
+    return (f"PyBullet {version('pybullet')} stepSimulation: semi-implicit Euler, {step}, "
             f"btMultiBody (Featherstone, reduced coordinates) from {scene.urdf.name} (inertia from the file), "
             f"constraint solver {solver.get('numSolverIterations', '?')} iterations (idle: no contact, limits or motors), "
             f"damping 0, maxJointVelocity {MAX_JOINT_VELOCITY:g}{springs}")

@@ -59,11 +59,15 @@ def pybullet_module():
     code on file descriptor 1 at import) kept off the output."""
     if "pybullet" in sys.modules:
         return sys.modules["pybullet"]
+    import ctypes
+
     sys.stdout.flush()
     saved, devnull = os.dup(1), os.open(os.devnull, os.O_WRONLY)
     try:
         os.dup2(devnull, 1)
         import pybullet
+
+        ctypes.CDLL(None).fflush(None)   # its C output is buffered: flushed here, into /dev/null
     finally:
         os.dup2(saved, 1)
         os.close(saved)
@@ -72,6 +76,26 @@ def pybullet_module():
 
 
 _pybullet = pybullet_module
+
+
+def connect_direct() -> int:
+    """A new PyBullet server in DIRECT mode (no GUI): its client id. PyBullet's C code prints its
+    build banner on the first connection (buffered C output, flushed at exit): it is flushed here
+    into /dev/null, off the output."""
+    import ctypes
+
+    p = pybullet_module()
+    sys.stdout.flush()
+    saved, devnull = os.dup(1), os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        client = p.connect(p.DIRECT)
+        ctypes.CDLL(None).fflush(None)
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
+    return client
 
 
 def joint_kind(code: int) -> str:
@@ -91,7 +115,7 @@ class Server:
     """A PyBullet physics server in DIRECT mode (``with Server() as client``), disconnected on exit."""
 
     def __enter__(self) -> int:
-        self.client = _pybullet().connect(_pybullet().DIRECT)
+        self.client = connect_direct()
         return self.client
 
     def __exit__(self, *exc) -> None:
