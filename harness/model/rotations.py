@@ -35,6 +35,16 @@ def from_matrix(R: np.ndarray) -> np.ndarray:
     return canonical(q)
 
 
+def principal_frame(I: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(moments, R)``: the principal moments (ascending) of the symmetric inertia ``I`` and a
+    proper rotation whose columns are its principal axes, in ``I``'s frame (``eigh``, the third
+    axis flipped where the eigenvectors come out left-handed)."""
+    moments, R = np.linalg.eigh(np.asarray(I, dtype=float))
+    if np.linalg.det(R) < 0:
+        R[:, 2] = -R[:, 2]
+    return moments, R
+
+
 def from_axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
     """Quaternion ``wxyz`` of a rotation by ``angle`` (rad) about ``axis`` (normalized here)."""
     axis = np.asarray(axis, dtype=float)

@@ -93,9 +93,7 @@ def ideal_urdf_options(spec: mujoco.MjSpec) -> None:
 
 def principal_axes(I: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Principal moments (ascending) and the quaternion ``wxyz`` of the principal frame."""
-    moments, axes = np.linalg.eigh(I)
-    if np.linalg.det(axes) < 0:
-        axes[:, 2] *= -1.0
+    moments, axes = rotations.principal_frame(I)
     return moments, rotations.from_matrix(axes)
 
 

@@ -41,12 +41,14 @@ from harness.model.scene import Scene
 
 #: Substeps of ``semi_implicit_euler_16``: PyBullet stepped at dt / 16, 16 steps per step of the run.
 SUBSTEPS = 16
+#: PyBullet steps per step of the run, per integrator.
+STEPS_PER_STEP = {"semi_implicit_euler": 1, f"semi_implicit_euler_{SUBSTEPS}": SUBSTEPS}
 
 METHODS = integrator_table(
     Integrator("semi_implicit_euler", "fixed", 1, 1,
                "PyBullet stepSimulation: semi-implicit (symplectic) Euler on the btMultiBody's joint coordinates, "
                "order 1; its sequential-impulse constraint solver idle (no contact, limits or motors)"),
-    Integrator("semi_implicit_euler_16", "fixed", 1, SUBSTEPS,
+    Integrator(f"semi_implicit_euler_{SUBSTEPS}", "fixed", 1, SUBSTEPS,
                f"the same, stepped at dt/{SUBSTEPS} ({SUBSTEPS} steps per step of the run, as PyBullet users set a "
                "smaller fixedTimeStep or numSubSteps): order 1 in dt, its error 16 times smaller"),
 )
@@ -77,7 +79,7 @@ class PyBulletEngine:
         start = time.perf_counter()
         if self.name in scene.not_run:  # the scene says why PyBullet does not run it (its [not_run])
             return unsupported(self.name, method, names, f"{method}: {scene.not_run[self.name]}")
-        sub = SUBSTEPS if method.endswith(f"_{SUBSTEPS}") else 1
+        sub = STEPS_PER_STEP[method]
         with Server() as client:
             try:
                 pm = build(scene, model, client, settings.dt / sub)

@@ -229,10 +229,7 @@ def _principal(I: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     I = np.asarray(I, dtype=float)
     if not np.any(I - np.diag(np.diag(I))):
         return np.diag(I).copy(), np.eye(3)
-    moments, R = np.linalg.eigh(I)
-    if np.linalg.det(R) < 0:
-        R[:, 2] = -R[:, 2]
-    return moments, R
+    return rotations.principal_frame(I)
 
 
 def _xyzw(R: np.ndarray) -> list[float]:
