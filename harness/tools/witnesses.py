@@ -60,6 +60,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from harness.judging.error_model import CONVERGES, judge_refinement
 from harness.model import kinematics, rotations
 from harness.model.errors import InputError
 from harness.model.from_model_file import ModelFile, read_compiled, zero_state
@@ -102,8 +103,6 @@ class WitnessFree:
     @property
     def passed(self) -> bool:
         """It ran, and every difference converges (falls at the methods' order, or sits at the resolution)."""
-        from harness.judging.error_model import CONVERGES
-
         return self.status == "ok" and bool(self.models) and all(e.classification == CONVERGES
                                                                  for e in self.models.values())
 
@@ -112,7 +111,7 @@ class WitnessFree:
         """One line: how the difference converges (the position's model, the worst of the three otherwise)."""
         if self.status != "ok":
             return f"not run: {self.status}"
-        bad = [e for e in self.models.values() if e.classification != "converges"]
+        bad = [e for e in self.models.values() if e.classification != CONVERGES]
         e = bad[0] if bad else self.models["position"]
         return f"{e.classification} ({e.reason})"
 
@@ -438,7 +437,6 @@ def free_motion(w: Witnesses, m: mujoco.MjModel, jmap: dc.JointMap, q0: np.ndarr
     from harness.engines.base import RunSettings
     from harness.engines.exudyn.engine import ExudynEngine
     from harness.engines.inhouse import InhouseEngine
-    from harness.judging.error_model import judge_refinement
     from harness.validate.workers import run_cases
 
     mf = w.model_file

@@ -121,7 +121,7 @@ from harness.model.joints import FREE
 from harness.model.from_model_file import add_root_joint
 from harness.tools.check import (LOADERS, compile_spec, load_pinocchio, read_mujoco_spec, render_report, run_check,
                                  strip_geometry, verdict as check_verdict)
-from harness.tools.check.classifying import CONSISTENT, DEFECT, IMPORTER
+from harness.tools.check.classifying import CONSISTENT, DEFECT, IMPORTER, DefectRefusal, KnownRefusal
 from harness.tools.check.defects import (DENSITY_RANGE, MARGIN_MIN, BodyPlausibility, mujoco_plausibility,
                                          spec_plausibility)
 from harness.tools.check.classifying import witness_line
@@ -465,13 +465,11 @@ def check_model(model: ZooModel, base: str, strip: bool, log_path: str | None = 
         row.reason = _without_path(err, model) if isinstance(err, InputError) else (
             f"the comparison diverged ({type(err).__name__}: {_one_line(err)})")
         # a defect that stops every loader is the file's class (its line names the element and the fix)
-        row.cls = DEFECT if f": {DEFECT}: " in str(err) else "refused"
-        if "(a known limitation of" in row.reason:   # MuJoCo, which every check needs, refuses a valid file
-            row.counts = {"defects": 0, "known": 1, "unexplained": 0, "not compared": 0}
-            row.top = row.reason.split("(a known limitation of ", 1)[1].rstrip(")")
-        if row.cls == DEFECT:
-            row.counts = {"defects": 1, "known": 0, "unexplained": 0, "not compared": 0}
-            row.top = row.reason.split(f"{DEFECT}: ", 1)[1]
+        row.cls = DEFECT if isinstance(err, DefectRefusal) else "refused"
+        if isinstance(err, (DefectRefusal, KnownRefusal)):   # KnownRefusal: MuJoCo, which every check needs, refuses a valid file
+            row.counts = {"defects": int(isinstance(err, DefectRefusal)), "known": int(isinstance(err, KnownRefusal)),
+                          "unexplained": 0, "not compared": 0}
+            row.top = err.finding
         row.loads, m = probe_loaders(model, floating, strip)
         row.bodies, row.bodies_from = _file_bodies(model, m)
         row.report = refused_report(row, command)

@@ -26,9 +26,12 @@ disagreement, 0 otherwise (a known limitation is reported, with its workaround, 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 
+from harness.judging.error_model import CONVERGES, NOT_JUDGED
+from harness.model.errors import InputError
 from harness.model.input_files import model_format
 from harness.tools.check.defects import Defect
 from harness.tools.check.known_limitations import Limitation, elements, match, match_refusal
@@ -49,6 +52,28 @@ UNEXPLAINED = "unexplained"
 #: The quantities a defect of a body's inertial changes, and those of a joint's axis.
 MASS_QUANTITIES = ("mass", "centre of mass", "inertia about the centre of mass")
 _DEFECT_QUANTITIES = {"zero-length axis": ("axis", "joint point")}
+
+
+class DefectRefusal(InputError):
+    """A defect of the file no loader can run (``Defect.fatal``): bad input, one line with where it
+    is, what is wrong and the fix; ``defect``, and ``finding`` (the line without where)."""
+
+    def __init__(self, defect: Defect):
+        self.defect = defect
+        self.finding = f"{defect.element}: {defect.what}; fix: {defect.fix}"
+        where = f"{defect.file}:{defect.line}" if defect.line else str(defect.file)
+        super().__init__(f"{where}: {DEFECT}: {self.finding}")
+
+
+class KnownRefusal(InputError):
+    """A loader every check needs refuses a valid file, as a known limitation explains: the
+    loader's refusal ``err`` with ``limitation`` (its id, behaviour and workaround) and ``finding``."""
+
+    def __init__(self, err: Exception, loader: str, limitation: Limitation):
+        self.limitation = limitation
+        self.finding = (f"{loader}'s importer, {limitation.id}: {limitation.brief}; workaround: "
+                        f"{limitation.brief_workaround}")
+        super().__init__(f"{err} (a known limitation of {self.finding})")
 
 
 @dataclass(frozen=True)
@@ -94,6 +119,11 @@ class Classification:
     @property
     def importer(self) -> list[Disagreement]:
         return [d for d in self.disagreements if d.status != FROM_DEFECT]
+
+    @property
+    def from_defects(self) -> list[Disagreement]:
+        """The loaders' disagreements that follow from a defect of the file."""
+        return [d for d in self.disagreements if d.status == FROM_DEFECT]
 
     @property
     def known(self) -> list[Disagreement]:
@@ -225,11 +255,11 @@ def classify(res: CheckResult) -> Classification:
     bad = [f for f in res.free if not f.passed]
     if res.free and not bad:
         out.agreeing += 1
-    elif bad and all(m.classification == "not judged" for f in bad for m in f.models.values()):
+    elif bad and all(m.classification == NOT_JUDGED for f in bad for m in f.models.values()):
         pass   # nothing to fit (no other level ran to the end): listed under not compared (``uncompared``)
     elif bad and loader_pair not in model_pairs and not any(x.element == "dynamics" for x in out.disagreements):
         f = bad[0]
-        e = next(m for m in f.models.values() if m.classification != "converges") if f.models else None
+        e = next(m for m in f.models.values() if m.classification != CONVERGES) if f.models else None
         why = f"{e.quantity}: {e.classification} ({e.reason})" if e is not None else "no run"
         out.disagreements.append(Disagreement("free motion", "free motion", ("MuJoCo", "Pinocchio"), "MuJoCo vs Pinocchio",
                                               f"free motion from state {f.state}: {why}"))
@@ -298,7 +328,7 @@ def uncompared(res: CheckResult) -> list[Uncompared]:
             out.append(Uncompared(f"{r.loader}'s dynamics terms", r.dynamics))
     if res.free_skipped:
         out.append(Uncompared("free motion", res.free_skipped))
-    unjudged = [f for f in res.free if f.models and all(m.classification == "not judged" for m in f.models.values())]
+    unjudged = [f for f in res.free if f.models and all(m.classification == NOT_JUDGED for m in f.models.values())]
     if unjudged:
         out.append(Uncompared(f"free motion from state {unjudged[0].state}",
                               next(iter(unjudged[0].models.values())).reason))
@@ -324,7 +354,7 @@ def witness_line(res: CheckResult) -> str:
         elif not runs:
             parts.append(f"{label}: no free motion")
         elif all(f.passed for f in runs):
-            orders = [m.observed_order for f in runs for m in f.models.values() if m.observed_order == m.observed_order]
+            orders = [m.observed_order for f in runs for m in f.models.values() if not math.isnan(m.observed_order)]
             parts.append(f"{label} converges" + (f" (order {min(orders):.1f})" if orders else " (at the resolution)"))
         else:
             bad = next(f for f in runs if not f.passed)

@@ -38,14 +38,13 @@ from __future__ import annotations
 
 import itertools
 import math
-import xml.parsers.expat
 from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from harness.model.input_files import model_format, read_input_bytes
+from harness.model.input_files import model_format
 from harness.model.joints import by_mujoco
 from harness.tools.check.file_elements import elements
 
@@ -185,28 +184,16 @@ def spec_plausibility(spec: mujoco.MjSpec) -> list[BodyPlausibility]:
 
 def element_lines(path: Path) -> dict[tuple[str, str], int]:
     """(tag, name) -> 1-based line of every named element of an XML file, and (tag of a child,
-    name of its named parent) -> line for the unnamed children (``inertial``, ``mass``,
-    ``inertia``, ``axis``, ``mimic``): the first of each."""
+    name of its nearest named ancestor) -> line for the unnamed children (``inertial``, ``mass``,
+    ``inertia``, ``axis``, ``mimic``): the first of each (``file_elements.elements``)."""
+    els = elements(path)
     lines: dict[tuple[str, str], int] = {}
-    stack: list[str] = []
-    parser = xml.parsers.expat.ParserCreate()
-
-    def start(tag, attrs):
-        name = attrs.get("name")
+    for e in els:
+        name, i = e.attrs.get("name"), e.parent
+        while name is None and i >= 0:
+            name, i = els[i].attrs.get("name"), els[i].parent
         if name is not None:
-            lines.setdefault((tag, name), parser.CurrentLineNumber)
-        elif stack:
-            lines.setdefault((tag, stack[-1]), parser.CurrentLineNumber)
-        stack.append(name if name is not None else (stack[-1] if stack else ""))
-
-    def end(tag):
-        stack.pop()
-
-    parser.StartElementHandler, parser.EndElementHandler = start, end
-    try:
-        parser.Parse(read_input_bytes(path, model_format(path)), True)
-    except xml.parsers.expat.ExpatError:
-        return {}
+            lines.setdefault((e.tag, name), e.line)
     return lines
 
 

@@ -368,32 +368,30 @@ def _non_obj_mesh(res, vote, entry) -> bool:
                for e in elements(_mjcf(res)))
 
 
+def _moving_link_inertials(path: Path):
+    """``(link name, mass element or None, inertia element or None)`` of every URDF link a non-fixed
+    joint moves, in the file's order (its ``<inertial>``'s ``<mass>`` and ``<inertia>``)."""
+    els = elements(path)
+    moved = {e.attrs.get("link") for e in els if e.tag == "child" and e.parent >= 0
+             and els[e.parent].tag == "joint" and els[e.parent].attrs.get("type", "fixed") != "fixed"}
+    for i, e in enumerate(els):
+        if e.tag != "link" or e.attrs.get("name") not in moved:
+            continue
+        inertial = next((j for j, x in enumerate(els) if x.tag == "inertial" and x.parent == i), None)
+        child = {x.tag: x for x in els if inertial is not None and x.parent == inertial}
+        yield e.attrs["name"], child.get("mass"), child.get("inertia")
+
+
 def _massless_moving_link(res, vote, entry) -> bool:
     """A URDF link that a non-fixed joint moves and that states no mass (no ``<inertial>``, or mass 0)."""
-    els = elements(_mjcf(res))
-    children = {e.attrs.get("link") for i, e in enumerate(els) if e.tag == "child" and e.parent >= 0
-                and els[e.parent].tag == "joint" and els[e.parent].attrs.get("type", "fixed") != "fixed"}
-    for i, e in enumerate(els):
-        if e.tag == "link" and e.attrs.get("name") in children:
-            masses = [float(m.attrs.get("value", "0")) for m in els if m.tag == "mass" and m.parent >= 0
-                      and els[m.parent].tag == "inertial" and els[m.parent].parent == i]
-            if not masses or masses[0] == 0.0:
-                return True
-    return False
+    return any(mass is None or float(mass.attrs.get("value", "0")) == 0.0
+               for _, mass, _ in _moving_link_inertials(_mjcf(res)))
 
 
 def _singular_moving_inertia(res, vote, entry) -> bool:
     """A URDF link that a non-fixed joint moves, of positive mass, with a principal moment of inertia
     below that of a body a tenth of a millimetre across (``defects.NEGLIGIBLE_LENGTH``): zero but for round-off."""
-    els = elements(_mjcf(res))
-    children = {e.attrs.get("link") for e in els if e.tag == "child" and e.parent >= 0
-                and els[e.parent].tag == "joint" and els[e.parent].attrs.get("type", "fixed") != "fixed"}
-    for i, e in enumerate(els):
-        if e.tag != "link" or e.attrs.get("name") not in children:
-            continue
-        inertial = next((j for j, x in enumerate(els) if x.tag == "inertial" and x.parent == i), None)
-        mass = next((x for x in els if x.tag == "mass" and x.parent == inertial), None) if inertial is not None else None
-        tensor = next((x for x in els if x.tag == "inertia" and x.parent == inertial), None) if inertial is not None else None
+    for _, mass, tensor in _moving_link_inertials(_mjcf(res)):
         if mass is None or tensor is None or float(mass.attrs.get("value", "0")) <= 0:
             continue
         t = {k: float(tensor.attrs.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}

@@ -3,6 +3,7 @@ prints (``summary_lines``)."""
 
 from __future__ import annotations
 
+import math
 import textwrap
 from pathlib import Path
 
@@ -10,6 +11,7 @@ import mujoco
 import numpy as np
 
 from harness.io import atomic
+from harness.judging.error_model import CONVERGES
 from harness.tools import witnesses as wit
 from harness.tools.check.classifying import (CONSISTENT, DEFECT, IMPORTER, NOT_COMPARED, loaders_loaded,
                                              witness_line)
@@ -37,9 +39,8 @@ def verdict(res: CheckResult) -> str:
         for d in c.defects:
             kinds.setdefault(d.kind, []).append(d.element)
         parts.append(f"{DEFECT}: " + "; ".join(f"{k} ({_few(els, 3)})" for k, els in kinds.items()))
-        follow = len(c.disagreements) - len(c.importer)
-        if follow:
-            parts.append(f"{follow} loader disagreement(s) follow from them")
+        if c.from_defects:
+            parts.append(f"{len(c.from_defects)} loader disagreement(s) follow from them")
     for key, group in c.groups():
         parts.append(f"{IMPORTER}: {_group_text(group)}")
     if not parts:
@@ -113,9 +114,8 @@ def summary_lines(res: CheckResult, report: Path | str | None = None) -> list[st
         lines += _wrapped(fix, "     ", "       ")
     if len(items) > 3:
         lines.append(f"  ... {len(items) - 3} more in the report")
-    follow = len(c.disagreements) - len(c.importer)
-    if follow:
-        lines += _wrapped(f"{follow} loader disagreement(s) follow from the defect(s) above", "  ", "    ")
+    if c.from_defects:
+        lines += _wrapped(f"{len(c.from_defects)} loader disagreement(s) follow from the defect(s) above", "  ", "    ")
     lines += _wrapped(trap_line(res), "  ", "    ") if trap_line(res) else []
     if c.uncompared:
         lines += _wrapped(f"{NOT_COMPARED}: " + _few([u.what for u in c.uncompared], 3), "  ", "    ")
@@ -273,10 +273,10 @@ def _models_cell(models: dict) -> str:
     """The worst class of a run pair's error models, with its order or floor."""
     if not models:
         return "not judged"
-    bad = [e for e in models.values() if e.classification != "converges"]
+    bad = [e for e in models.values() if e.classification != CONVERGES]
     e = bad[0] if bad else max(models.values(), key=lambda e: e.error / e.resolution if e.resolution > 0 else 0.0)
-    if e.classification == "converges":
-        return ("converges (at the resolution)" if not e.observed_order == e.observed_order
+    if e.classification == CONVERGES:
+        return ("converges (at the resolution)" if math.isnan(e.observed_order)
                 else f"converges (order {e.observed_order:.2f})")
     return f"**{e.classification}**: {e.quantity}, {e.reason}"
 
@@ -288,7 +288,7 @@ def verdict_section(res: CheckResult) -> list[str]:
     L = ["## Verdict", "", f"**{c.file_class}**. " + c.counts_line() + ".", ""]
     L += [f"### {DEFECT.capitalize()}", ""]
     L += [f"- `{d.where}` {d.element}: **{d.kind}**: {d.what}. Fix: {d.fix}." for d in c.defects] or ["- none"]
-    follow = [d for d in c.disagreements if d.defect is not None]
+    follow = c.from_defects
     if follow:
         L += ["", f"{len(follow)} disagreement(s) between the loaders follow from these defects (each on the body the "
               "defect is in):", ""]

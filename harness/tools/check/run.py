@@ -20,7 +20,7 @@ from harness.tools.check.results import CheckResult, LOADERS, Reading, SAME_FILE
 from harness.tools.check.dynamics import (_drake_table, _pinocchio_frames, _pinocchio_table, _pybullet_table, _rigid_copy,
                                           free_motion)
 from harness.tools.check.notes import _first_tree_note, importer_notes, not_compared
-from harness.tools.check.classifying import DEFECT, classify, urdf_mimics
+from harness.tools.check.classifying import DefectRefusal, KnownRefusal, classify, urdf_mimics
 from harness.tools.check.defects import Defect, find_defects
 from harness.tools.check.known_limitations import explain_refusal
 from harness.tools.check.reading import _one_line, load_models, read_mujoco_spec
@@ -67,13 +67,12 @@ def run_check(mjcf: Path | None, urdf: Path | None, *, seed: int = 0, n_states: 
         named = [d for d in defects if d.element.split(" ", 1)[1] in str(err)]
         fatal = next(iter(named), None) or next((d for d in defects if d.fatal), None)
         if fatal is not None:
-            where = f"{fatal.file}:{fatal.line}" if fatal.line else str(fatal.file)
-            raise InputError(f"{where}: {DEFECT}: {fatal.element}: {fatal.what}; fix: {fatal.fix}") from err
-        known = next((k for k in (explain_refusal(f, "MuJoCo", mujoco.__version__) for f in files[:1]) if k), None)
+            raise DefectRefusal(fatal) from err
+        # MuJoCo reads the first file (the MJCF where both are given)
+        known = explain_refusal(files[0], "MuJoCo", mujoco.__version__) if files else None
         if known is None:
             raise
-        raise InputError(f"{err} (a known limitation of MuJoCo's importer, {known.id}: {known.brief}; workaround: "
-                         f"{known.brief_workaround})") from err
+        raise KnownRefusal(err, "MuJoCo", known) from err
     name = Path(urdf if urdf is not None else mjcf).stem
     tick(f"{name} loaded: " + ", ".join(f"{k} {'ok' if r.loaded else 'no'}" for k, r in readings.items()))
     res = CheckResult(name, mode, "floating (free root joint 'root_joint')" if floating_base else "fixed", readings)
