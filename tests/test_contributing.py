@@ -10,7 +10,8 @@ from pathlib import Path
 import pytest
 
 from harness.engines import ENGINE_MODULES
-from harness.model.scene import available_scenes, load_scene
+from harness.model.scene import available_scenes
+from harness.engines import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 TEXT = (ROOT / "CONTRIBUTING.md").read_text()

@@ -144,10 +144,11 @@ def add_parsers(sub) -> None:
 
 
 def cmd_inspect(args) -> int:
+    from harness.engines import check_scene
     from harness.tools.inspection import inspect_scene, render
     from harness.model.scene import load_scene
 
-    scene = load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir)
+    scene = check_scene(load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir))
     require_scene_files_utf8(scene)
     result = inspect_scene(scene, n_states=args.states, seed=args.seed)
     print(render(result), end="")
@@ -155,13 +156,14 @@ def cmd_inspect(args) -> int:
 
 
 def cmd_debug(args) -> int:
+    from harness.engines import check_scene
     from harness.tools.debug import debug, parse_engines, summary, write_plot
     from harness.model.scene import check_steps, load_scene
 
     from harness.validate.run import save_interval
 
     engines = parse_engines(args.engines)
-    scene = load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir)
+    scene = check_scene(load_scene(args.scene, _overrides(args.set), models_dir=args.models_dir))
     require_scene_files_utf8(scene)
     if args.t_end is not None and not (args.t_end > 0):
         raise InputError(f"horizon t_end must be positive and finite, got {args.t_end!r}")

@@ -54,11 +54,18 @@ class Declaration:
         preflight: whether ``harness validate`` loads the file in its own format before any run
             (``load_model_file``); False where its runs load it anyway and loading costs (Drake).
         loops: how it closes a kinematic loop (``Multibody.loops``): ``IDEAL`` (constraint rows),
-            ``SOFT`` (soft constraints with settings), "" (it does not: loop scenes name it
-            under ``[not_run]``).
+            ``SOFT`` (soft constraints with settings), "" (it does not: loop scenes do not run it,
+            with ``without_loops``).
         loops_how: one phrase on how it states a loop's cut joints (the loop study's report).
         rolling: how it holds a rolling contact: ``IDEAL`` (the rolling constraint), ``SOFT``
             (frictional soft contact), "" (it does not).
+        without_loops, without_rolling: why it does not run a scene with a loop (``loops`` "")
+            or a rolling contact (``rolling`` ""): the scene's not-run reason (``why_not``), so
+            that no scene names the engine for it.
+        default_integrator: the integrator a scene runs it with where the scene's
+            ``[integrators]`` names none.
+        free_integrator: the default for a scene of free bodies only (no constrained joint, loop
+            or contact) where it differs ("" for ``default_integrator``).
         reference: the engine whose high-accuracy run judges every other (one engine).
         compiled: it has compiled twins of its methods (``fast_method``, ``prepare``;
             ``--fast``, ``--per-state``).
@@ -78,12 +85,41 @@ class Declaration:
     loops: str = ""
     loops_how: str = ""
     rolling: str = ""
+    without_loops: str = ""
+    without_rolling: str = ""
+    default_integrator: str = ""
+    free_integrator: str = ""
     reference: bool = False
     compiled: bool = False
     cost_per_step: float = 1e-4
     colour: str = ""
     linestyle: str = "-"
     curves: tuple[SweepCurve, ...] = ()
+
+    def why_not(self, model) -> str:
+        """Why the engine does not run a scene whose system is ``model`` (a ``Multibody``): a
+        loop or a rolling contact it cannot hold (``without_loops``, ``without_rolling``); ""
+        when it runs it."""
+        if getattr(model, "loops", ()) and not self.loops:
+            return self.without_loops
+        if getattr(model, "contacts", ()) and not self.rolling:
+            return self.without_rolling
+        return ""
+
+    def integrator_for(self, model) -> str:
+        """Its default integrator on ``model`` (``default_integrator``; ``free_integrator`` for a
+        system of free bodies only)."""
+        from harness.model.joints import JOINTS
+
+        free = not (getattr(model, "loops", ()) or getattr(model, "contacts", ())
+                    or any(JOINTS[b.joint].constrained for b in model.bodies))
+        return (self.free_integrator if free and self.free_integrator else "") or self.default_integrator
+
+
+_NO_LOOP_CONSTRAINT = ("{engine}'s {what} has no loop-closing constraint and a URDF cannot state a loop: a loop scene "
+                       "would run a different model")
+_NO_ROLLING_CONSTRAINT = ("{engine} has no ideal rolling constraint: its contact is {what}, so it would run a different "
+                          "model, as MuJoCo's soft contact does")
 
 
 def _curves(variants: tuple[str, ...], colours: dict[str, str], dashed: tuple[str, ...] = ()) -> tuple[SweepCurve, ...]:
@@ -102,27 +138,44 @@ _REFERENCE_CURVES = (  # the per-state oracle and the compiled twins
 DECLARATIONS: tuple[Declaration, ...] = (
     Declaration("inhouse", "in-house", "harness.engines.inhouse", loops=IDEAL,
                 loops_how="the cut joint's rows in the KKT system and a projection after each step", rolling=IDEAL,
-                reference=True,
+                default_integrator="rk4", reference=True,
                 compiled=True, cost_per_step=4e-4, colour="#1f77b4", curves=_REFERENCE_CURVES),
     Declaration("mujoco", "MuJoCo", "harness.engines.mujoco.engine", library="mujoco", reads=(MJCF, URDF),
-                loops=SOFT, loops_how="`<connect>` equalities, soft constraints", rolling=SOFT, cost_per_step=1e-5, colour="#d62728",
+                loops=SOFT, loops_how="`<connect>` equalities, soft constraints", rolling=SOFT, default_integrator="RK4",
+                cost_per_step=1e-5, colour="#d62728",
                 linestyle="--",
                 curves=_curves(("rollout", "loop"), {"Euler": "tab:cyan", "implicit": "tab:purple",
                                                      "implicitfast": "tab:olive", "RK4": "tab:blue"}, ("loop",))),
     Declaration("pinocchio", "Pinocchio", "harness.engines.pinocchio.engine", library="pinocchio", reads=(URDF, MJCF),
-                loops=IDEAL, loops_how="`constraintDynamics` and a projection", rolling=IDEAL, cost_per_step=2e-4, colour="#2ca02c",
+                loops=IDEAL, loops_how="`constraintDynamics` and a projection", rolling=IDEAL, default_integrator="rkmk4",
+                cost_per_step=2e-4, colour="#2ca02c",
                 curves=_curves(("",), {"rkmk4": "tab:green", "euler": "yellowgreen"}, ("",))),
     Declaration("exudyn", "Exudyn", "harness.engines.exudyn.engine", library="exudyn", loops=IDEAL,
                 loops_how="the index-3 DAE with generalized-α", rolling=IDEAL,
+                default_integrator="GeneralizedAlpha",  # index-3 DAE, order 2
+                free_integrator="RK44",  # explicit, Lie-group rotation-vector nodes: free bodies need no constraint
                 colour="#ff7f0e",
                 curves=_curves(("",), {"GeneralizedAlpha": "teal", "TrapezoidalIndex2": "darkslateblue",
                                        "RK44": "steelblue", "RK67": "navy"})),
     Declaration("drake", "Drake", "harness.engines.drake.engine", library="pydrake", distribution="drake",
-                reads=(URDF, MJCF), preflight=False, colour="#9467bd",
+                reads=(URDF, MJCF), preflight=False,
+                without_loops=_NO_LOOP_CONSTRAINT.format(engine="Drake", what="continuous-time MultibodyPlant (its ball, "
+                                                         "distance and weld constraints need a discrete SAP plant)"),
+                without_rolling=_NO_ROLLING_CONSTRAINT.format(engine="Drake", what="compliant (hydroelastic or point "
+                                                              "contact with regularised friction)"),
+                default_integrator="RK5",  # Dormand-Prince 5(4), error-controlled at base.ERROR_CONTROL_TOL
+                colour="#9467bd",
                 curves=_curves(("",), {"RK3": "dimgray", "RK5": "black", "Radau3": "darkgoldenrod",
                                        "RK3_fixed": "silver", "RK2": "tan"})),
     Declaration("pybullet", "PyBullet", "harness.engines.pybullet.engine", library="pybullet", distribution="pybullet",
-                reads=(URDF,), colour="#8c564b", linestyle=":",
+                reads=(URDF,),
+                without_loops=_NO_LOOP_CONSTRAINT.format(engine="PyBullet", what="btMultiBody is a tree (reduced "
+                                                         "coordinates); its point-to-point constraints are soft, solved "
+                                                         "by its iterative constraint solver, and"),
+                without_rolling=_NO_ROLLING_CONSTRAINT.format(engine="PyBullet", what="a frictional contact solved by "
+                                                              "impulses (with penetration correction)"),
+                default_integrator="semi_implicit_euler_16",  # stepSimulation at dt/16: semi-implicit Euler, order 1
+                colour="#8c564b", linestyle=":",
                 curves=_curves(("",), {"semi_implicit_euler": "sienna"})),
 )
 ENGINES = {d.name: d for d in DECLARATIONS}
@@ -249,13 +302,30 @@ def load_model_file(scene, engine: str, model) -> None:
 
 
 def check_scene(scene):
-    """``scene`` (returned) when its per-engine tables name registered engines only and name a
-    default integrator for every engine its ``[not_run]`` does not exclude; InputError naming the
-    ``scene.toml`` otherwise (``harness.model.scene.check_engine_tables``)."""
+    """``scene`` (returned) completed from the engines' declarations: an engine that cannot hold
+    its system (``Declaration.why_not``: a loop, a rolling contact) marked not run with its
+    declared reason, and every other engine given its default integrator
+    (``Declaration.integrator_for``) where the scene's ``[integrators]`` names none. InputError
+    naming the ``scene.toml`` when its per-engine tables name an unregistered engine
+    (``harness.model.scene.check_engine_tables``)."""
     from harness.model.scene import check_engine_tables
 
+    model = scene.multibody()
+    for d in DECLARATIONS:
+        why = "" if d.name in scene.not_run else d.why_not(model)
+        if why:
+            scene.mark_not_run(d.name, why)
+    scene.default_integrators({d.name: d.integrator_for(model) for d in DECLARATIONS if d.name not in scene.not_run})
     check_engine_tables(scene, ENGINE_NAMES)
     return scene
+
+
+def load_scene(name: str, overrides=None, *, models_dir=None):
+    """Scene ``name`` as the engines run it: ``harness.model.scene.load_scene`` (the parameter
+    ``overrides``, the ``models_dir``) completed by ``check_scene``."""
+    from harness.model.scene import load_scene as load
+
+    return check_scene(load(name, overrides, models_dir=models_dir))
 
 
 def version(name: str) -> str:

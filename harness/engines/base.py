@@ -1,22 +1,31 @@
 """The engine contract: run a scene with given settings, return a common ``Trajectory``.
 
-Every engine of the registry (``harness.engines.ENGINE_MODULES``: in-house, MuJoCo, Pinocchio,
-Exudyn, Drake) implements ``simulate``. Saved samples are at ``t = k * save_every`` for
-k = 0 .. round(t_end / save_every); fixed-step methods take ``round(save_every / dt)`` steps
-between samples.
+Every engine of the registry (``harness.engines.DECLARATIONS``) is an ``EngineBase``: it states
+its ``name`` and ``integrators`` (``Integrator`` records: kind, order, stages) and implements
+``run(scene, settings)``; ``EngineBase.simulate`` around it checks the settings, returns a scene
+the engine does not run (the scene's ``[not_run]``, which the registry fills from the engine's
+declared capabilities: ``harness.engines.check_scene``) as "unsupported", and captures the
+engine's own warnings once (``capture``) into ``stats["warnings"]``. An engine that steps
+plugs its step and its read of one sample into ``sample_run``: the one sampling loop, with the
+one blow-up check (``first_blowup``) and the failure reasons (``Failure``) the studies read; an
+engine that integrates the whole horizon at once (in-house, Exudyn) applies ``first_blowup``
+to what it returns. Saved samples are at ``t = k * save_every`` for k = 0 .. round(t_end /
+save_every); fixed-step methods take ``round(save_every / dt)`` steps between samples.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
+import time
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Callable
 
 import numpy as np
 
 from harness.model.errors import InputError
 from harness.model.scene import Scene, check_steps
-from harness.measure.trajectory import Trajectory
+from harness.measure.trajectory import Failure, RunStop, SampleBuffer, Trajectory, unsupported
 
 
 #: Speed (m/s, or rad/s for rotation) beyond which every engine declares its run a blow-up.
@@ -37,17 +46,32 @@ ERROR_CONTROL_TOL = 1e-13
 ERROR_CONTROL_ATOL = 1e-12
 
 
-def maximal_blowup(p_WCm_W, quat_WB, v_WCm_W, w_WB_W) -> str:
-    """Why one sample of a trajectory in maximal coordinates (arrays ``[body, component]``: m,
-    ``wxyz``, m/s, rad/s) counts as a blow-up: a non-finite state, or a speed (linear or
-    angular) beyond ``BLOWUP_SPEED``; "" when it does not."""
-    state = np.concatenate([np.ravel(p_WCm_W), np.ravel(quat_WB), np.ravel(v_WCm_W), np.ravel(w_WB_W)])
-    if not np.all(np.isfinite(state)):
-        return "non-finite state"
-    speed = max(np.abs(v_WCm_W).max(initial=0.0), np.abs(w_WB_W).max(initial=0.0))
-    if speed > BLOWUP_SPEED:
-        return f"speed {speed:.3g} beyond {BLOWUP_SPEED:g}"
-    return ""
+def first_blowup(p_WCm_W, v_WCm_W, w_WB_W, t) -> tuple[int, Failure, str]:
+    """The first sample that counts as a blow-up, among samples ``[sample, body, 3]`` of the
+    bodies' centre-of-mass positions (m) and velocities (m/s) and angular velocities (rad/s),
+    world frame, at times ``t`` (s): a non-finite value (``Failure.NON_FINITE``), or a speed
+    (the norm of a body's velocity or angular velocity) beyond ``BLOWUP_SPEED``
+    (``Failure.SPEED``). Returns ``(index, reason, message)``, the message with the time;
+    ``(-1, Failure.NONE, "")`` when every sample is sound. Every engine's one blow-up check."""
+    p, v, w = (np.asarray(a, dtype=float) for a in (p_WCm_W, v_WCm_W, w_WB_W))
+    n = p.shape[0]
+    if n == 0:
+        return -1, Failure.NONE, ""
+    with np.errstate(over="ignore", invalid="ignore"):
+        finite = np.isfinite(p.reshape(n, -1)).all(1) & np.isfinite(v.reshape(n, -1)).all(1) & \
+            np.isfinite(w.reshape(n, -1)).all(1)
+        speed = np.linalg.norm(v, axis=-1).max(axis=-1, initial=0.0)
+        spin = np.linalg.norm(w, axis=-1).max(axis=-1, initial=0.0)
+    bad = ~finite | (speed > BLOWUP_SPEED) | (spin > BLOWUP_SPEED)
+    if not bad.any():
+        return -1, Failure.NONE, ""
+    k = int(np.argmax(bad))
+    at = f"at t = {float(np.asarray(t)[k]):.6g} s"
+    if not finite[k]:
+        return k, Failure.NON_FINITE, f"non-finite state {at}"
+    if speed[k] > BLOWUP_SPEED:
+        return k, Failure.SPEED, f"speed {speed[k]:.3g} m/s beyond {BLOWUP_SPEED:g} {at}"
+    return k, Failure.SPEED, f"angular speed {spin[k]:.3g} rad/s beyond {BLOWUP_SPEED:g} {at}"
 
 
 def warning_stats(messages: list[str]) -> dict:
@@ -151,19 +175,108 @@ def check_settings(settings: RunSettings, integrators, engine: str) -> None:
         raise InputError(f"unknown integrator {settings.integrator!r} for engine {engine} (known: {', '.join(integrators)})")
 
 
-class Engine(Protocol):
-    """What every engine provides."""
+def reason_of(err: BaseException) -> Failure:
+    """The ``Failure`` of an exception that ended a run: its own ``reason`` where it states one
+    (``RunStop``, the in-house engine's ``DynamicsError``), ``Failure.SINGULAR`` for a singular
+    linear solve (``numpy.linalg.LinAlgError``), else ``Failure.SOLVER``."""
+    reason = getattr(err, "reason", None)
+    if isinstance(reason, Failure):
+        return reason
+    return Failure.SINGULAR if isinstance(err, np.linalg.LinAlgError) else Failure.SOLVER
 
-    name: str
-    integrators: dict[str, Integrator]  # by name, in the engine's order (``integrator_table``)
+
+@dataclass(frozen=True)
+class Sampled:
+    """How ``sample_run`` ended: ``saved`` samples (0 .. saved - 1) filled, ``reason`` and
+    ``message`` (``Failure.NONE`` and "" when it reached the horizon), and the loop's wall time
+    (s)."""
+
+    saved: int
+    reason: Failure
+    message: str
+    wall_s: float
+
+
+def sample_run(settings: RunSettings, buf: SampleBuffer, advance: Callable[[int], None],
+               read: Callable[[int], None], errors: dict[type, Failure] | None = None) -> Sampled:
+    """The one sampling loop of every engine that steps: sample ``k`` is at ``t_k = k *
+    save_every`` for k = 0 .. ``settings.n_saves``. For k >= 1, ``advance(k)`` takes the engine
+    from ``t_{k-1}`` to ``t_k`` (its ``steps_per_save`` steps, or one call of the engine's own
+    loop); ``read(k)`` writes sample k into ``buf`` (poses, twists, energies, reactions); then
+    ``first_blowup`` judges the sample. The run ends early, keeping the samples before, on a
+    blow-up (sample k dropped), on ``RunStop`` raised by ``advance`` or ``read`` (its reason), or
+    on an exception of a class in ``errors`` (``{class: Failure}``, the first that matches; its
+    message with the time reached). Any other exception is a bug and propagates."""
+    errors = errors or {}
+    caught = tuple(errors)
+    t0 = time.perf_counter()
+    saved, h = 0, settings.save_every
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):
+            for k in range(settings.n_saves + 1):
+                if k > 0:
+                    advance(k)
+                read(k)
+                bad, reason, message = first_blowup(buf.p_WCm_W[k:k + 1], buf.v_WCm_W[k:k + 1], buf.w_WB_W[k:k + 1],
+                                                    [k * h])
+                if bad >= 0:
+                    return Sampled(saved, reason, message, time.perf_counter() - t0)
+                saved = k + 1
+    except RunStop as stop:
+        return Sampled(saved, stop.reason, stop.message, time.perf_counter() - t0)
+    except caught as err:
+        reason = next(r for cls, r in errors.items() if isinstance(err, cls))
+        what = " ".join(str(err).split())[:300]
+        return Sampled(saved, reason, f"{type(err).__name__} by t = {saved * h:.6g} s: {what}", time.perf_counter() - t0)
+    return Sampled(saved, Failure.NONE, "", time.perf_counter() - t0)
+
+
+class _NoCapture:
+    """An engine that prints no warnings of its own: nothing to capture."""
+
+    messages: list[str] = []
+
+
+class EngineBase:
+    """What every engine provides (the contract; the module docstring).
+
+    Attributes:
+        name: the registered name (``harness.engines.DECLARATIONS``).
+        integrators: ``{name: Integrator}`` in the engine's order (``integrator_table``).
+
+    An engine implements ``run(scene, settings)``; it overrides ``capture`` where the engine
+    prints warnings of its own (MuJoCo's ``mju_user_warning``, Drake's log).
+    """
+
+    name: str = ""
+    integrators: dict[str, Integrator] = {}
 
     def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
         """Run ``scene`` and return its trajectory in maximal coordinates.
 
         A numerical failure (non-finite state, solver failure) is returned as a trajectory with
-        ``status`` "failed" or "blowup", not raised; a scene the engine/integrator does not model
-        (e.g. a joint kind it has no equations for) as an empty trajectory with status
-        "unsupported" and the reason (``harness.measure.trajectory.unsupported``); bad input
-        raises ``InputError``.
+        its ``reason`` (``Failure``), not raised; a scene the engine does not run (its
+        ``[not_run]``) or the integrator does not model (e.g. a joint kind it has no equations
+        for) as an empty trajectory with reason ``Failure.UNSUPPORTED`` and why
+        (``harness.measure.trajectory.unsupported``); bad input raises ``InputError``. The
+        engine's own warnings during the run are in ``stats["warnings"]`` (``warning_stats``).
         """
-        ...
+        check_settings(settings, self.integrators, self.name)
+        from harness.engines import declaration
+
+        why = scene.not_run.get(self.name) or declaration(self.name).why_not(scene.multibody())
+        if why:
+            return unsupported(self.name, settings.integrator, tuple(scene.multibody().body_names),
+                               f"{settings.integrator}: {why}")
+        with self.capture() as log:
+            traj = self.run(scene, settings)
+        if not (traj.unsupported or isinstance(log, _NoCapture)):  # an engine without warnings reports none
+            traj.stats["warnings"] = warning_stats(log.messages)
+        return traj
+
+    def run(self, scene: Scene, settings: RunSettings) -> Trajectory:  # pragma: no cover - every engine has one
+        raise NotImplementedError
+
+    def capture(self):
+        """A context manager collecting the engine's own warnings in its ``messages``."""
+        return contextlib.nullcontext(_NoCapture())

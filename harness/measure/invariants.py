@@ -13,6 +13,7 @@ import numpy as np
 
 from harness.model import forces, joints, rotations
 from harness.model.multibody import Multibody
+from harness.measure.trajectory import Failure
 
 if TYPE_CHECKING:  # pragma: no cover
     from harness.measure.trajectory import Trajectory
@@ -126,14 +127,14 @@ def first_non_finite(traj: "Trajectory", model: Multibody) -> tuple[float, str] 
 
 def mark_non_finite(traj: "Trajectory", model: Multibody) -> "Trajectory":
     """``traj`` as judged by the harness: a run its engine reported "ok" that holds a non-finite
-    value (``first_non_finite``: a state, or an invariant that overflowed) becomes status
-    "blowup" with the message ``non-finite <what> at t = <t> s (<engine> reported ok)``, its
+    value (``first_non_finite``: a state, or an invariant that overflowed) becomes a blow-up
+    (``Failure.NON_FINITE``) with the message ``non-finite <what> at t = <t> s (<engine> reported ok)``, its
     samples kept; any other run (ok and finite, or already not ok) is returned unchanged. Readers
-    then decide on ``traj.status``, never on message text."""
+    then decide on ``traj.reason``, never on message text."""
     if not traj.ok:
         return traj
     blown = first_non_finite(traj, model)
     if blown is None:
         return traj
     t_bad, what = blown
-    return replace(traj, status="blowup", message=f"non-finite {what} at t = {t_bad:.6g} s ({traj.engine} reported ok)")
+    return replace(traj, reason=Failure.NON_FINITE, message=f"non-finite {what} at t = {t_bad:.6g} s ({traj.engine} reported ok)")

@@ -111,7 +111,7 @@ _TOP_KEYS = {
     "mjcf": ("string", False), "urdf": ("string", False), "urdf_root_joint": ("string", False),
     "builder": ("string", False), "initial_state": ("string", False), "needs": ("table", True),
     "parameters": ("table", True),
-    "simulation": ("table", True), "integrators": ("table", True), "checks": ("table", False),
+    "simulation": ("table", True), "integrators": ("table", False), "checks": ("table", False),
     "not_run": ("table", False), "requirements": ("table", False), "model_differences": ("table", False),
 }
 #: The model-file keys of scene.toml: a scene names at least one (``check_description``).
@@ -154,7 +154,6 @@ class Scene:
         needs: ``{"gravity": bool, "contact": bool, "forcing": bool}``.
         parameters: name -> Parameter (values validated).
         t_end, dt, save_every: default horizon, step and save interval (s).
-        integrators: default integrator per engine.
         checks: check name -> its table (which checks apply; ``components`` of momentum_drift).
         requirements: check name (``closure.position``) or check table (``closure``) -> a bound
             on its value at the scene's step that every engine must meet, in the check's unit
@@ -162,9 +161,13 @@ class Scene:
         model_differences: engine -> ``{"model": what differs, "bound": its size}``: an engine whose
             model differs from the scene's ideal one (``[model_differences.<engine>]``,
             ``harness.judging.verdict``).
-        not_run: engine -> why it does not run this scene (``[not_run]``: a model the engine
-            cannot state, e.g. Drake and the ideal rolling contact); such an engine needs no
-            default integrator or tolerances, and ``validate`` reports it as not run.
+        not_run: engine -> why it does not run this scene (``[not_run]``, and the engines'
+            declared capabilities: ``harness.engines.check_scene`` adds an engine without loops
+            on a loop scene, without the ideal rolling contact on a rolling one); ``validate``
+            reports such an engine as not run.
+        integrators: engine -> the integrator it runs this scene with (``[integrators]``, where
+            the scene names one; ``harness.engines.check_scene`` adds each engine's declared
+            default).
         builder: the module of ``harness.model.builders`` that builds the multibody (the
             scene's name unless its ``scene.toml`` names another, e.g. a copied scene).
         from_model_file: True for a scene without code: no builder module and no ``builder``
@@ -213,6 +216,12 @@ class Scene:
         ``[not_run]`` entry would): an engine that cannot read the scene's one model file
         (``harness.engines.reads_other_format``; ``harness.cli.main.preflight``). Changes this ``Scene`` only."""
         object.__setattr__(self, "not_run", {**self.not_run, engine: why})
+
+    def default_integrators(self, defaults: Mapping[str, str]) -> None:
+        """Give each engine of ``defaults`` (engine -> integrator) its default where the scene's
+        ``[integrators]`` names none (``harness.engines.check_scene``, from the engines'
+        declarations). Changes this ``Scene`` only."""
+        object.__setattr__(self, "integrators", {**defaults, **self.integrators})
 
     @property
     def params(self) -> dict[str, ParamValue]:
@@ -434,7 +443,7 @@ def check_description(data: dict, path: Path) -> None:
         if not (isinstance(why, str) and why.strip()):
             raise InputError(f"{path}: [not_run] {engine} must say why the engine does not run this scene (a string), "
                              f"got {_show(why)}")
-    for engine, method in data["integrators"].items():
+    for engine, method in data.get("integrators", {}).items():
         if not (isinstance(method, str) and method.strip()):
             raise InputError(f"{path}: [integrators] {engine} must be an integrator's name (a string), "
                              f"got {_show(method)}")

@@ -535,7 +535,7 @@ def test_simulate_runs_each_engine_as_validate_does(engine):
     as simulate runs it without --fast), and the --rtol/--atol defaults are that one definition."""
     from harness.cli.main import build_parser, simulate_settings
     from harness.engines.base import ERROR_CONTROL_ATOL, ERROR_CONTROL_TOL
-    from harness.model.scene import load_scene
+    from harness.engines import load_scene
     from harness.validate.run import default_settings
 
     args = build_parser().parse_args(["simulate", "heavy_top", "--engine", engine, "--out", "x.csv"])

@@ -8,7 +8,8 @@ import pytest
 from harness.engines import ENGINE_NAMES, get_engine
 from harness.engines.base import RunSettings, check_settings
 from harness.model.errors import InputError
-from harness.model.scene import MAX_STEPS, load_scene
+from harness.model.scene import MAX_STEPS
+from harness.engines import load_scene
 
 
 @pytest.mark.parametrize("engine", ENGINE_NAMES)

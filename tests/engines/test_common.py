@@ -9,7 +9,8 @@ from harness.engines import ENGINE_NAMES, get_engine
 from harness.engines.base import RunSettings
 from harness.model.errors import InputError
 from harness.model.kinematics import forward
-from harness.model.scene import available_scenes, load_scene
+from harness.model.scene import available_scenes
+from harness.engines import load_scene
 
 DEFAULT_INTEGRATOR = {"inhouse": "rk4", "mujoco": "RK4", "pinocchio": "rkmk4", "exudyn": "GeneralizedAlpha", "drake": "RK5",
                      "pybullet": "semi_implicit_euler"}

@@ -10,7 +10,8 @@ from harness.engines.mujoco.model import load_mjcf, read_spec
 from harness.engines.pinocchio.model import load_urdf, read_urdf
 from harness.engines.loaded_models import (compare_bodies, mujoco_bodies, mujoco_force_discrepancies,
                                            mujoco_joint_bodies, mujoco_loop_discrepancies, pinocchio_bodies)
-from harness.model.scene import available_scenes, load_scene
+from harness.model.scene import available_scenes
+from harness.engines import load_scene
 
 SCENES = available_scenes()
 

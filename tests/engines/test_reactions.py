@@ -11,7 +11,7 @@ import numpy as np
 from harness.measure import compare
 from harness.engines import get_engine
 from harness.engines.base import RunSettings
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.io.trajectory_csv import to_frame
 from harness.measure.trajectory import REACTION_FIELDS
 

@@ -15,7 +15,7 @@ from harness.engines.inhouse import build, initial_state
 from harness.engines.inhouse.constraints import rows
 from harness.engines.inhouse.newton_euler import make_dynamics
 from harness.engines.mujoco.model import load_mjcf
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.model.builders.rolling_disk import euler323
 from harness.references.rolling_disk import DiskParams, steady_motion
 

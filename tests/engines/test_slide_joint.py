@@ -21,7 +21,7 @@ from harness.engines.pinocchio.model import load_urdf
 from harness.model.errors import InputError
 from harness.engines.loaded_models import compare_bodies, pinocchio_bodies
 from harness.model.multibody import Body, Multibody
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.model.sanity import check_multibody
 
 

@@ -12,7 +12,7 @@ from harness.engines import get_engine
 from harness.engines.base import RunSettings
 from harness.engines.mujoco.model import load_mjcf, read_spec
 from harness.engines.loaded_models import mujoco_spring_problems
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.io.trajectory_csv import to_frame
 
 #: The engines compared here at one fixed tolerance, each at a method of order 2 or more. PyBullet

@@ -119,7 +119,7 @@ def test_the_kernel_compilation_is_announced_once(monkeypatch, capsys):
     np = pytest.importorskip("numpy")
     from harness.engines.inhouse.compiled import solver
     from harness.engines.inhouse.model import build, initial_state
-    from harness.model.scene import load_scene
+    from harness.engines import load_scene
 
     scene = load_scene("torque_free")
     nem = build(scene.multibody())
@@ -218,7 +218,7 @@ def test_the_parent_announces_a_cold_kernel_once_and_its_workers_inherit_it(monk
     from harness.engines.inhouse import COMPILED_KERNEL, announce_compilation
     from harness.engines.inhouse.integrators import COMPILED
     from harness.model.multibody import PointForce
-    from harness.model.scene import load_scene
+    from harness.engines import load_scene
 
     assert set(COMPILED_KERNEL) == set(COMPILED)
     solver = _cold_cache(monkeypatch)

@@ -19,7 +19,8 @@ from dataclasses import replace
 import pytest
 
 from harness.engines.inhouse import integrators
-from harness.model.scene import MODELS_DIR, load_scene
+from harness.model.scene import MODELS_DIR
+from harness.engines import load_scene
 from harness.validate.run import engine_case, model_checks, reference_case
 
 pytest.importorskip("mujoco")

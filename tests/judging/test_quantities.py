@@ -10,7 +10,7 @@ import pytest
 from harness.engines import get_engine
 from harness.judging import quantities
 from harness.measure import compare
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.judging.checks import check_run
 from harness.validate.run import default_settings, reference_settings
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from harness.engines.base import RunSettings
+from harness.measure.trajectory import Failure
 from harness.judging.error_model import LOOSER
 from harness.judging.refinement import level_of, looser, on_grid, scaled_step
 from harness.measure.trajectory import Trajectory
@@ -79,5 +80,5 @@ def test_on_grid_without_one_of_the_times_is_none():
 
 def test_on_grid_passes_a_missing_or_failed_judge_through():
     assert on_grid(None, np.array([0.0, 1.0])) is None
-    failed = replace(_traj([0.0]), status="failed")
+    failed = replace(_traj([0.0]), reason=Failure.SOLVER)
     assert on_grid(failed, np.array([0.0, 1.0])) is failed

@@ -9,7 +9,7 @@ import pytest
 from harness.judging.requirements import apply_requirements, check_scenes_known, read_requirements
 from harness.judging.verdict import requirement
 from harness.model.errors import InputError
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 
 @pytest.mark.parametrize("text,fragment", [

@@ -5,7 +5,7 @@ import numpy as np
 from harness.measure import compare
 from harness.measure import invariants
 from harness.model import rotations
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.measure.trajectory import Trajectory
 
 

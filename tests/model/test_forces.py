@@ -17,7 +17,8 @@ from harness.model.forces import FORCES, JOINT_SPRINGS, POINT_FORCES, JointSprin
 from harness.model.joints import JOINTS
 from harness.model.multibody import Multibody
 from harness.model.sanity import check_multibody
-from harness.model.scene import available_scenes, load_scene
+from harness.model.scene import available_scenes
+from harness.engines import load_scene
 
 
 def test_every_type_names_a_multibody_field_of_its_elements():

@@ -15,7 +15,8 @@ from harness.model.errors import InputError
 from harness.model.from_model_file import (TARGETS, apply_parameters, parse_target, read_model_file, zero_state)
 from harness.model.joints import JOINTS, ROTATIONAL
 from harness.model.kinematics import forward
-from harness.model.scene import MODELS_DIR, Parameter, available_scenes, load_scene
+from harness.model.scene import MODELS_DIR, Parameter, available_scenes
+from harness.engines import load_scene
 from harness.engines.loaded_models import LoadedBody, body_discrepancies
 
 TREES = [s for s in available_scenes() if not load_scene(s).multibody().loops]

@@ -46,7 +46,8 @@ from harness.model.joints import (
     by_urdf_root,
 )
 from harness.model.multibody import Body, Multibody
-from harness.model.scene import available_scenes, load_scene
+from harness.model.scene import available_scenes
+from harness.engines import load_scene
 
 HARNESS = Path(harness.__file__).resolve().parent
 SCENES = available_scenes()

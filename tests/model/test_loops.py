@@ -10,7 +10,7 @@ from harness.model.errors import InputError
 from harness.model.joints import keeps_axis, loop_kinds
 from harness.model.loop_closure import initial_residuals
 from harness.model.sanity import check_multibody
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 
 def four_bar():

@@ -5,7 +5,9 @@ import pytest
 
 from harness.engines import ENGINE_NAMES, check_scene, reads_other_format
 from harness.model.errors import InputError
-from harness.model.scene import MODELS_DIR, available_scenes, load_scene, parse_set
+from harness.model.scene import MODELS_DIR, available_scenes, parse_set
+from harness.model.scene import load_scene as model_load_scene
+from harness.engines import load_scene
 
 
 @pytest.mark.parametrize("name", available_scenes())
@@ -109,17 +111,19 @@ def test_component_names_match_their_source_and_engines_are_the_registrys():
 
 @pytest.fixture
 def scene_copy(tmp_path):
-    """A copy of heavy_top's folder, every engine under ``[integrators]`` and no ``[not_run]`` (the
-    shape the edits below assume: heavy_top's own ``[not_run]`` names PyBullet, whose first-order
-    step does not resolve the top, and is replaced by its integrator); returns (models dir, path of
-    its scene.toml)."""
+    """A copy of heavy_top's folder with no ``[not_run]`` and an ``[integrators]`` table naming
+    every engine (as a user's scene may: the registry's defaults otherwise), the shape the edits
+    below assume; returns (models dir, path of its scene.toml)."""
     import re
+
+    from harness.engines import DECLARATIONS
 
     models = tmp_path / "models"
     shutil.copytree(MODELS_DIR / "heavy_top", models / "heavy_top")
     path = models / "heavy_top" / "scene.toml"
     text = re.sub(r"^\[not_run\]\n(?:[a-z]+ = .*\n)+\n", "", path.read_text(), flags=re.M)
-    path.write_text(text.replace("[integrators]\n", '[integrators]\npybullet = "semi_implicit_euler"\n', 1))
+    table = "".join(f'{d.name} = "{d.default_integrator}"\n' for d in DECLARATIONS)
+    path.write_text(text.replace("\n[checks.", f"\n[integrators]\n{table}\n[checks.", 1))
     return models, path
 
 
@@ -165,7 +169,6 @@ MISTAKES = {
                               "unknown key 'units' at [parameters] mass"),
     "parameter value not a number": ("value = 1.0,", 'value = "heavy",', "[parameters] mass value must be a number"),
     "needs not a boolean": ("contact = false", 'contact = "no"', "[needs] contact must be true or false"),
-    "missing integrator": ('pinocchio = "rkmk4"\n', "", "[integrators] lacks a default for pinocchio"),
     "name not the folder's": ('name = "heavy_top"', 'name = "heavy_top2"', "differs from the scene's folder 'heavy_top'"),
     "unknown root joint": ('urdf_root_joint = "spherical"', 'urdf_root_joint = "ball"', "urdf_root_joint = 'ball' is not one of"),
     "no model file": ('mjcf = "heavy_top.xml"\nurdf = "heavy_top.urdf"\nurdf_root_joint = "spherical"', "",
@@ -213,18 +216,22 @@ def test_boolean_parameter_value_is_not_a_number():
 
 
 def test_an_engine_the_scene_excludes_needs_no_integrator(scene_copy):
-    """``[not_run] drake = "why"`` frees the integrators from naming drake; the scene keeps why."""
+    """``[not_run] drake = "why"`` frees the integrators from naming drake; the scene keeps why.
+    An engine the scene neither excludes nor names runs its declared default
+    (``Declaration.integrator_for``)."""
     import re
+
+    from harness.engines import declaration
 
     models, path = scene_copy
     text = re.sub(r"^drake = .*\n", "", path.read_text(), flags=re.M)  # drake's integrator
     path.write_text(text.replace("[integrators]", '[not_run]\ndrake = "a test: Drake left out"\n\n[integrators]', 1))
-    scene = load_scene("heavy_top", models_dir=models)
+    scene = model_load_scene("heavy_top", models_dir=models)
     assert scene.not_run == {"drake": "a test: Drake left out"} and "drake" not in scene.integrators
-    assert check_scene(scene) is scene
-    path.write_text(text)  # without [not_run], the same file lacks drake's entries
-    with pytest.raises(InputError, match="lacks a default for drake"):
-        check_scene(load_scene("heavy_top", models_dir=models))
+    assert check_scene(scene) is scene and "drake" not in scene.integrators
+    path.write_text(text)  # without [not_run], drake runs its declared default
+    scene = check_scene(model_load_scene("heavy_top", models_dir=models))
+    assert scene.integrators["drake"] == declaration("drake").default_integrator and not scene.not_run
 
 
 # ---------------------------------------------------------------- a scene without code

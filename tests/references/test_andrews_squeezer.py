@@ -6,7 +6,7 @@ import pytest
 
 from harness.model.builders import andrews_squeezer as builder
 from harness.model.errors import InputError
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.references import andrews_squeezer as ref
 
 

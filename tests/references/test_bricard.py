@@ -23,7 +23,7 @@ from harness.engines.base import RunSettings
 from harness.measure.trajectory import Trajectory
 from harness.model import kinematics, loop_closure, rotations
 from harness.model.builders import bricard as builder
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.references import bricard as br
 
 SCENE = load_scene("bricard")

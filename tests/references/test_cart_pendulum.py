@@ -128,7 +128,7 @@ def _exact_check_of_an_inhouse_run(overrides=None, factor=1.0):
     step times ``factor``)."""
     from harness.engines import get_engine
     from harness.measure.exact import exact_error
-    from harness.model.scene import load_scene
+    from harness.engines import load_scene
     from harness.validate.run import default_settings
 
     scene = load_scene("cart_pendulum", overrides)

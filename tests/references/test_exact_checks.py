@@ -15,8 +15,10 @@ import pytest
 
 from harness.engines import get_engine
 from harness.engines.base import RunSettings
+from harness.measure.trajectory import Failure
 from harness.measure import exact, solution_cache
-from harness.model.scene import available_scenes, load_scene
+from harness.model.scene import available_scenes
+from harness.engines import load_scene
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENES = available_scenes()
@@ -87,7 +89,7 @@ def test_a_failed_extra_run_is_an_error(name):
     traj, settings = short_run(scene, None)
 
     def run(case, how):
-        return replace(traj, status="blowup", message="made to fail")
+        return replace(traj, reason=Failure.NON_FINITE, message="made to fail")
 
     with pytest.raises(RuntimeError, match="made to fail"):
         exact.exact_error(scene, traj, settings, run)

@@ -21,7 +21,7 @@ from harness.engines.base import RunSettings
 from harness.measure.trajectory import Trajectory
 from harness.model import rotations
 from harness.model.builders import four_bar as builder
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.references import four_bar as fb
 
 SCENE = load_scene("four_bar")

@@ -9,7 +9,7 @@ from scipy.integrate import solve_ivp
 from harness.engines import get_engine
 from harness.engines.base import RunSettings
 from harness.model.errors import InputError
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.references import rocking_semicylinder as ref
 from harness.measure.signals import frequency_from_hermite_crossings
 

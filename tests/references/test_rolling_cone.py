@@ -20,7 +20,7 @@ from harness.engines import get_engine
 from harness.model.builders import rolling_cone as builder
 from harness.model import rotations
 from harness.model.errors import InputError
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.references import rolling_cone as rc
 from harness.validate.run import default_settings, reference_settings
 

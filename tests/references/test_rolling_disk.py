@@ -175,7 +175,7 @@ def test_ex_523_printed_equations_disagree_with_newton_euler():
 def test_exact_check_needs_a_steady_initial_state():
     from harness.engines import get_engine
     from harness.engines.base import RunSettings
-    from harness.model.scene import load_scene
+    from harness.engines import load_scene
 
     scene = load_scene("rolling_disk")
     settings = RunSettings(0.05, scene.dt, 0.01, scene.integrators["mujoco"])

@@ -21,7 +21,7 @@ from harness.engines.base import RunSettings
 from harness.measure.trajectory import Trajectory
 from harness.model import rotations
 from harness.model.builders import slider_crank as builder
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.references import slider_crank as sc
 
 SCENE = load_scene("slider_crank")

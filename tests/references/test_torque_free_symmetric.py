@@ -6,7 +6,7 @@ import pytest
 
 from harness.engines import get_engine
 from harness.engines.base import RunSettings
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.references import torque_free_symmetric as tfs
 
 

@@ -14,7 +14,8 @@ import pytest
 
 from harness.cli.main import main
 from harness.model.errors import InputError
-from harness.model.scene import MODELS_DIR, load_scene
+from harness.model.scene import MODELS_DIR
+from harness.engines import load_scene
 from harness.studies.loops import report
 from harness.studies.loops import run as loops
 

@@ -21,7 +21,7 @@ def test_an_engine_that_does_not_model_the_disk_is_not_run_in_the_threshold_stud
     """An "unsupported" run neither falls nor rolls: it is "not run" in the threshold table and
     does not count for or against the threshold."""
     from harness.measure.trajectory import unsupported
-    from harness.model.scene import load_scene
+    from harness.engines import load_scene
     from harness.studies.rolling import report
     from harness.studies.rolling import run as rolling
 
@@ -52,7 +52,7 @@ def test_each_mujoco_setting_is_classified_in_the_judging_vocabulary():
     the error model, the declared soft contact by the verdict); an RK4 row at the scene's step far
     above the ideal engines' error there is a model difference (soft contact), one close to it not
     judged, a first-order row not judged; the report's table shows the classes."""
-    from harness.model.scene import load_scene
+    from harness.engines import load_scene
     from harness.studies.rolling import report
     from harness.studies.rolling import run as rolling
 

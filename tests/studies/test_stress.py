@@ -12,7 +12,7 @@ from harness.cli.main import main
 from harness.engines import inhouse
 from harness.engines.pinocchio import engine as pinocchio_engine
 from harness.model.errors import InputError
-from harness.measure.trajectory import failed
+from harness.measure.trajectory import UNSUPPORTED, Failure, failed
 from harness.studies.stress.run import (
     FAILURE_MODES,
     Reference,
@@ -124,7 +124,7 @@ def test_a_trial_follows_the_reference_error_per_sample(tmp_path, name):
     from harness.engines import get_engine
     from harness.engines.base import RunSettings
     from harness.measure import exact
-    from harness.model.scene import load_scene
+    from harness.engines import load_scene
 
     scene = load_scene(name)
     path = tmp_path / "c.toml"
@@ -274,10 +274,6 @@ def test_trial_detects_mujoco_bad_acceleration_and_energy_growth():
     # MuJoCo's own guard fires (and resets the state), but the energy left its bound earlier
     assert not r.stable and r.status == "blowup" and "mjWARN_BADQACC" in r.message
     assert r.mode == "energy growth" and r.t_fail < r.t_reached
-    assert engine_mode(failed("mujoco", "Euler", ["body"], "blowup", r.message)) == "badqacc"
-    for message in ("velocity beyond 1e+08 at t = 0.1 s", "angular speed 2.2e+54 rad/s beyond 1e+08 at t = 0.024 s"):
-        assert engine_mode(failed("inhouse", "rk4", ["body"], "blowup", message)) == "magnitude growth"
-    assert engine_mode(failed("inhouse", "rk4", ["body"], "blowup", "non-finite state at t = 0.1 s")) == "nan"
     spec = TrialSpec(v.name, "pinocchio", "euler", 1e-4, 0.02, 1e-4, 1e-8, "search")
     r = trial_case(scene, spec, ref, cat.bounds)
     assert not r.stable and r.mode in ("energy growth", "magnitude growth")
@@ -454,7 +450,7 @@ def test_an_unsupported_trial_stops_the_search():
     v = cat.variants[0]
     s = StepSearch(v, "inhouse", "rk4", cat.bounds)
     (spec,) = s.next_specs()
-    traj = failed("inhouse", "rk4", ["body"], "unsupported", "rk4: no equations for this joint")
+    traj = failed("inhouse", "rk4", ["body"], Failure.UNSUPPORTED, "rk4: no equations for this joint")
     s.record(trial_case_result(traj, spec, v))
     assert s.next_specs() == [] and s.done
     row = s.summary()
@@ -477,20 +473,22 @@ def trial_case_result(traj, spec, variant):
     return evaluate(traj, variant_scene(variant), spec, Reference(None, False, dict(variant.band)), Bounds())
 
 
-def test_the_engine_mode_family_follows_the_status_not_the_text():
-    """The status decides blow-up against failure; the message only refines within it: a failed
-    run that mentions a non-finite value is a solver failure, a blow-up that mentions a
-    projection is "nan"; an unsupported run is not a failure mode at all."""
-    def mode(status, message):
-        return engine_mode(failed("inhouse", "rk4", ["body"], status, message))
+def test_the_engine_mode_follows_the_reason_never_the_text():
+    """The run's ``Failure`` decides its mode; the message is not read: the same text under
+    different reasons gives different modes, and every reason has a mode; an unsupported run is
+    not a failure mode at all."""
+    def mode(reason, message="position projection did not converge: singular, flat, beyond 1e+08"):
+        return engine_mode(failed("inhouse", "rk4", ["body"], reason, message))
 
-    assert mode("failed", "ArithmeticError: non-finite value in the dynamics") == "solver failure"
-    assert mode("failed", "DynamicsError: constraint matrix J M^-1 J^T is singular") == "singular constraint"
-    assert mode("failed", "position projection did not converge (t = 1 s)") == "constraint drift"
-    assert mode("blowup", "non-finite state after projection at t = 1 s") == "nan"
-    assert mode("blowup", "non-finite DOP853 error estimate (a stage overflowed)") == "nan"
-    assert mode("unsupported", "rk4_compiled: the compiled in-house solver does not model rolling contacts") == "unsupported"
+    assert mode(Failure.SOLVER) == "solver failure"
+    assert mode(Failure.SINGULAR) == "singular constraint"
+    assert mode(Failure.PROJECTION) == "constraint drift"
+    assert mode(Failure.NON_FINITE) == "nan"
+    assert mode(Failure.SPEED) == "magnitude growth"
+    assert mode(Failure.ENGINE_GUARD) == "badqacc"
+    assert mode(Failure.UNSUPPORTED) == "unsupported"
     assert "unsupported" not in FAILURE_MODES
+    assert {engine_mode(failed("e", "m", ["b"], r, "")) for r in Failure if r is not Failure.NONE} - {UNSUPPORTED} <= set(FAILURE_MODES)
 
 
 def test_the_compiled_runs_fail_in_the_same_modes_as_the_per_state_ones():
@@ -501,8 +499,8 @@ def test_the_compiled_runs_fail_in_the_same_modes_as_the_per_state_ones():
     from harness.engines.inhouse.compiled.solver import STATUS
 
     def mode(code):
-        status, message = STATUS[code]
-        return engine_mode(failed("inhouse", "rk4_compiled", ["body"], status, message + " (t = 0.1 s)"))
+        reason, message = STATUS[code]
+        return engine_mode(failed("inhouse", "rk4_compiled", ["body"], reason, message + " (t = 0.1 s)"))
 
     assert mode(kernels.FLAT_DISK) == "singular constraint"
     assert mode(kernels.SINGULAR) == "singular constraint"
@@ -512,7 +510,7 @@ def test_the_compiled_runs_fail_in_the_same_modes_as_the_per_state_ones():
 def test_a_non_finite_compiled_error_estimate_is_a_blowup():
     from harness.engines.inhouse.compiled import kernels, solver
 
-    assert solver.STATUS[kernels.BAD_ERROR][0] == "blowup" and solver.STATUS[kernels.NONFINITE][0] == "blowup"
+    assert solver.STATUS[kernels.BAD_ERROR][0].status == "blowup" and solver.STATUS[kernels.NONFINITE][0].status == "blowup"
 
 
 def test_a_nominal_run_that_diverged_is_a_defect_in_the_judging_vocabulary():

@@ -9,7 +9,7 @@ import pytest
 
 from harness.cli.main import main
 from harness.model.errors import InputError
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.studies.sweep.report import figure_png, frame, markdown
 from harness.studies.sweep.run import (Axis, PointResult, SweepRun, check_axes, grid_points, parse_axis,
                                        point_overrides, random_points, summarize, worst_class)

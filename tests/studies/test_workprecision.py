@@ -13,7 +13,8 @@ import pytest
 from harness.cli.main import main
 from harness.engines import ENGINE_NAMES
 from harness.engines.base import RunSettings
-from harness.model.scene import load_scene
+from harness.measure.trajectory import Failure
+from harness.engines import load_scene
 from harness.studies.workprecision.run import (
     ERROR_KEYS,
     QUICK,
@@ -91,7 +92,7 @@ def test_errors_of_the_reference_itself_vanish(torque_free_short):
     scene, _, ref = torque_free_short
     errs = errors(ref, ref, scene.multibody())
     assert all(errs[k] == 0.0 for k in ERROR_KEYS)
-    bad = replace(ref, status="blowup")
+    bad = replace(ref, reason=Failure.NON_FINITE)
     assert all(math.isnan(v) for v in errors(bad, ref, scene.multibody()).values())
 
 

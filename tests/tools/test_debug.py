@@ -10,7 +10,8 @@ import pytest
 
 from harness.tools import debug as debug_run
 from harness.cli.main import main
-from harness.model.scene import MODELS_DIR, load_scene
+from harness.model.scene import MODELS_DIR
+from harness.engines import load_scene
 from harness.judging import quantities
 from harness.judging.checks import CheckResult
 from harness.validate.run import validate
@@ -47,7 +48,7 @@ def test_a_first_order_method_converges_and_a_requirement_fails_it(tmp_path, cap
     models = tmp_path / "models"
     shutil.copytree(MODELS_DIR / "double_pendulum", models / "double_pendulum")
     toml = models / "double_pendulum" / "scene.toml"
-    toml.write_text(toml.read_text().replace('mujoco = "RK4"', 'mujoco = "Euler"'))
+    toml.write_text(toml.read_text() + '\n[integrators]\nmujoco = "Euler"\n')
     args = ["debug", "double_pendulum", "--engines", "reference,mujoco", "--t-end", "0.5", "--models-dir", str(models)]
     code, out, _ = run([*args, "--out-dir", str(tmp_path / "a")], capsys)
     assert code == 0, out

@@ -11,7 +11,8 @@ import pytest
 from harness.tools import dynamics_terms as dc
 from harness.engines.mujoco.model import load_mjcf
 from harness.engines.pinocchio.model import load_urdf
-from harness.model.scene import available_scenes, load_scene
+from harness.model.scene import available_scenes
+from harness.engines import load_scene
 
 
 def loaded(name, model=None):

@@ -7,7 +7,8 @@ import shutil
 import pytest
 
 from harness.cli.main import main
-from harness.model.scene import available_scenes, load_scene, MODELS_DIR
+from harness.model.scene import available_scenes, MODELS_DIR
+from harness.engines import load_scene
 from harness.validate.run import model_checks
 
 BAR2_URDF_INERTIA = '<inertia ixx="0.083358333333333" ixy="0" ixz="0" iyy="0.083358333333333" iyz="0" izz="0.00005"/>'

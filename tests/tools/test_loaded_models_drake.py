@@ -6,7 +6,8 @@ a file Drake refuses gives one line."""
 import numpy as np
 import pytest
 
-from harness.model.scene import available_scenes, load_scene
+from harness.model.scene import available_scenes
+from harness.engines import load_scene
 from harness.tools.check import load_mujoco, load_pinocchio
 from harness.tools.check.reading import _zero_qpos
 from harness.engines.loaded_models import compare_joint_bodies, mujoco_joint_bodies

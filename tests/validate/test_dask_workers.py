@@ -21,7 +21,7 @@ import pytest
 distributed = pytest.importorskip("distributed")
 
 from harness.cli.main import build_parser, main  # noqa: E402
-from harness.model.scene import load_scene  # noqa: E402
+from harness.engines import load_scene  # noqa: E402
 from harness.validate import dask_workers  # noqa: E402
 from harness.validate.local_workers import _prctl  # noqa: E402
 from harness.validate.workers import Outcome, run_cases  # noqa: E402

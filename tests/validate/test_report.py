@@ -294,7 +294,7 @@ def test_validate_carries_the_engine_warnings_into_the_report(monkeypatch):
     from dataclasses import replace
 
     from harness.engines.mujoco.engine import MujocoEngine
-    from harness.model.scene import load_scene
+    from harness.engines import load_scene
     from harness.validate.run import validate
 
     real = MujocoEngine.simulate
@@ -318,7 +318,7 @@ def test_an_engine_the_scene_excludes_is_reported_not_run_with_why(tmp_path):
     from dataclasses import replace
 
     from harness.io.provenance import provenance
-    from harness.model.scene import load_scene
+    from harness.engines import load_scene
     from harness.validate.run import validate
 
     scene = load_scene("rolling_disk")

@@ -13,7 +13,8 @@ import pytest
 
 from harness.cli.main import main
 from harness.engines.mujoco.engine import MujocoEngine
-from harness.model.scene import MODELS_DIR, available_scenes, load_scene
+from harness.model.scene import MODELS_DIR, available_scenes
+from harness.engines import load_scene
 from harness.judging import quantities
 from harness.validate.run import model_checks, validate
 
@@ -381,7 +382,7 @@ def test_a_non_finite_run_is_judged_by_its_status():
     record and the ``run`` check follow the status, not the message text); a finite run and a run
     already not ok are unchanged."""
     from harness.measure.invariants import mark_non_finite
-    from harness.measure.trajectory import failed
+    from harness.measure.trajectory import Failure, failed
 
     scene = short("double_pendulum")
     traj, _ = _spoiled(scene, 7, float("nan"), "v_WCm_W")
@@ -390,7 +391,7 @@ def test_a_non_finite_run_is_judged_by_its_status():
     assert "(inhouse reported ok)" in marked.message and len(marked.t) == len(traj.t)
     fine, _ = _spoiled(scene, 7, 0.0)
     assert mark_non_finite(fine, scene.multibody()) is fine
-    gone = failed("inhouse", "rk4", fine.body_names, "failed", "solver failure")
+    gone = failed("inhouse", "rk4", fine.body_names, Failure.SOLVER, "solver failure")
     assert mark_non_finite(gone, scene.multibody()) is gone
 
 

@@ -15,32 +15,26 @@ gravity and springs). Joint reactions (``[checks.reaction]``) are Drake's reacti
 port: per joint, the spatial force on the child body at the joint's child frame origin (the
 child's body frame origin), in world.
 
-Not modelled: the ideal rolling contact (Drake has no rolling constraint; its contact is
-compliant), run as "unsupported".
+Not modelled: closed loops and the ideal rolling contact (the registry's declaration says why:
+``harness.engines.DECLARATIONS``; those scenes are not run).
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 
 import numpy as np
 
-from harness.engines.base import RunSettings, check_settings, maximal_blowup, warning_stats
+from harness.engines.base import EngineBase, RunSettings, sample_run
 from harness.engines.drake.integrators import METHODS, SCHEMES
 from harness.engines.drake.model import build, captured_drake_log
-from harness.measure.trajectory import SampleBuffer, Trajectory, unsupported
+from harness.measure.trajectory import Failure, SampleBuffer, Trajectory, unsupported
 from harness.model import rotations
 from harness.model.joints import JOINTS
 from harness.model.scene import Scene
 
 
-#: Why Drake does not run a scene with loop joints (``Multibody.loops``).
-LOOPS_UNSUPPORTED = ("Drake's continuous-time MultibodyPlant has no loop-closing constraint (its ball, distance and "
-                     "weld constraints need a discrete SAP plant), and a URDF cannot state a loop")
-
-
-class DrakeEngine:
+class DrakeEngine(EngineBase):
     """Runs a scene in Drake from its URDF file."""
 
     name = "drake"
@@ -67,22 +61,15 @@ class DrakeEngine:
         import pydrake.systems.analysis  # noqa: F401
         import pydrake.systems.framework  # noqa: F401
 
-    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
-        """Run ``scene``; Drake's log messages during the run go to ``stats["warnings"]``."""
-        check_settings(settings, self.integrators, self.name)
-        with captured_drake_log() as log:
-            traj = self._simulate(scene, settings)
-        if traj.stats is not None and "steps" in traj.stats:
-            traj.stats["warnings"] = warning_stats(log.messages)
-        return traj
+    def capture(self):
+        """Drake's log messages during a run (``captured_drake_log``)."""
+        return captured_drake_log()
 
-    def _simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
+    def run(self, scene: Scene, settings: RunSettings) -> Trajectory:
         model = scene.multibody()
         names = tuple(model.body_names)
         method = settings.integrator
         start = time.perf_counter()
-        if model.loops:  # a continuous MultibodyPlant has no loop-closing constraint
-            return unsupported(self.name, method, names, f"{method}: {LOOPS_UNSUPPORTED}")
         try:
             dm = build(scene, model)
         except NotImplementedError as err:
@@ -102,34 +89,24 @@ class DrakeEngine:
         simulator.Initialize()
         jointed = [(b.name, dm.joints[b.name]) for b in model.bodies
                    if JOINTS[b.joint].constrained and dm.joints[b.name] is not None] if "reaction" in scene.checks else []
-        n = settings.n_saves + 1
-        buf = SampleBuffer(n, len(names))
-        react = {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name, _ in jointed}
-        status, message, saved = "ok", "", 0
-        t0 = time.perf_counter()
-        try:
-            for k in range(n):
-                if k > 0:
-                    simulator.AdvanceTo(k * settings.save_every)
-                reason = _read(dm, model, k, buf)
-                if reason:
-                    status, message = "blowup", f"{reason} at t = {k * settings.save_every:.6g} s"
-                    break
-                if jointed:
-                    forces = dm.plant.get_reaction_forces_output_port().Eval(dm.context)
-                    for name, joint in jointed:
-                        react[name][0][k], react[name][1][k] = joint_reaction(dm, joint, forces[int(joint.index())])
-                saved = k + 1
-        except Exception as err:  # noqa: BLE001 - Drake raises RuntimeError on an integrator failure
-            status, message = "failed", f"{method}: Drake stopped at t = {context.get_time():.6g} s: " \
-                                        f"{' '.join(str(err).split())[:300]}"
+        buf = SampleBuffer(settings.n_saves + 1, len(names), [name for name, _ in jointed])
+
+        def advance(k: int) -> None:
+            simulator.AdvanceTo(k * settings.save_every)
+
+        def read(k: int) -> None:
+            _read(dm, model, k, buf)
+            if jointed:
+                forces = dm.plant.get_reaction_forces_output_port().Eval(dm.context)
+                for name, joint in jointed:
+                    buf.set_reaction(name, k, *joint_reaction(dm, joint, forces[int(joint.index())]))
+
+        done = sample_run(settings, buf, advance, read, {RuntimeError: Failure.SOLVER})  # Drake's integrator failures
         stats = {"steps": integ.get_num_steps_taken(), "rhs_evals": integ.get_num_derivative_evaluations(),
-                 "wall_s": time.perf_counter() - start, "wall_integrate_s": time.perf_counter() - t0,
+                 "wall_s": time.perf_counter() - start, "wall_integrate_s": done.wall_s,
                  "settings": _describe(method, settings, scene)}
-        traj = buf.trajectory(self.name, method, names, settings.save_every, saved, stats, status, message)
-        if react:
-            traj = replace(traj, reactions={name: (f[:saved], m[:saved]) for name, (f, m) in react.items()})
-        return traj
+        message = f"{method}: Drake stopped: {done.message}" if done.reason is Failure.SOLVER else done.message
+        return buf.trajectory(self.name, method, names, settings.save_every, done.saved, stats, done.reason, message)
 
 
 def joint_reaction(dm, joint, F_CJc_Jc) -> tuple[np.ndarray, np.ndarray]:
@@ -164,9 +141,9 @@ def _describe(method: str, settings: RunSettings, scene: Scene) -> str:
     return f"Drake {SCHEMES[method]} ({how}) on the continuous MultibodyPlant of {scene.urdf.name}"
 
 
-def _read(dm, model, k: int, buf: SampleBuffer) -> str:
+def _read(dm, model, k: int, buf: SampleBuffer) -> None:
     """Fill sample ``k`` of ``buf`` (centre-of-mass position and velocity, orientation, world
-    angular velocity, Drake's energies); return why the state is a blow-up, or ""."""
+    angular velocity, Drake's energies)."""
     plant, ctx = dm.plant, dm.context
     for i, body in enumerate(model.bodies):
         b = dm.bodies[body.name]
@@ -181,7 +158,6 @@ def _read(dm, model, k: int, buf: SampleBuffer) -> str:
         buf.w_WB_W[k, i] = w
     buf.kinetic[k] = plant.CalcKineticEnergy(ctx)
     buf.potential[k] = plant.CalcPotentialEnergy(ctx)
-    return maximal_blowup(buf.p_WCm_W[k], buf.quat_WB[k], buf.v_WCm_W[k], buf.w_WB_W[k])
 
 
 ENGINE = DrakeEngine()

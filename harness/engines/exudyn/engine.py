@@ -42,10 +42,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from harness.engines.base import RunSettings, check_settings, maximal_blowup
+from harness.engines.base import EngineBase, RunSettings, check_settings, first_blowup
 from harness.engines.exudyn.integrators import IMPLICIT, METHODS, NODE_TYPE
 from harness.engines.exudyn.model import build, rotation_conditions
-from harness.measure.trajectory import Trajectory, unsupported
+from harness.measure.trajectory import Failure, Trajectory, unsupported
 from harness.model import rotations
 from harness.model.joints import JOINTS
 from harness.model.scene import Scene
@@ -67,7 +67,7 @@ NEWTON_ATOL = 1e-12
 SPECTRAL_RADIUS = 0.9
 
 
-class ExudynEngine:
+class ExudynEngine(EngineBase):
     """Runs a scene in Exudyn, built from the scene's description. ``modified_newton``: reuse the
     Newton Jacobian across iterations and steps (Exudyn's modified Newton) where full Newton
     (``NEWTON_RTOL``, validation's setting) is not needed: the step converges to the same
@@ -79,16 +79,15 @@ class ExudynEngine:
     def __init__(self, modified_newton: bool = False):
         self.modified_newton = modified_newton
 
-    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
-        check_settings(settings, self.integrators, self.name)
+    def run(self, scene: Scene, settings: RunSettings) -> Trajectory:
         return self.simulate_model(scene.multibody(), settings, reactions="reaction" in scene.checks)
 
     def simulate_model(self, model, settings: RunSettings, *, reactions: bool = False) -> Trajectory:
         """Integrate ``model`` from its initial state; samples at ``t = k * save_every``.
 
         Returns the trajectory in maximal coordinates; a solver failure (Newton not converged),
-        a non-finite state or a speed beyond ``BLOWUP_SPEED`` gives status "failed"/"blowup"
-        with the samples before it; an explicit method on a model with joints or contacts
+        a non-finite state or a speed beyond ``BLOWUP_SPEED`` (``first_blowup``) ends it with
+        its ``Failure`` and the samples before it; an explicit method on a model with joints or contacts
         gives status "unsupported". Never raises for a numerical failure."""
         check_settings(settings, self.integrators, self.name)
         import exudyn as exu
@@ -115,38 +114,40 @@ class ExudynEngine:
             ss.linearSolver.ignoreSingularJacobian = True
         printing = exu.config.printToConsole
         exu.config.printToConsole = False  # Exudyn's own failure banner; the run record says it
-        status, message = "ok", ""
+        reason, message = Failure.NONE, ""
         t0 = time.perf_counter()
         try:
             system.mbs.SolveDynamic(ss, solverType=getattr(exu.DynamicSolverType, method))
         except Exception as err:  # noqa: BLE001 - Exudyn raises SolverError (and RuntimeError) on failure
-            status, message = "failed", f"{method}: Exudyn solver stopped ({type(err).__name__}: {' '.join(str(err).split())})"
+            reason, message = Failure.SOLVER, f"{method}: Exudyn solver stopped ({type(err).__name__}: {' '.join(str(err).split())})"
         finally:
             exu.config.printToConsole = printing
         wall_solve = time.perf_counter() - t0
         traj = _read(system, model, settings, self.name, method)
         saved = len(traj.t)
-        if status == "failed" and saved:
+        if reason is not Failure.NONE and saved:
             message += f"; last sample t = {traj.t[-1]:.6g} s"
-        reason, saved = _blowup(traj)
-        if reason and status == "ok":
-            status, message = "blowup", reason
+        bad, blowup, what = first_blowup(traj.p_WCm_W, traj.v_WCm_W, traj.w_WB_W, traj.t)
+        if bad >= 0:
+            saved = bad
+            if reason is Failure.NONE:
+                reason, message = blowup, what
         out = _truncate(traj, saved)
-        if status == "ok" and len(out.t) != settings.n_saves + 1:
-            status, message = "failed", (f"Exudyn stored {len(out.t)} samples, expected {settings.n_saves + 1} "
-                                          f"(t = k * {settings.save_every:g} s)")
+        if reason is Failure.NONE and len(out.t) != settings.n_saves + 1:
+            reason, message = Failure.SOLVER, (f"Exudyn stored {len(out.t)} samples, expected {settings.n_saves + 1} "
+                                               f"(t = k * {settings.save_every:g} s)")
         edge_flip = _edge_flip(system, out, model)
-        if edge_flip and status == "ok":
-            status, message = "failed", edge_flip
+        if edge_flip and reason is Failure.NONE:
+            reason, message = Failure.SINGULAR, edge_flip
         out.stats.update({
             # a failed run: the steps up to its last stored sample (a lower bound)
-            "steps": n_steps if status == "ok" else max(len(out.t) - 1, 0) * settings.steps_per_save,
+            "steps": n_steps if reason is Failure.NONE else max(len(out.t) - 1, 0) * settings.steps_per_save,
             "wall_s": time.perf_counter() - start,
             "wall_solve_s": wall_solve,
             "settings": _describe(method, settings, model, system),
         })
-        if status != "ok":
-            return replace(out, status=status, message=message)
+        if reason is not Failure.NONE:
+            return replace(out, reason=reason, message=message)
         if reactions or model.contacts:
             out = replace(out, reactions=reaction_series(system, model, out, reactions=reactions))
         return out
@@ -221,16 +222,6 @@ def _read(system, model, settings: RunSettings, engine: str, method: str) -> Tra
         if finite.any():  # every sample at once (SciPy's per-call overhead is most of a single one)
             quat[finite, i] = rotations.from_matrix(R[finite])
     return Trajectory(engine, method, names, t, p, quat, v, w, stats={})
-
-
-def _blowup(traj: Trajectory) -> tuple[str, int]:
-    """``(reason, samples kept)``: the first sample with a non-finite state or a speed beyond
-    ``BLOWUP_SPEED`` ends the trajectory (reason "" when there is none)."""
-    for k in range(len(traj.t)):
-        reason = maximal_blowup(traj.p_WCm_W[k], traj.quat_WB[k], traj.v_WCm_W[k], traj.w_WB_W[k])
-        if reason:
-            return f"{reason} at t = {traj.t[k]:.6g} s", k
-    return "", len(traj.t)
 
 
 def _truncate(traj: Trajectory, n: int) -> Trajectory:

@@ -60,7 +60,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
+from harness.engines.base import EngineBase, RunSettings, check_settings, first_blowup, reason_of
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.constraints import DynamicsError, project, violation
 from harness.engines.inhouse.integrators import COMPILED, COMPILED_TWIN, FIXED_STEP, LIE_GROUP, METHODS, Result, integrate
@@ -68,7 +68,7 @@ from harness.engines.inhouse.model import NEModel, build, from_trajectory, initi
 from harness.engines.inhouse.newton_euler import Baumgarte, contact_force_series, make_rhs, reaction_series, reactions
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene
-from harness.measure.trajectory import Trajectory, failed, unsupported
+from harness.measure.trajectory import Failure, Trajectory, failed, unsupported
 
 
 __all__ = [
@@ -96,7 +96,7 @@ __all__ = [
 ]
 
 
-class InhouseEngine:
+class InhouseEngine(EngineBase):
     """The in-house Newton-Euler engine (see the module docstring).
 
     Args:
@@ -127,9 +127,8 @@ class InhouseEngine:
         omega = ratio * characteristic_rate(nem, y0, gravity_W, settings.t_end)
         return Baumgarte(omega=omega, zeta=self.baumgarte_zeta)
 
-    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
-        """Run ``scene`` with ``settings``; see ``simulate_model``. Bad settings raise InputError."""
-        check_settings(settings, self.integrators, self.name)
+    def run(self, scene: Scene, settings: RunSettings) -> Trajectory:
+        """Run ``scene`` with ``settings``; see ``simulate_model``."""
         return self.simulate_model(scene.multibody(), settings, reactions="reaction" in scene.checks)
 
     def simulate_model(self, model: Multibody, settings: RunSettings, *, reactions: bool = False) -> Trajectory:
@@ -178,25 +177,25 @@ class InhouseEngine:
         except NotImplementedError as err:  # a joint or force kind the engine has no equations for
             return unsupported(self.name, settings.integrator, names, str(err))
         except Exception as err:  # a numerical failure must come back as a trajectory
-            return failed(self.name, settings.integrator, names, "failed", f"{type(err).__name__}: {err}")
+            return failed(self.name, settings.integrator, names, reason_of(err), f"{type(err).__name__}: {err}")
         traj = to_trajectory(nem, res.t, res.y, self.name, settings.integrator)
         if reactions and len(res.t):
             try:
                 traj = replace(traj, reactions=reaction_series(nem, res.t, res.y, gains))
             except Exception as err:  # a numerical failure must come back as a trajectory
-                return failed(self.name, settings.integrator, names, "failed", f"reactions: {type(err).__name__}: {err}")
+                return failed(self.name, settings.integrator, names, reason_of(err), f"reactions: {type(err).__name__}: {err}")
         if nem.contacts and len(res.t):  # rolling contacts: the force at the contact, always (``rolling``)
             try:
                 traj = replace(traj, reactions={**traj.reactions, **contact_force_series(nem, res.t, res.y, gains)})
             except Exception as err:  # a numerical failure must come back as a trajectory
-                return failed(self.name, settings.integrator, names, "failed", f"contact force: {type(err).__name__}: {err}")
+                return failed(self.name, settings.integrator, names, reason_of(err), f"contact force: {type(err).__name__}: {err}")
         stats = {
             "steps": res.steps,
             "rhs_evals": res.rhs_evals,
             "wall_s": time.perf_counter() - start,
             "settings": self.describe(settings, gains),
         }
-        return replace(traj, stats=stats, status=res.status, message=res.message)
+        return replace(traj, stats=stats, reason=res.reason, message=res.message)
 
     def _simulate_compiled(self, model: Multibody, settings: RunSettings, *, reactions: bool) -> Trajectory:
         """``simulate_model`` for the compiled methods (``compiled.solver``): the same outputs;
@@ -225,22 +224,22 @@ class InhouseEngine:
         except NotImplementedError as err:  # outside the compiled form's scope: not run, not failed
             return unsupported(self.name, method, names, f"{method}: {err} (the per-state methods do)")
         except Exception as err:  # a numerical failure must come back as a trajectory
-            return failed(self.name, method, names, "failed", f"{type(err).__name__}: {err}")
+            return failed(self.name, method, names, reason_of(err), f"{type(err).__name__}: {err}")
         traj = to_trajectory(nem, res.t, res.y, self.name, method)
         if reactions and len(res.t):
             try:
                 traj = replace(traj, reactions=reaction_series(nem, res.t, res.y, gains, res.lam))
             except Exception as err:  # a numerical failure must come back as a trajectory
-                return failed(self.name, method, names, "failed", f"reactions: {type(err).__name__}: {err}")
+                return failed(self.name, method, names, reason_of(err), f"reactions: {type(err).__name__}: {err}")
         if nem.contacts and len(res.t):  # rolling contacts: the force at the contact, always (as simulate_model)
             try:
                 traj = replace(traj, reactions={**traj.reactions,
                                                 **contact_force_series(nem, res.t, res.y, gains, res.lam)})
             except Exception as err:  # a numerical failure must come back as a trajectory
-                return failed(self.name, method, names, "failed", f"contact force: {type(err).__name__}: {err}")
+                return failed(self.name, method, names, reason_of(err), f"contact force: {type(err).__name__}: {err}")
         stats = {"steps": res.steps, "rhs_evals": res.rhs_evals, "wall_s": res.wall_s,
                  "settings": self.describe(settings, gains)}
-        return replace(traj, stats=stats, status=res.status, message=res.message)
+        return replace(traj, stats=stats, reason=res.reason, message=res.message)
 
     def fast_method(self, method: str, model: Multibody) -> str:
         """The registry's hook (``harness.engines.fast_method``): ``fast_method`` below."""
@@ -372,33 +371,24 @@ def characteristic_rate(nem: NEModel, y0: np.ndarray, gravity_W: np.ndarray, t_e
 
 
 def stop_at_blowup(nem: NEModel, res: Result) -> Result:
-    """``res`` cut before its first blown-up sample: a non-finite state, or a speed (norm of a
-    body's centre-of-mass velocity, m/s, or of its angular velocity, rad/s) beyond
-    ``BLOWUP_SPEED``, the bound MuJoCo and Pinocchio stop at. Such a run ends with status
-    "blowup" and a one-line message (time and what), keeping the samples before it; an earlier
+    """``res`` cut before its first blown-up sample (``harness.engines.base.first_blowup``: a
+    non-finite state, or a speed beyond ``BLOWUP_SPEED``, every engine's bound), ending with that
+    reason and a one-line message (time and what), keeping the samples before it; an earlier
     failure or blow-up the integrator reported is kept when it comes first. ``res`` unchanged
     when every sample is sound."""
     y = np.asarray(res.y, dtype=float)
     if y.shape[0] == 0:
         return res
-    finite = np.all(np.isfinite(y), axis=1)
     with np.errstate(over="ignore", invalid="ignore"):
-        _, _, v, w = split(nem, y)
-        speed = np.max(np.linalg.norm(v, axis=-1), axis=-1, initial=0.0)
-        spin = np.max(np.linalg.norm(w, axis=-1), axis=-1, initial=0.0)
-    bad = ~finite | (speed > BLOWUP_SPEED) | (spin > BLOWUP_SPEED)
-    if not bad.any():
+        p, _, v, w = split(nem, y)
+        k, reason, what = first_blowup(p, v, w, res.t)
+        if k < 0 and not np.all(np.isfinite(y)):  # a non-finite quaternion with a finite position
+            k = int(np.argmax(~np.all(np.isfinite(y), axis=1)))
+            reason, what = Failure.NON_FINITE, f"non-finite state at t = {float(res.t[k]):.6g} s"
+    if k < 0:
         return res
-    k = int(np.argmax(bad))
-    t = float(res.t[k])
-    if not finite[k]:
-        what = f"non-finite state at t = {t:.6g} s"
-    elif speed[k] > BLOWUP_SPEED:
-        what = f"speed {speed[k]:.3g} m/s beyond {BLOWUP_SPEED:g} at t = {t:.6g} s"
-    else:
-        what = f"angular speed {spin[k]:.3g} rad/s beyond {BLOWUP_SPEED:g} at t = {t:.6g} s"
     lam = None if res.lam is None else res.lam[:k].copy()
-    return replace(res, t=res.t[:k].copy(), y=y[:k].copy(), status="blowup", message=what, lam=lam)
+    return replace(res, t=res.t[:k].copy(), y=y[:k].copy(), reason=reason, message=what, lam=lam)
 
 
 def projection_tolerance(nem: NEModel) -> float:

@@ -52,11 +52,17 @@ from scipy.linalg.lapack import dposv
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.model import _ROT_U, _ROT_V, NEModel
 from harness.engines.inhouse.rolling import rolling_rows
+from harness.measure.trajectory import Failure
 
 
 class DynamicsError(ArithmeticError):
     """A numerical failure of the model: singular constraint (KKT) matrix, projection that does
-    not converge. The integrators report it as a failed run."""
+    not converge. The integrators report it as a failed run with its ``reason`` (a ``Failure``:
+    ``SINGULAR`` unless stated)."""
+
+    def __init__(self, message: str, reason: Failure = Failure.SINGULAR):
+        super().__init__(message)
+        self.reason = reason
 
 
 _IDENTITY_QUAT = np.array([[1.0, 0.0, 0.0, 0.0]])
@@ -302,7 +308,7 @@ def project(nem: NEModel, y: np.ndarray, tol: float = 1e-13, max_iter: int = 8) 
         A = JM @ J.T
         err = np.max(np.abs(C))
         if not np.isfinite(err):
-            raise DynamicsError("non-finite constraint error in the projection")
+            raise DynamicsError("non-finite constraint error in the projection", Failure.NON_FINITE)
         if err <= tol:
             break
         dx = -(solve_rows(A, C, nem.redundant) @ JM)
@@ -314,7 +320,7 @@ def project(nem: NEModel, y: np.ndarray, tol: float = 1e-13, max_iter: int = 8) 
         if err <= _QUADRATIC:
             break
     else:
-        raise DynamicsError(f"position projection did not converge (max |C| = {err:.3e})")
+        raise DynamicsError(f"position projection did not converge (max |C| = {err:.3e})", Failure.PROJECTION)
     u = y[7 * nb :]
     u -= solve_rows(A, J @ u, nem.redundant) @ JM
     return y

@@ -23,9 +23,9 @@ A right-hand side is ``f(t, y) -> dy/dt`` on a flat float array. The methods (``
   (``InhouseEngine.simulate``) dispatches between the forms.
 
 Results are sampled at given save times ``t_save`` (s, starting at the initial time). A run
-never raises on a numerical failure: the result carries ``status`` "failed" (solver failure,
-``ArithmeticError`` or ``LinAlgError`` from the RHS) or "blowup" (non-finite state) and a
-``message``, with the samples up to the failure.
+never raises on a numerical failure: the result carries its ``reason`` (a ``Failure``: a non-finite state,
+the ``reason`` of a ``DynamicsError`` from the right-hand side, a singular solve, a solver
+failure) and a ``message``, with the samples up to the failure.
 """
 
 from __future__ import annotations
@@ -37,7 +37,8 @@ from typing import Callable
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK45, Radau
 
-from harness.engines.base import Integrator, integrator_table
+from harness.engines.base import Integrator, integrator_table, reason_of
+from harness.measure.trajectory import Failure
 from harness.engines.inhouse.lie_group import rkmk_step
 
 RHS = Callable[[float, np.ndarray], np.ndarray]
@@ -117,7 +118,8 @@ class Result:
         y: (n, ny) states at those times.
         steps: accepted steps; rhs_evals: right-hand-side evaluations (including those of
             finite-difference Jacobians of implicit methods); wall_s: wall time (s).
-        status: "ok", "failed" or "blowup"; message: why, when not ok.
+        reason: why it ended before the last save time (``Failure``; ``Failure.NONE`` when it
+            did not); message: why, when it did; ``status``: the reason's family.
         lam: (n, nc) constraint multipliers at those samples, where the integrator gives them
             (the compiled ones when asked), else None.
     """
@@ -127,9 +129,13 @@ class Result:
     steps: int
     rhs_evals: int
     wall_s: float
-    status: str = "ok"
+    reason: Failure = Failure.NONE
     message: str = ""
     lam: np.ndarray | None = None
+
+    @property
+    def status(self) -> str:
+        return self.reason.status
 
 
 class _Counted:
@@ -181,7 +187,7 @@ def integrate_fixed(
     ys = np.empty((len(t_save), y.size))
     ys[0] = y
     steps, n_done = 0, 1
-    status, message = "ok", ""
+    reason, message = Failure.NONE, ""
     try:
         with np.errstate(all="ignore"):
             for k in range(1, len(t_save)):
@@ -196,17 +202,17 @@ def integrate_fixed(
                         y = post_step(y)
                     steps += 1
                     if not np.all(np.isfinite(y)):
-                        status = "blowup"
+                        reason = Failure.NON_FINITE
                         message = f"non-finite state after step {steps} (t = {t0 + (j + 1) * h:.6g} s)"
                         break
-                if status != "ok":
+                if reason is not Failure.NONE:
                     break
                 ys[k] = y
                 n_done = k + 1
     except _NUMERICAL_ERRORS as err:
-        status = "failed"
+        reason = reason_of(err)
         message = f"{type(err).__name__} at step {steps + 1}: {err}"
-    return Result(t_save[:n_done].copy(), ys[:n_done].copy(), steps, fc.n, time.perf_counter() - start, status, message)
+    return Result(t_save[:n_done].copy(), ys[:n_done].copy(), steps, fc.n, time.perf_counter() - start, reason, message)
 
 
 def integrate_adaptive(
@@ -230,7 +236,7 @@ def integrate_adaptive(
     ys = np.empty((len(t_save), y0.size))
     ys[0] = y0
     n_done, steps = 1, 0
-    status, message = "ok", ""
+    reason, message = Failure.NONE, ""
     span = t_save[-1] - t_save[0]
     kwargs = {"rtol": rtol, "atol": atol}
     if len(t_save) > 1:
@@ -246,11 +252,11 @@ def integrate_adaptive(
             while solver.status == "running":
                 msg = solver.step()
                 if solver.status == "failed":
-                    status, message = "failed", f"{method}: {msg} (t = {solver.t:.6g} s)"
+                    reason, message = Failure.SOLVER, f"{method}: {msg} (t = {solver.t:.6g} s)"
                     break
                 steps += 1
                 if not np.all(np.isfinite(solver.y)):
-                    status, message = "blowup", f"non-finite state at t = {solver.t:.6g} s"
+                    reason, message = Failure.NON_FINITE, f"non-finite state at t = {solver.t:.6g} s"
                     break
                 t_new = solver.t
                 k_end = int(np.searchsorted(t_save, t_new, side="right"))
@@ -262,15 +268,15 @@ def integrate_adaptive(
                         ys[k_end - 1] = solver.y
                     n_done = k_end
     except _NUMERICAL_ERRORS as err:
-        status, message = "failed", f"{type(err).__name__} in {method} after {steps} steps: {err}"
-    if status == "ok" and n_done < len(t_save):  # pragma: no cover - the solver stops at t_bound
-        status, message = "failed", f"{method} stopped at t = {t_save[n_done - 1]:.6g} s before the horizon"
+        reason, message = reason_of(err), f"{type(err).__name__} in {method} after {steps} steps: {err}"
+    if reason is Failure.NONE and n_done < len(t_save):  # pragma: no cover - the solver stops at t_bound
+        reason, message = Failure.SOLVER, f"{method} stopped at t = {t_save[n_done - 1]:.6g} s before the horizon"
     out_t, out_y = t_save[:n_done].copy(), ys[:n_done].copy()
     if not np.all(np.isfinite(out_y)):
         bad = int(np.argmax(~np.all(np.isfinite(out_y), axis=1)))
         out_t, out_y = out_t[:bad], out_y[:bad]
-        status, message = "blowup", message or f"non-finite sample at t = {t_save[bad]:.6g} s"
-    return Result(out_t, out_y, steps, fc.n, time.perf_counter() - start, status, message)
+        reason, message = Failure.NON_FINITE, message or f"non-finite sample at t = {t_save[bad]:.6g} s"
+    return Result(out_t, out_y, steps, fc.n, time.perf_counter() - start, reason, message)
 
 
 def integrate(

@@ -39,6 +39,7 @@ import numpy as np
 
 from harness.model import rolling_contact, rotations
 from harness.engines.inhouse import algebra
+from harness.measure.trajectory import Failure
 
 
 @dataclass(frozen=True)
@@ -62,6 +63,8 @@ class RollingRows:
 
 class FlatDiskError(ArithmeticError):
     """The rolling body lies flat: the contact point is undefined."""
+
+    reason = Failure.SINGULAR
 
 
 def build_contacts(model, index: dict[str, int]) -> tuple[RollingRows, ...]:

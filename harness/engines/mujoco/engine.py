@@ -29,13 +29,12 @@ from ``MjData.warning`` counters as before (MuJoCo counts a warning whoever hand
 
 from __future__ import annotations
 
-import time
 from dataclasses import replace
 
 import mujoco
 import numpy as np
 
-from harness.engines.base import BLOWUP_SPEED, RunSettings, check_settings
+from harness.engines.base import EngineBase, RunSettings, sample_run
 from harness.engines.mujoco.integrators import INTEGRATOR_METHODS
 from harness.engines.mujoco.loops import cut_reactions
 from harness.engines.mujoco.loops import settings_text as loop_settings
@@ -47,14 +46,14 @@ from harness.model.errors import InputError
 from harness.model.forces import POINT_FORCES
 from harness.model.joints import JOINTS, ROTATIONAL, TRANSLATIONAL
 from harness.model.scene import Scene
-from harness.measure.trajectory import SampleBuffer, Trajectory
+from harness.measure.trajectory import Failure, RunStop, SampleBuffer, Trajectory
 
 # MuJoCo's own blow-up guards: each resets the state (mj_resetData), so a run that trips one
 # would otherwise go on from qpos0 with finite numbers.
 _BAD_WARNINGS = ("mjWARN_BADQACC", "mjWARN_BADQVEL", "mjWARN_BADQPOS")
 
 
-class MujocoEngine:
+class MujocoEngine(EngineBase):
     """Runs a scene in MuJoCo from its MJCF file."""
 
     name = "mujoco"
@@ -65,8 +64,11 @@ class MujocoEngine:
         as a run does (``load_mjcf``): InputError where MuJoCo cannot (``harness.engines.load_model_file``)."""
         load_mjcf(scene.mjcf, model)
 
-    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
-        check_settings(settings, self.integrators, self.name)
+    def capture(self):
+        """MuJoCo's own warnings (``mju_user_warning``) during a run (``warning_capture``)."""
+        return captured_warnings()
+
+    def run(self, scene: Scene, settings: RunSettings) -> Trajectory:
         model = scene.multibody()
         m = load_mjcf(scene.mjcf, model, dt=settings.dt, integrator=settings.integrator)
         d = mujoco.MjData(m)
@@ -76,61 +78,51 @@ class MujocoEngine:
         rolling = ContactForceReader(m, model, settings.n_saves + 1) if model.contacts else None  # mujoco_rolling
         jointed = [(b.name, bid) for b, bid in zip(model.bodies, body_ids) if JOINTS[b.joint].constrained] if "reaction" in scene.checks else []
         force_sites = _force_sites(m, model) if jointed else []
-
-        n = settings.n_saves + 1
-        react = {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name, _ in jointed}
         cuts = [loop.name for loop in model.loops] if jointed else []
-        react |= {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name in cuts}
-        buf = SampleBuffer(n, len(body_ids))
+        buf = SampleBuffer(settings.n_saves + 1, len(body_ids), [name for name, _ in jointed] + cuts)
         res6 = np.zeros(6)
-        status, message, saved = "ok", "", 0
-        t0 = time.perf_counter()
-        mujoco.set_mjcb_control(control)
-        caught = captured_warnings().__enter__()
-        try:
-            for k in range(n):
-                if k > 0:
-                    mujoco.mj_step(m, d, settings.steps_per_save)  # MuJoCo's own loop: one call per saved sample
+
+        def advance(k: int) -> None:
+            mujoco.mj_step(m, d, settings.steps_per_save)  # MuJoCo's own loop: one call per saved sample
+            mujoco.mj_forward(m, d)
+            bad = [w for w in _BAD_WARNINGS if d.warning[getattr(mujoco.mjtWarning, w)].number]
+            if bad:  # after a reset d.time restarts from 0: report the sample's own time
+                raise RunStop(Failure.ENGINE_GUARD, f"bad acceleration/state, MuJoCo warning {', '.join(bad)} "
+                                                    f"by t = {k * settings.save_every:.6g} s (MuJoCo reset the state)")
+
+        def read(k: int) -> None:
+            if k == 0:
                 mujoco.mj_forward(m, d)
-                bad = [w for w in _BAD_WARNINGS if d.warning[getattr(mujoco.mjtWarning, w)].number]
-                if bad or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-                    what = f"bad acceleration/state, MuJoCo warning {', '.join(bad)}" if bad else "non-finite state"
-                    # after a reset d.time restarts from 0: report the sample's own time
-                    status, message = "blowup", f"{what} by t = {k * settings.save_every:.6g} s (MuJoCo reset the state)"
-                    break
-                if np.max(np.abs(d.qvel), initial=0.0) > BLOWUP_SPEED:
-                    status, message = "blowup", f"velocity beyond {BLOWUP_SPEED:g} at t = {d.time:.6g} s"
-                    break
-                for i, bid in enumerate(body_ids):
-                    buf.p_WCm_W[k, i] = d.xipos[bid]
-                    buf.quat_WB[k, i] = d.xquat[bid]
-                    mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, bid, res6, 0)
-                    buf.w_WB_W[k, i] = res6[:3]
-                    buf.v_WCm_W[k, i] = res6[3:]
-                buf.potential[k], buf.kinetic[k] = d.energy[0], d.energy[1]
-                if jointed:
-                    mujoco.mj_rnePostConstraint(m, d)
-                    for name, bid in jointed:
-                        react[name][0][k], react[name][1][k] = joint_reaction(m, d, bid, force_sites)
-                    for name, (force, moment) in cut_reactions(m, d, model).items():
-                        react[name][0][k], react[name][1][k] = force, moment
-                if rolling is not None:
-                    rolling.read(m, d, k)
-                saved = k + 1
+            for i, bid in enumerate(body_ids):
+                buf.p_WCm_W[k, i] = d.xipos[bid]
+                buf.quat_WB[k, i] = d.xquat[bid]
+                mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, bid, res6, 0)
+                buf.w_WB_W[k, i] = res6[:3]
+                buf.v_WCm_W[k, i] = res6[3:]
+            buf.potential[k], buf.kinetic[k] = d.energy[0], d.energy[1]
+            if jointed:
+                mujoco.mj_rnePostConstraint(m, d)
+                for name, bid in jointed:
+                    buf.set_reaction(name, k, *joint_reaction(m, d, bid, force_sites))
+                for name, (force, moment) in cut_reactions(m, d, model).items():
+                    buf.set_reaction(name, k, force, moment)
+            if rolling is not None:
+                rolling.read(m, d, k)
+
+        mujoco.set_mjcb_control(control)
+        try:
+            done = sample_run(settings, buf, advance, read)
         finally:
-            caught.__exit__()
             mujoco.set_mjcb_control(None)
-        stats = {"steps": settings.n_saves * settings.steps_per_save, "wall_s": time.perf_counter() - t0,
-                 "settings": _describe(m), "warnings": caught.stats()}
+        stats = {"steps": max(done.saved - 1, 0) * settings.steps_per_save, "wall_s": done.wall_s,
+                 "settings": _describe(m)}
         traj = buf.trajectory(self.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
-                              saved, stats, status, message)
+                              done.saved, stats, done.reason, done.message)
         if rolling is not None:
-            react.update(rolling.series(saved))
+            traj = replace(traj, reactions={**traj.reactions, **rolling.series(done.saved)})
             stats["settings"] += ", " + describe_contact(m)
         if model.loops:  # cut joints: soft <connect> equalities (``loops``)
             stats["settings"] += ", " + loop_settings(m)
-        if react:
-            traj = replace(traj, reactions={name: (f[:saved], mo[:saved]) for name, (f, mo) in react.items()})
         return traj
 
 

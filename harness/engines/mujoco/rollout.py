@@ -25,7 +25,8 @@ import mujoco
 import numpy as np
 from mujoco import rollout as _rollout
 
-from harness.engines.mujoco.warning_capture import captured_warnings, warning_stats
+from harness.engines.base import first_blowup, warning_stats
+from harness.engines.mujoco.warning_capture import captured_warnings
 from harness.engines.mujoco.model import load_mjcf, set_initial_state
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene
@@ -108,21 +109,21 @@ class RolloutModel:
         return p, q, v, w
 
     def trajectory(self, states: np.ndarray, t: np.ndarray, integrator: str) -> Trajectory:
-        """A ``Trajectory`` from states (n x nstate) saved at times ``t`` (n,) s; a non-finite
-        state ends it with status "blowup"."""
+        """A ``Trajectory`` from states (n x nstate) saved at times ``t`` (n,) s; a blow-up
+        (``harness.engines.base.first_blowup``: a non-finite state, a speed beyond
+        ``BLOWUP_SPEED``) ends it with its reason."""
         n = len(t)
         nb = len(self.body_ids)
         P, Q, V, W = (np.full((n, nb, k), np.nan) for k in (3, 4, 3, 3))
-        saved, status, message = 0, "ok", ""
         for k in range(n):
             if not np.all(np.isfinite(states[k])):
-                status, message = "blowup", f"non-finite state at t = {t[k]:.6g} s"
-                break
+                break  # this sample and the rest stay NaN: first_blowup ends the run there
             P[k], Q[k], V[k], W[k] = self.read_bodies(states[k])
-            saved = k + 1
+        bad, reason, message = first_blowup(P, V, W, t)
+        saved = n if bad < 0 else bad
         return Trajectory(engine="mujoco", integrator=integrator, body_names=tuple(b.name for b in self.model.bodies),
                           t=np.asarray(t, dtype=float)[:saved], p_WCm_W=P[:saved], quat_WB=Q[:saved],
-                          v_WCm_W=V[:saved], w_WB_W=W[:saved], status=status, message=message,
+                          v_WCm_W=V[:saved], w_WB_W=W[:saved], reason=reason, message=message,
                           stats={"warnings": warning_stats(self.warnings)})
 
 

@@ -14,24 +14,21 @@ kinematic loops (``Multibody.loops``, cut joints the URDF cannot state) in ``loo
 
 from __future__ import annotations
 
-import time
-from dataclasses import replace
-
 import numpy as np
 import pinocchio as pin
 
 from harness.model.joints import JOINTS
-from harness.engines.base import RunSettings, check_settings
+from harness.engines.base import EngineBase, RunSettings, sample_run
 from harness.engines.pinocchio.forces import applied_function, joint_slots, point_spring_energy, rnea_reactions, spring_energy
 from harness.engines.pinocchio.lie_group_integrators import METHODS, stepper
-from harness.engines.pinocchio.model import MaximalReader, blowup_reason, initial_configuration, load_urdf
+from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, initial_configuration, load_urdf
 from harness.engines.pinocchio.loops import simulate_loops
 from harness.engines.pinocchio.rolling import simulate_rolling
 from harness.model.scene import Scene
 from harness.measure.trajectory import SampleBuffer, Trajectory
 
 
-class PinocchioEngine:
+class PinocchioEngine(EngineBase):
     """Runs a scene in Pinocchio from its URDF file."""
 
     name = "pinocchio"
@@ -42,8 +39,7 @@ class PinocchioEngine:
         run does (``load_urdf``): InputError where Pinocchio cannot (``harness.engines.load_model_file``)."""
         load_urdf(scene.urdf, scene.urdf_root_joint, model)
 
-    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
-        check_settings(settings, self.integrators, self.name)
+    def run(self, scene: Scene, settings: RunSettings) -> Trajectory:
         model = scene.multibody()
         if getattr(model, "contacts", ()):  # rolling contacts: constrained forward dynamics (pinocchio_rolling)
             return simulate_rolling(self, scene, settings, model)
@@ -51,53 +47,41 @@ class PinocchioEngine:
             return simulate_loops(self, scene, settings, model)
         pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
         data = pmodel.createData()
-        q, v = initial_configuration(pmodel, ids, model)
+        state = list(initial_configuration(pmodel, ids, model))
         applied = applied_function(pmodel, data, ids, model)
         slots = joint_slots(pmodel, ids, model)
         accel = _accel_function(pmodel, data, ids, model, applied)
         step = stepper(settings.integrator, pmodel)
         jointed = [(b.name, jid) for b, jid in zip(model.bodies, ids) if JOINTS[b.joint].constrained] if "reaction" in scene.checks else []
-        react = {name: (np.full((settings.n_saves + 1, 3), np.nan), np.full((settings.n_saves + 1, 3), np.nan))
-                 for name, _ in jointed}
-        h = settings.dt
-
-        n = settings.n_saves + 1
-        buf = SampleBuffer(n, len(ids))
+        h, per = settings.dt, settings.steps_per_save
+        buf = SampleBuffer(settings.n_saves + 1, len(ids), [name for name, _ in jointed])
         reader = MaximalReader(pmodel, data, ids, buf)
-        status, message, saved, steps = "ok", "", 0, 0
-        t0 = time.perf_counter()
-        try:
-            for k in range(n):
-                if k > 0:
-                    for _ in range(settings.steps_per_save):
-                        q, v = step(accel, steps * h, q, v, h)
-                        steps += 1
-                reason = blowup_reason(q, v, steps * h)
-                if reason:
-                    status, message = "blowup", reason
-                    break
-                reader.read(q, v, k)
-                buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
-                buf.potential[k] = (pin.computePotentialEnergy(pmodel, data, q) + spring_energy(slots, q)
-                                    + point_spring_energy(pmodel, data, ids, model, q))
-                if jointed:
-                    t_k = steps * h
-                    tau, fext = applied(t_k, q, v)
-                    a = _aba(pmodel, data, q, v, tau, fext)
-                    for name, (force, moment) in rnea_reactions(pmodel, data, jointed, tau, fext, q, v, a).items():
-                        react[name][0][k], react[name][1][k] = force, moment
-                saved = k + 1
-        except (RuntimeError, ValueError, np.linalg.LinAlgError) as err:
-            status, message = "failed", f"{type(err).__name__} at t = {steps * h:.6g} s: {err}"
-        reader.finish(saved)
-        stats = {"steps": steps, "wall_s": time.perf_counter() - t0,
+
+        def advance(k: int) -> None:
+            q, v = state
+            for j in range(per):
+                q, v = step(accel, ((k - 1) * per + j) * h, q, v, h)
+            state[:] = q, v
+
+        def read(k: int) -> None:
+            q, v = state
+            reader.read(q, v, k)
+            buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
+            buf.potential[k] = (pin.computePotentialEnergy(pmodel, data, q) + spring_energy(slots, q)
+                                + point_spring_energy(pmodel, data, ids, model, q))
+            if jointed:
+                tau, fext = applied(k * per * h, q, v)
+                a = _aba(pmodel, data, q, v, tau, fext)
+                for name, (force, moment) in rnea_reactions(pmodel, data, jointed, tau, fext, q, v, a).items():
+                    buf.set_reaction(name, k, force, moment)
+
+        done = sample_run(settings, buf, advance, read, RUN_ERRORS)
+        reader.finish(done.saved)
+        stats = {"steps": max(done.saved - 1, 0) * per, "wall_s": done.wall_s,
                  "settings": f"aba, {settings.integrator} on the configuration Lie group (integrate/dIntegrate), "
                              f"step {h:g} s, root joint {scene.urdf_root_joint}"}
-        traj = buf.trajectory(self.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
-                              saved, stats, status, message)
-        if react:
-            traj = replace(traj, reactions={name: (f[:saved], mo[:saved]) for name, (f, mo) in react.items()})
-        return traj
+        return buf.trajectory(self.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
+                              done.saved, stats, done.reason, done.message)
 
 
 def _accel_function(pmodel, data, ids, model, applied=None):

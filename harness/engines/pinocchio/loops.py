@@ -89,19 +89,17 @@ this path.
 from __future__ import annotations
 
 import math
-import time
-from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
 
-from harness.engines.base import RunSettings
+from harness.engines.base import RunSettings, sample_run
 from harness.engines.pinocchio import linalg
 from harness.engines.pinocchio.forces import (joint_force_function, joint_slots, point_spring_energy, point_wrenches,
                                               rnea_reactions, spring_energy)
 from harness.engines.pinocchio.lie_group_integrators import stepper
-from harness.engines.pinocchio.model import MaximalReader, blowup_reason, initial_configuration, load_urdf
-from harness.measure.trajectory import SampleBuffer, Trajectory
+from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, check_finite, initial_configuration, load_urdf
+from harness.measure.trajectory import Failure, RunStop, SampleBuffer, Trajectory
 from harness.model.joints import JOINTS, keeps_axis, loop_kinds
 from harness.model.multibody import Multibody
 from harness.model.rotations import cross
@@ -112,10 +110,6 @@ MAX_PROXIMAL_ITER = 20
 PROJECTION_TOL = 1e-14  # m per m of length scale (at least 1 m): closure residual left by the projection
 MAX_PROJECTION_ITER = 8
 RCOND = 1e-10  # relative cut-off of the singular values of J L^-T (redundant rows)
-
-
-class LoopClosureError(ArithmeticError):
-    """The projection onto the loop-closure manifold did not converge."""
 
 
 class LoopConstraints:
@@ -262,7 +256,7 @@ def proximal_settings(pmodel: pin.Model, data: pin.Data, q: np.ndarray, constrai
     delassus = pin.computeDelassusMatrix(pmodel, data, q, constraints.models, constraints.datas, 0.0)
     scale = float(np.max(np.abs(np.diag(delassus)), initial=0.0))
     if not (np.isfinite(scale) and scale > 0.0):
-        raise LoopClosureError("the loop constraints' Delassus matrix is zero or not finite at the initial state")
+        raise RunStop(Failure.SINGULAR, "the loop constraints' Delassus matrix is zero or not finite at the initial state")
     return pin.ProximalSettings(0.0, ACCURACY_RELATIVE * force_scale(model), MU_RELATIVE * scale, MAX_PROXIMAL_ITER)
 
 
@@ -288,16 +282,12 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
     slots = joint_slots(pmodel, ids, model)
     counters = {"rhs_evals": 0, "prox_iter_max": 0, "prox_unconverged": 0, "projection_iter_max": 0}
     step = stepper(settings.integrator, pmodel)
-    h = settings.dt
-    n = settings.n_saves + 1
-    buf = SampleBuffer(n, len(ids))
-    reader = MaximalReader(pmodel, data, ids, buf)
-    react = {loop.name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for loop in model.loops}
+    h, per = settings.dt, settings.steps_per_save
     jointed = ([(b.name, ids[i]) for i, b in enumerate(model.bodies) if JOINTS[b.joint].constrained]
                if "reaction" in scene.checks else [])
-    react |= {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name, _ in jointed}
+    buf = SampleBuffer(settings.n_saves + 1, len(ids), [loop.name for loop in model.loops] + [name for name, _ in jointed])
+    reader = MaximalReader(pmodel, data, ids, buf)
     rdata = pmodel.createData()
-    status, message, saved, steps = "ok", "", 0, 0
     prox = None
 
     def solve(t, q, v, forces=None):
@@ -323,11 +313,11 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
             A = linalg.solve(L, J.T).T  # J L^-T
             err = float(np.abs(e).max())
             if not math.isfinite(err):
-                raise LoopClosureError("non-finite loop-closure residual")
+                raise RunStop(Failure.NON_FINITE, "non-finite loop-closure residual")
             if err <= PROJECTION_TOL or err <= PROJECTION_TOL * constraints.length():  # length() >= 1 m
                 break
             if it == MAX_PROJECTION_ITER:
-                raise LoopClosureError(f"position projection did not converge (closure residual {err:.3e} m)")
+                raise RunStop(Failure.PROJECTION, f"position projection did not converge (closure residual {err:.3e} m)")
             z = linalg.lstsq(A, -e, RCOND)
             q = pin.integrate(pmodel, q, linalg.solve(L.T, z))
         if it > counters["projection_iter_max"]:
@@ -335,43 +325,43 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
         z = linalg.lstsq(A, J @ v, RCOND)
         return q, v - linalg.solve(L.T, z)
 
-    t0 = time.perf_counter()
-    try:
-        prox = proximal_settings(pmodel, data, q, constraints, model)
-        q, v = project(q, v)
-        for k in range(n):
-            if k > 0:
-                for _ in range(settings.steps_per_save):
-                    q, v = step(accel, steps * h, q, v, h)
-                    steps += 1
-                    reason = blowup_reason(q, v, steps * h)
-                    if reason:
-                        break
-                    q, v = project(q, v)
-            reason = blowup_reason(q, v, steps * h)
-            if reason:
-                status, message = "blowup", reason
-                break
-            forces = applied(steps * h, q, v)
-            a = solve(steps * h, q, v, forces)  # the multipliers at the sample (data.lambda_c)
-            lam = np.array(data.lambda_c)
-            for name, (force, moment) in constraints.reactions(lam).items():
-                react[name][0][k], react[name][1][k] = force, moment
-            if jointed:  # the tree's joints: rnea at the constrained acceleration, cut forces as fext
-                for name, fm in tree_reactions(pmodel, rdata, jointed, *forces, constraints, lam, q, v, a).items():
-                    react[name][0][k], react[name][1][k] = fm
-            reader.read(q, v, k)
-            buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
-            buf.potential[k] = (pin.computePotentialEnergy(pmodel, data, q) + spring_energy(slots, q)
-                                    + point_spring_energy(pmodel, data, ids, model, q))
-            saved = k + 1
-    except (RuntimeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
-        status, message = "failed", f"{type(err).__name__} at t = {steps * h:.6g} s: {err}"
+    state = [q, v]
+
+    def advance(k: int) -> None:
+        q, v = state
+        for j in range(per):
+            q, v = step(accel, ((k - 1) * per + j) * h, q, v, h)
+            check_finite(q, v, ((k - 1) * per + j + 1) * h)
+            q, v = project(q, v)
+        state[:] = q, v
+
+    def read(k: int) -> None:
+        nonlocal prox
+        if k == 0:
+            prox = proximal_settings(pmodel, data, state[0], constraints, model)
+            state[:] = project(*state)
+        q, v = state
+        t = k * per * h
+        forces = applied(t, q, v)
+        a = solve(t, q, v, forces)  # the multipliers at the sample (data.lambda_c)
+        lam = np.array(data.lambda_c)
+        for name, (force, moment) in constraints.reactions(lam).items():
+            buf.set_reaction(name, k, force, moment)
+        if jointed:  # the tree's joints: rnea at the constrained acceleration, cut forces as fext
+            for name, fm in tree_reactions(pmodel, rdata, jointed, *forces, constraints, lam, q, v, a).items():
+                buf.set_reaction(name, k, *fm)
+        reader.read(q, v, k)
+        buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
+        buf.potential[k] = (pin.computePotentialEnergy(pmodel, data, q) + spring_energy(slots, q)
+                            + point_spring_energy(pmodel, data, ids, model, q))
+
+    done = sample_run(settings, buf, advance, read, RUN_ERRORS)
+    saved = done.saved
     reader.finish(saved)
     mu = prox.mu if prox is not None else float("nan")
     acc = prox.relative_accuracy if prox is not None else float("nan")
     spans = "/".join(f"{lp.hinge_span:g}" for lp in model.loops if keeps_axis(lp.kind)) or "-"
-    stats = {"steps": steps, "rhs_evals": counters["rhs_evals"], "wall_s": time.perf_counter() - t0,
+    stats = {"steps": max(saved - 1, 0) * per, "rhs_evals": counters["rhs_evals"], "wall_s": done.wall_s,
              "prox_iter_max": counters["prox_iter_max"], "prox_unconverged": counters["prox_unconverged"],
              "projection_iter_max": counters["projection_iter_max"],
              "settings": f"constraintDynamics (proximal KKT) with RigidConstraintModel CONTACT_3D rows in "
@@ -381,6 +371,5 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
                          f"step {h:g} s; drift: Gauss-Newton position projection (tol {PROJECTION_TOL:g} m per m, "
                          f"at least 1 m) then "
                          f"velocity projection after each step, mass-weighted; root joint {scene.urdf_root_joint}"}
-    traj = buf.trajectory(engine.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
-                          saved, stats, status, message)
-    return replace(traj, reactions={name: (f[:saved], mo[:saved]) for name, (f, mo) in react.items()})
+    return buf.trajectory(engine.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
+                          saved, stats, done.reason, done.message)

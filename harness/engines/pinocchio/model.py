@@ -16,18 +16,16 @@ coordinates and Pinocchio's are ``to_pinocchio``, ``from_pinocchio`` and ``veloc
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from harness.engines.base import BLOWUP_SPEED
 from harness.model import rotations
 from harness.model.errors import InputError
 from harness.model.joints import JOINTS, JointType, by_pinocchio
 from harness.model.multibody import Multibody
-from harness.measure.trajectory import SampleBuffer
+from harness.measure.trajectory import Failure, RunStop, SampleBuffer
 
 LOCAL_WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -178,14 +176,17 @@ def initial_configuration(pmodel: pin.Model, ids: list[int], model: Multibody) -
     return q, v
 
 
-def blowup_reason(q: np.ndarray, v: np.ndarray, t: float) -> str | None:
-    """Why the state ``(q, v)`` at time ``t`` (s) counts as a blow-up, or None if it does not."""
-    speed = float(np.abs(v).max()) if v.size else 0.0  # NaN or inf when v is not finite
-    if not (math.isfinite(speed) and np.isfinite(q).all()):
-        return f"non-finite state at t = {t:.6g} s"
-    if speed > BLOWUP_SPEED:
-        return f"velocity beyond {BLOWUP_SPEED:g} at t = {t:.6g} s"
-    return None
+#: The exceptions that end a Pinocchio run as a numerical failure (``harness.engines.base.sample_run``):
+#: Pinocchio's own errors (RuntimeError, ValueError) and a singular or non-finite linear solve.
+RUN_ERRORS = {RuntimeError: Failure.SOLVER, ValueError: Failure.SOLVER, np.linalg.LinAlgError: Failure.SINGULAR,
+              ArithmeticError: Failure.SOLVER}
+
+
+def check_finite(q: np.ndarray, v: np.ndarray, t: float) -> None:
+    """RunStop (``Failure.NON_FINITE``) where the state ``(q, v)`` at ``t`` (s) is not finite:
+    within a sample's steps, before a projection would take a non-finite state for a drift."""
+    if not (np.isfinite(q).all() and np.isfinite(v).all()):
+        raise RunStop(Failure.NON_FINITE, f"non-finite state at t = {t:.6g} s")
 
 
 class MaximalReader:

@@ -51,21 +51,20 @@ the constrained forward dynamics and the contact forces lambda as external force
 
 from __future__ import annotations
 
-import time
 from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
 
-from harness.engines.base import RunSettings
+from harness.engines.base import RunSettings, sample_run
 from harness.engines.pinocchio import linalg
 from harness.engines.pinocchio.forces import rnea_reactions
 from harness.engines.pinocchio.lie_group_integrators import stepper
-from harness.engines.pinocchio.model import MaximalReader, blowup_reason, initial_configuration, load_urdf
+from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, check_finite, initial_configuration, load_urdf
 from harness.model.joints import JOINTS
 from harness.model.rotations import cross
 from harness.model.rolling_contact import FLAT, offset_and_rate
-from harness.measure.trajectory import SampleBuffer, Trajectory
+from harness.measure.trajectory import Failure, RunStop, SampleBuffer, Trajectory
 
 PROJECTION_TOL = 1e-13  # m, height error left by the position projection
 MAX_PROJECTION_ITER = 8
@@ -85,10 +84,6 @@ def _add(a, b) -> tuple[float, float, float]:
 
 def _sub(a, b) -> tuple[float, float, float]:
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-class FlatDiskError(ArithmeticError):
-    """The rolling body lies flat: the contact point is undefined."""
 
 
 class RollingRows:
@@ -128,7 +123,7 @@ class RollingRows:
                 w_W = R @ w
             r_W, r_dot, s = offset_and_rate(R, None if v is None else w_W, c.radius, c.half_thickness, c.circle_z)
             if s < FLAT:
-                raise FlatDiskError(f"rolling contact {c.name!r}: the disk lies flat, the contact point is undefined")
+                raise RunStop(Failure.SINGULAR, f"rolling contact {c.name!r}: the disk lies flat, the contact point is undefined")
             p = lever + R.T @ r_W
             rows = slice(3 * k, 3 * k + 3)
             if heights:
@@ -216,7 +211,7 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
             dq = -Minv_JT[:, z] @ linalg.solve(J[z] @ Minv_JT[:, z], C[z])
             q = pin.integrate(pmodel, q, dq)
         else:
-            raise FlatDiskError(f"position projection did not converge (height error {err:.3e} m)")
+            raise RunStop(Failure.PROJECTION, f"position projection did not converge (height error {err:.3e} m)")
         J, _, U = rolling.independent(J, None)
         if U is not None:
             Minv_JT = Minv_JT @ U
@@ -224,44 +219,40 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
         return q, v
 
     step = stepper(settings.integrator, pmodel)
-    h = settings.dt
-    n = settings.n_saves + 1
-    buf = SampleBuffer(n, len(ids))
+    h, per = settings.dt, settings.steps_per_save
+    buf = SampleBuffer(settings.n_saves + 1, len(ids), [name for name, _ in jointed])
     reader = MaximalReader(pmodel, data, ids, buf)
-    force = {c.name: np.full((n, 3), np.nan) for c in model.contacts}
-    react = {name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for name, _ in jointed}
-    status, message, saved, steps = "ok", "", 0, 0
-    t0 = time.perf_counter()
-    try:
-        q, v = project(q, v)
-        for k in range(n):
-            if k > 0:
-                for _ in range(settings.steps_per_save):
-                    q, v = step(accel, steps * h, q, v, h)
-                    q, v = project(q, v)
-                    steps += 1
-            reason = blowup_reason(q, v, steps * h)
-            if reason:
-                status, message = "blowup", reason
-                break
-            reader.read(q, v, k)
-            buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
-            buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q)
-            a, lam = solve(q, v)
-            for j, (c, _, _) in enumerate(rolling.items):
-                force[c.name][k] = lam[3 * j : 3 * j + 3]
-            if jointed:
-                for name, (f, mo) in joint_reactions(pmodel, data, rolling, jointed, q, v, a, lam).items():
-                    react[name][0][k], react[name][1][k] = f, mo
-            saved = k + 1
-    except (RuntimeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
-        status, message = "failed", f"{type(err).__name__} at t = {steps * h:.6g} s: {err}"
+    force = {c.name: np.full((settings.n_saves + 1, 3), np.nan) for c in model.contacts}
+    state = [q, v]
+
+    def advance(k: int) -> None:
+        q, v = state
+        for j in range(per):
+            q, v = step(accel, ((k - 1) * per + j) * h, q, v, h)
+            check_finite(q, v, ((k - 1) * per + j + 1) * h)
+            q, v = project(q, v)
+        state[:] = q, v
+
+    def read(k: int) -> None:
+        if k == 0:
+            state[:] = project(*state)
+        q, v = state
+        reader.read(q, v, k)
+        buf.kinetic[k] = pin.computeKineticEnergy(pmodel, data, q, v)
+        buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q)
+        a, lam = solve(q, v)
+        for j, (c, _, _) in enumerate(rolling.items):
+            force[c.name][k] = lam[3 * j : 3 * j + 3]
+        if jointed:
+            for name, (f, mo) in joint_reactions(pmodel, data, rolling, jointed, q, v, a, lam).items():
+                buf.set_reaction(name, k, f, mo)
+
+    done = sample_run(settings, buf, advance, read, RUN_ERRORS)
+    saved = done.saved
     reader.finish(saved)
-    stats = {"steps": steps, "wall_s": time.perf_counter() - t0,
+    stats = {"steps": max(saved - 1, 0) * per, "wall_s": done.wall_s,
              "settings": f"forwardDynamics (KKT) with the rolling rows, {settings.integrator} on the configuration "
                          f"Lie group, step {h:g} s, projection after each step, root joint {scene.urdf_root_joint}"}
     traj = buf.trajectory(engine.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
-                          saved, stats, status, message)
-    reactions = {name: (f[:saved], mo[:saved]) for name, (f, mo) in react.items()}
-    reactions.update({name: (f[:saved], np.zeros((saved, 3))) for name, f in force.items()})
-    return replace(traj, reactions=reactions)
+                          saved, stats, done.reason, done.message)
+    return replace(traj, reactions={**traj.reactions, **{name: (f[:saved], np.zeros((saved, 3))) for name, f in force.items()}})

@@ -32,7 +32,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from harness.engines.base import Integrator, RunSettings, check_settings, integrator_table, maximal_blowup
+from harness.engines.base import EngineBase, Integrator, RunSettings, integrator_table, sample_run
 from harness.engines.pybullet.model import MAX_JOINT_VELOCITY, Server, build, pybullet_module
 from harness.measure.trajectory import SampleBuffer, Trajectory, unsupported
 from harness.model import rotations
@@ -54,7 +54,7 @@ METHODS = integrator_table(
 )
 
 
-class PyBulletEngine:
+class PyBulletEngine(EngineBase):
     """Runs a scene in PyBullet from its URDF file."""
 
     name = "pybullet"
@@ -69,28 +69,23 @@ class PyBulletEngine:
         with Server() as client:
             read_urdf(scene.urdf, scene.urdf_root_joint, client)
 
-    def simulate(self, scene: Scene, settings: RunSettings) -> Trajectory:
+    def run(self, scene: Scene, settings: RunSettings) -> Trajectory:
         p = pybullet_module()
 
-        check_settings(settings, self.integrators, self.name)
         model = scene.multibody()
         names = tuple(model.body_names)
         method = settings.integrator
         start = time.perf_counter()
-        if self.name in scene.not_run:  # the scene says why PyBullet does not run it (its [not_run])
-            return unsupported(self.name, method, names, f"{method}: {scene.not_run[self.name]}")
         sub = STEPS_PER_STEP[method]
         with Server() as client:
             try:
                 pm = build(scene, model, client, settings.dt / sub)
             except NotImplementedError as err:
                 return unsupported(self.name, method, names, f"{method}: {err}")
-            n = settings.n_saves + 1
-            buf = SampleBuffer(n, len(names))
             jointed = [b for b in model.bodies if pm.links[b.name] >= 0] if "reaction" in scene.checks else []
+            buf = SampleBuffer(settings.n_saves + 1, len(names), [b.name for b in jointed])
             for b in jointed:
                 p.enableJointForceTorqueSensor(pm.body, pm.links[b.name], 1, physicsClientId=client)
-            react = {b.name: (np.full((n, 3), np.nan), np.full((n, 3), np.nan)) for b in jointed}
 
             def step(count: int) -> None:
                 for _ in range(count):
@@ -100,29 +95,24 @@ class PyBulletEngine:
                                                 physicsClientId=client)
                     p.stepSimulation(physicsClientId=client)
 
-            status, message, saved = "ok", "", 0
-            t0 = time.perf_counter()
-            for k in range(n):
-                if k > 0:  # with reactions, the interval's first step was taken to read sample k - 1's
-                    step(settings.steps_per_save * sub - (1 if jointed else 0))
-                reason = _read(pm, model, k, buf)
-                if reason:
-                    status, message = "blowup", f"{reason} at t = {k * settings.save_every:.6g} s"
-                    break
+            def advance(k: int) -> None:  # with reactions, the interval's first step was taken to read sample k - 1's
+                step(settings.steps_per_save * sub - (1 if jointed else 0))
+
+            def read(k: int) -> None:
+                _read(pm, model, k, buf)
                 if jointed:  # the sensors hold the reactions of the accelerations a step computes at its start
                     step(1)
                     for b in jointed:
-                        react[b.name][0][k], react[b.name][1][k] = _reaction(pm, model, b, k, buf)
-                saved = k + 1
+                        buf.set_reaction(b.name, k, *_reaction(pm, model, b, k, buf))
+
+            done = sample_run(settings, buf, advance, read)
             solver = p.getPhysicsEngineParameters(physicsClientId=client)
-        stats = {"steps": max(saved - 1, 0) * settings.steps_per_save * sub + (1 if react and saved else 0),
-                 "wall_s": time.perf_counter() - start, "wall_integrate_s": time.perf_counter() - t0,
+        saved = done.saved
+        stats = {"steps": max(saved - 1, 0) * settings.steps_per_save * sub + (1 if jointed and saved else 0),
+                 "wall_s": time.perf_counter() - start, "wall_integrate_s": done.wall_s,
                  "settings": _describe(settings, scene, pm, solver, sub)}
-        traj = buf.trajectory(self.name, method, names, settings.save_every, saved, stats, status, message)
-        traj = replace(traj, engine_energy={})  # PyBullet reports no system energy
-        if react:
-            traj = replace(traj, reactions={name: (f[:saved], m[:saved]) for name, (f, m) in react.items()})
-        return traj
+        traj = buf.trajectory(self.name, method, names, settings.save_every, saved, stats, done.reason, done.message)
+        return replace(traj, engine_energy={})  # PyBullet reports no system energy
 
 
 def _reaction(pm, model, body, k: int, buf: SampleBuffer) -> tuple[np.ndarray, np.ndarray]:
@@ -168,9 +158,9 @@ def _describe(settings: RunSettings, scene: Scene, pm, solver: dict, sub: int = 
             f"damping 0, maxJointVelocity {MAX_JOINT_VELOCITY:g}{springs}")
 
 
-def _read(pm, model, k: int, buf: SampleBuffer) -> str:
+def _read(pm, model, k: int, buf: SampleBuffer) -> None:
     """Fill sample ``k`` of ``buf`` (centre-of-mass position and velocity, body orientation,
-    world angular velocity); return why the state is a blow-up, or ""."""
+    world angular velocity)."""
     p = pybullet_module()
 
     c = pm.client
@@ -190,7 +180,6 @@ def _read(pm, model, k: int, buf: SampleBuffer) -> str:
         buf.quat_WB[k, i] = rotations.from_matrix(R_WI @ pm.R_BI[b.name].T)
         buf.v_WCm_W[k, i] = vel
         buf.w_WB_W[k, i] = omega
-    return maximal_blowup(buf.p_WCm_W[k], buf.quat_WB[k], buf.v_WCm_W[k], buf.w_WB_W[k])
 
 
 def _in_subtree(model, name: str, root: str) -> bool:

@@ -39,7 +39,7 @@ from harness.judging import error_model
 from harness.measure import compare
 from harness.measure import contact_metrics
 from harness.model import rotations
-from harness.engines import IDEAL, REFERENCE_ENGINE, SOFT, display, engine_module, get_engine, with_rolling
+from harness.engines import IDEAL, REFERENCE_ENGINE, SOFT, check_scene, display, engine_module, get_engine, with_rolling
 from harness.engines.base import RunSettings
 from harness.studies.rolling import SETTINGS_ENGINE
 from harness.model.scene import Scene, load_scene
@@ -333,7 +333,7 @@ def rolling_study(*, quick: bool = False, engines: list[str] | None = None, mode
     """Run the whole study (``quick``: short horizons, few settings and speeds, for tests).
     ``progress``: a bar (``harness.io.progress.make_bar``): its total is set to the runs, and it
     is ticked once per finished run; or None."""
-    scene = load_scene("rolling_disk", models_dir=models_dir)
+    scene = check_scene(load_scene("rolling_disk", models_dir=models_dir))
     engines = engines or list(STUDY_ENGINES)
     result = StudyResult(scene=scene)
     case_list = cases(scene, quick)

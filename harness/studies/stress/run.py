@@ -119,7 +119,7 @@ from harness.judging.error_model import DEFECT
 from harness.model.errors import InputError
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene, available_scenes, load_scene
-from harness.measure.trajectory import UNSUPPORTED, Trajectory
+from harness.measure.trajectory import UNSUPPORTED, Failure, Trajectory
 from harness.model.sanity import check_multibody
 from harness.validate.workers import Outcome, effective_jobs
 
@@ -365,7 +365,7 @@ def skip_reason(variant: Variant, models_dir: Path | None = None) -> str | None:
     """Why ``variant`` cannot run with the scenes at hand (None when it can)."""
     if variant.scene not in available_scenes(models_dir):
         return f"scene not available: no {variant.scene}/scene.toml under models/"
-    scene = load_scene(variant.scene, models_dir=models_dir)
+    scene = check_scene(load_scene(variant.scene, models_dir=models_dir))
     unknown = [k for k in variant.params if k not in scene.parameters]
     if unknown:
         return f"scene {variant.scene!r} has no parameter {unknown[0]!r} (parameters: {', '.join(scene.parameters)})"
@@ -506,37 +506,23 @@ def failed_trial(spec: TrialSpec, outcome: Outcome) -> TrialResult:
                        nan, nan, outcome.wall_s, outcome.message)
 
 
+#: The failure mode of a run its engine stopped, per ``Failure`` (``engine_mode``).
+ENGINE_MODES = {
+    Failure.NONE: "", Failure.UNSUPPORTED: UNSUPPORTED,
+    Failure.ENGINE_GUARD: "badqacc",            # MuJoCo's own guard tripped (it resets the state)
+    Failure.SPEED: "magnitude growth",          # every engine's speed guard (BLOWUP_SPEED)
+    Failure.NON_FINITE: "nan",
+    Failure.SINGULAR: "singular constraint",    # a singular constraint matrix, a rolling disk lying flat
+    Failure.PROJECTION: "constraint drift",     # a projection that did not converge
+    Failure.SOLVER: "solver failure",
+}
+
+
 def engine_mode(traj: Trajectory) -> str:
     """Failure mode of a run the engine itself stopped ("" when it reached its horizon), decided
-    by the trajectory's ``status``:
-
-    * "ok": ""; "unsupported": "unsupported" (not a failure: the cell is not run);
-    * "blowup" (the state diverged): "badqacc" when MuJoCo's own guard tripped (it resets the
-      state; the message names the ``mjWARN_BADQ*`` warning), "magnitude growth" when an engine's
-      speed guard (``BLOWUP_SPEED``) tripped, else "nan" (a non-finite state);
-    * "failed" (a numerical failure): "singular constraint" (a singular constraint matrix, a
-      rolling disk lying flat), "constraint drift" (a projection that did not converge), else
-      "solver failure".
-
-    Within a status the message only tells these apart; which family a run is in never depends
-    on its text.
-    """
-    if traj.ok:
-        return ""
-    if traj.unsupported:
-        return UNSUPPORTED
-    msg = traj.message
-    if traj.status == "blowup":
-        if "bad acceleration" in msg:  # MuJoCo's message: "bad acceleration/state, MuJoCo warning ..."
-            return "badqacc"
-        if "beyond" in msg:  # every engine's speed guard: "<speed> ... beyond <BLOWUP_SPEED>"
-            return "magnitude growth"
-        return "nan"
-    if "flat" in msg.lower() or "singular" in msg:  # FlatDiskError (per-state), "the disk lies flat" (compiled)
-        return "singular constraint"
-    if "projection" in msg:
-        return "constraint drift"
-    return "solver failure"
+    by the trajectory's ``reason`` (``ENGINE_MODES``), never by its message; "unsupported" is not
+    a failure: the cell is not run."""
+    return ENGINE_MODES[traj.reason]
 
 
 def scales(traj: Trajectory, model: Multibody) -> dict[str, float]:

@@ -105,7 +105,7 @@ from harness.engines.base import RunSettings
 from harness.studies.workprecision import BASELINE
 from harness.judging import error_model
 from harness.model.scene import Scene
-from harness.measure.trajectory import UNSUPPORTED, Trajectory
+from harness.measure.trajectory import UNSUPPORTED, Failure, Trajectory
 
 _clock = time.perf_counter  # the sweep's clock (budgets and stage walls)
 
@@ -556,7 +556,7 @@ def measure(scene: Scene, curve: Curve, settings: RunSettings, ref: Trajectory, 
         with np.errstate(all="ignore"):
             traj, engine_t, total_t, steps, evals = run()
         if traj.ok and len(traj.t) < len(ref.t):
-            traj = replace(traj, status="failed", message=traj.message or "fewer samples than the horizon")
+            traj = replace(traj, reason=Failure.SOLVER, message=traj.message or "fewer samples than the horizon")
         errs = errors(traj, ref, model)
         times, totals = [engine_t], [total_t]
         repeats = 0

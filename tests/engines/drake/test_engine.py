@@ -13,7 +13,8 @@ from harness.engines.base import RunSettings
 from harness.engines.drake.integrators import METHODS
 from harness.engines.drake.model import drake_bodies, parse
 from harness.measure import compare
-from harness.model.scene import available_scenes, load_scene
+from harness.model.scene import available_scenes
+from harness.engines import load_scene
 from harness.engines.as_written import as_written
 from harness.engines.loaded_models import body_discrepancies
 
@@ -97,7 +98,7 @@ def test_a_large_first_step_hint_does_not_hang():
     step of 0.1 s on the heavy top; the engine leaves the first step to Drake, so a run whose
     dt (its maximum step, never passed as a first-step hint) is 0.2 s finishes (in a subprocess, so that a regression fails instead of
     hanging the suite)."""
-    code = ("from harness.model.scene import load_scene; from harness.engines import get_engine; "
+    code = ("from harness.engines import get_engine, load_scene; "
             "from harness.engines.base import RunSettings; "
             "tr = get_engine('drake').simulate(load_scene('heavy_top'), RunSettings(2.0, 0.2, 0.2, 'RK5', rtol=1e-8)); "
             "print(tr.status)")
@@ -139,7 +140,7 @@ def test_preload_imports_every_pydrake_module_a_run_imports():
         "import sys\n"
         "from harness.engines import get_engine, preload\n"
         "from harness.engines.base import RunSettings\n"
-        "from harness.model.scene import load_scene\n"
+        "from harness.engines import load_scene\n"
         "preload(['drake'])\n"
         "before = {m for m in sys.modules if m.startswith('pydrake')}\n"
         "scenes = [load_scene(n) for n in ('heavy_top', 'spring_pendulum', 'cart_pendulum', 'torque_free')]\n"

@@ -9,7 +9,8 @@ from harness.engines.base import RunSettings
 from harness.engines.exudyn.integrators import IMPLICIT, METHODS, NODE_TYPE
 from harness.engines.exudyn.model import build
 from harness.measure import compare
-from harness.model.scene import available_scenes, load_scene
+from harness.model.scene import available_scenes
+from harness.engines import load_scene
 from harness.engines.as_written import as_written
 from harness.engines.loaded_models import body_discrepancies, exudyn_bodies, exudyn_gravity
 

@@ -15,7 +15,7 @@ from harness.model import rotations
 from harness.model.builders.four_bar import bar_inertia
 from harness.model.multibody import Body, LoopJoint, Multibody
 from harness.model.sanity import check_loops
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 ENGINE = get_engine("exudyn")
 INHOUSE = get_engine("inhouse")

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from harness.engines.base import RunSettings
-from harness.engines.inhouse import BLOWUP_SPEED, ENGINE
+from harness.engines.base import BLOWUP_SPEED
+from harness.engines.inhouse import ENGINE
 from harness.engines.inhouse.integrators import Result
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 
 def _sound(traj) -> None:

@@ -20,7 +20,7 @@ from harness.engines.inhouse.integrators import (
     rk_step,
 )
 from harness.model.errors import InputError
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 
 @pytest.mark.parametrize("tableau", [RK4, EULER])

@@ -14,7 +14,7 @@ from harness.engines.inhouse.model import initial_state
 from harness.measure import compare
 from harness.model.builders.four_bar import AXIS
 from harness.model.multibody import LoopJoint
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.references import four_bar as reference
 
 ENGINE = InhouseEngine()

@@ -30,7 +30,7 @@ from harness.engines.inhouse.constraints import rows
 from harness.engines.inhouse.model import join, split
 from harness.engines.inhouse.newton_euler import make_dynamics
 from harness.model.multibody import Body, Multibody
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.model.sanity import check_multibody
 
 TIGHT = dict(rtol=1e-12, atol=1e-12)

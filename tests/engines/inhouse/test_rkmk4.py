@@ -16,7 +16,7 @@ from harness.engines.inhouse.integrators import FIXED_STEP, LIE_GROUP, METHODS, 
 from harness.engines.inhouse.lie_group import dexpinv, exp_right, rkmk_step
 from harness.measure import exact
 from harness.model import rotations
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 
 def random_unit_quaternions(rng, n):

@@ -11,7 +11,8 @@ from harness.engines.mujoco.loops import connects, loop_points
 from harness.engines.mujoco.model import load_mjcf
 from harness.measure import compare
 from harness.model.errors import InputError
-from harness.model.scene import MODELS_DIR, load_scene
+from harness.model.scene import MODELS_DIR
+from harness.engines import load_scene
 
 
 def test_the_sites_follow_the_description():

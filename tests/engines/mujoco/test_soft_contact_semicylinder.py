@@ -8,7 +8,7 @@ frictionless (``condim="1"``), RK4 at the scene's step. The README's figures com
 import mujoco
 import numpy as np
 
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.references import rocking_semicylinder as ref
 
 

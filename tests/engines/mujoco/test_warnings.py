@@ -7,7 +7,7 @@ import numpy as np
 from harness.engines import get_engine
 from harness.engines.base import RunSettings
 from harness.engines.mujoco import rollout
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 # a huge explicit Euler step (s) on a fast double pendulum: MuJoCo's QACC guard trips
 UNSTABLE = {"theta0": 3.0, "dphi0": 40.0}

@@ -7,7 +7,7 @@ from harness.model import rotations
 from harness.engines.base import RunSettings
 from harness.engines.mujoco.engine import ENGINE as MUJOCO
 from harness.engines.pinocchio.engine import ENGINE as PINOCCHIO
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 
 def _final_orientation(scene, dt, integrator="rkmk4"):

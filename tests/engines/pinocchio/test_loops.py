@@ -17,7 +17,7 @@ from harness.engines.base import RunSettings
 from harness.engines.pinocchio.engine import ENGINE as PINOCCHIO
 from harness.measure import compare
 from harness.model.multibody import LoopJoint
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 T_END, DT = 1.0, 1e-3
 SAVE = 1e-3  # fine saves: the energy balance integrates the piston's power over the samples
@@ -25,7 +25,7 @@ SAVE = 1e-3  # fine saves: the energy balance integrates the piston's power over
 
 def _stub(scene, model, checks=None):
     """A scene that runs ``model`` (built by hand) on ``scene``'s URDF."""
-    return types.SimpleNamespace(name=f"{scene.name}_custom", urdf=scene.urdf, urdf_root_joint=scene.urdf_root_joint,
+    return types.SimpleNamespace(name=f"{scene.name}_custom", urdf=scene.urdf, urdf_root_joint=scene.urdf_root_joint, not_run={},
                                  checks=checks or {}, multibody=lambda: model)
 
 

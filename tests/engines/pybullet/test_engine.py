@@ -10,7 +10,7 @@ from harness.engines import get_engine
 from harness.engines.as_written import as_written
 from harness.engines.base import RunSettings
 from harness.measure import exact
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 ENGINE = get_engine("pybullet")
 

@@ -57,6 +57,7 @@ from harness.engines.inhouse.integrators import RK4, ButcherTableau, Result
 from harness.engines.inhouse.lie_group import DEXPINV_SERIES
 from harness.engines.inhouse.model import NEModel
 from harness.model.forces import HarmonicForce
+from harness.measure.trajectory import Failure
 from harness.model.rolling_contact import FLAT
 
 __all__ = ["KERNELS", "MAX_ADAPTIVE_STEPS", "STATUS", "announce_cold", "default_threads", "integrate_dop853",
@@ -64,15 +65,15 @@ __all__ = ["KERNELS", "MAX_ADAPTIVE_STEPS", "STATUS", "announce_cold", "default_
 
 MAX_ADAPTIVE_STEPS = 200_000  # accepted + rejected steps before an adaptive run is declared failed
 
-STATUS = {
-    kernels.OK: ("ok", ""),
-    kernels.NONFINITE: ("blowup", "non-finite state"),
-    kernels.SINGULAR: ("failed", "singular constraint (KKT) matrix"),
-    kernels.NO_PROJECTION: ("failed", "position projection did not converge"),
-    kernels.UNDERFLOW: ("failed", "DOP853 step size underflow"),
-    kernels.TOO_MANY_STEPS: ("failed", f"more than {MAX_ADAPTIVE_STEPS} steps: step size collapsed"),
-    kernels.BAD_ERROR: ("blowup", "non-finite DOP853 error estimate (a stage overflowed)"),
-    kernels.FLAT_DISK: ("failed", "rolling contact: the disk lies flat, the contact point is undefined"),
+STATUS = {  # the kernels' status codes: the run's reason and why
+    kernels.OK: (Failure.NONE, ""),
+    kernels.NONFINITE: (Failure.NON_FINITE, "non-finite state"),
+    kernels.SINGULAR: (Failure.SINGULAR, "singular constraint (KKT) matrix"),
+    kernels.NO_PROJECTION: (Failure.PROJECTION, "position projection did not converge"),
+    kernels.UNDERFLOW: (Failure.SOLVER, "DOP853 step size underflow"),
+    kernels.TOO_MANY_STEPS: (Failure.SOLVER, f"more than {MAX_ADAPTIVE_STEPS} steps: step size collapsed"),
+    kernels.BAD_ERROR: (Failure.NON_FINITE, "non-finite DOP853 error estimate (a stage overflowed)"),
+    kernels.FLAT_DISK: (Failure.SINGULAR, "rolling contact: the disk lies flat, the contact point is undefined"),
 }
 
 _DOP853 = tuple(np.ascontiguousarray(a, dtype=float) for a in (_dop.A, _dop.B, _dop.C, _dop.E3, _dop.E5, _dop.D))
@@ -192,10 +193,10 @@ def _state(y0: np.ndarray) -> np.ndarray:
 
 def _result(status: int, t_save: np.ndarray, out: np.ndarray, n: int, steps: int, evals: int, wall: float,
             lam: np.ndarray) -> Result:
-    word, why = STATUS.get(int(status), ("failed", f"status {status}"))
+    reason, why = STATUS.get(int(status), (Failure.SOLVER, f"status {status}"))
     n = int(n)
-    message = "" if word == "ok" else f"{why} (t = {t_save[min(n, len(t_save) - 1)]:.6g} s, after {steps} steps)"
-    return Result(t_save[:n].copy(), out[:n].copy(), int(steps), int(evals), wall, word, message,
+    message = "" if reason is Failure.NONE else f"{why} (t = {t_save[min(n, len(t_save) - 1)]:.6g} s, after {steps} steps)"
+    return Result(t_save[:n].copy(), out[:n].copy(), int(steps), int(evals), wall, reason, message,
                   lam[:n].copy() if len(lam) else None)
 
 
@@ -279,7 +280,7 @@ def run_batch(model: tuple, Y0: np.ndarray, nstep: int, dt: float, tableau: Butc
     else:
         with ThreadPoolExecutor(threads) as pool:
             list(pool.map(lambda k: kernels.erk_rows(*args, int(bounds[k]), int(bounds[k + 1])), range(threads)))
-    return Yend, np.array([STATUS.get(int(s), ("failed", ""))[0] for s in status])
+    return Yend, np.array([STATUS.get(int(s), (Failure.SOLVER, ""))[0].status for s in status])
 
 
 _warm: set[str] = set()

@@ -18,7 +18,8 @@ from harness.engines.inhouse.compiled import kernels
 from harness.engines.inhouse.constraints import RANK_RTOL, rows
 from harness.engines.inhouse.compiled import solver as compiled
 from harness.model.forces import HarmonicForce, PointForce
-from harness.model.scene import available_scenes, load_scene
+from harness.model.scene import available_scenes
+from harness.engines import load_scene
 
 # Fixed steps of each scene's own dt compared below: a few hundred, fewer where a per-state step
 # is slow (andrews_squeezer: 50 rows, ~40 ms per per-state step; bricard ~80 ms).

@@ -21,7 +21,7 @@ from harness.engines.inhouse.compiled import kernels
 from harness.engines.inhouse.compiled import solver as compiled
 from harness.engines.inhouse.constraints import RANK_RTOL, rows
 from harness.model import rotations
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 from harness.references import four_bar as reference
 
 A02 = {"a": 1.0, "b": 1.0, "c": 1.0, "d": 1.0, "m_crank": 1.0, "m_coupler": 1.0, "m_rocker": 1.0,

@@ -14,7 +14,7 @@ from harness.engines.inhouse.compiled import solver as compiled
 from harness.engines.inhouse.integrators import RK4
 from harness.measure import exact
 from harness.model import rotations
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 
 def max_difference(a, b):

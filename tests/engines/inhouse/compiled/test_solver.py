@@ -14,7 +14,7 @@ from harness.engines.inhouse import ENGINE, build, initial_state, make_rhs, proj
 from harness.engines.inhouse.compiled import kernels
 from harness.engines.inhouse.compiled import solver as compiled
 from harness.engines.inhouse.integrators import RK4, ButcherTableau, integrate_fixed
-from harness.model.scene import load_scene
+from harness.engines import load_scene
 
 # every joint type the compiled solver models, with parameters away from the defaults
 CASES = [
