@@ -16,7 +16,9 @@ torque_free's closed forms), ``heavy_top`` (Lagrange top nutation u = cos θ, ti
 pendulum about a corner, support force), ``cart_pendulum`` (cart on a rail with a pendulum),
 ``spring_pendulum`` (particle on a spring), ``rotating_plate`` (bearing couple of a plate on a
 skew axis), ``rolling_disk`` (steady circular motion and stability of a rolling disk),
-``errata`` (the printed results found wrong; generates ``ERRATA.md``).
+``bicycle`` (the Whipple bicycle benchmark of Meijaard et al. 2007: linearised roll and steer
+equations, eigenvalues, weave and capsize speeds; no scene yet), ``errata`` (the printed results
+found wrong; generates ``ERRATA.md``).
 """
 
 from harness.references import cart_pendulum
