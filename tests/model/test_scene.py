@@ -110,16 +110,17 @@ def test_component_names_match_their_source_and_engines_are_the_registrys():
 @pytest.fixture
 def scene_copy(tmp_path):
     """A copy of heavy_top's folder, every engine under ``[integrators]`` and no ``[not_run]`` (the
-    shape the edits below assume: heavy_top's own ``[not_run]`` names PyBullet, whose first-order
-    step does not resolve the top, and is replaced by its integrator); returns (models dir, path of
-    its scene.toml)."""
+    shape the edits below assume; a ``[not_run]`` line for PyBullet would be replaced by its
+    integrator); returns (models dir, path of its scene.toml)."""
     import re
 
     models = tmp_path / "models"
     shutil.copytree(MODELS_DIR / "heavy_top", models / "heavy_top")
     path = models / "heavy_top" / "scene.toml"
     text = re.sub(r"^\[not_run\]\n(?:[a-z]+ = .*\n)+\n", "", path.read_text(), flags=re.M)
-    path.write_text(text.replace("[integrators]\n", '[integrators]\npybullet = "semi_implicit_euler"\n', 1))
+    if not re.search(r"^pybullet = ", text, flags=re.M):
+        text = text.replace("[integrators]\n", '[integrators]\npybullet = "semi_implicit_euler"\n', 1)
+    path.write_text(text)
     return models, path
 
 
