@@ -22,7 +22,8 @@ position, orientation, velocity and angular velocity; ``getBasePositionAndOrient
 ``getBaseVelocity`` for a floating base, ``getLinkStates`` with ``computeLinkVelocity``), its
 body frame orientation from the inertial frame's orientation in it. PyBullet reports no system
 energy (the harness computes it from these). Joint reactions (``[checks.reaction]``): its joint
-force-torque sensors (``_reaction``).
+force-torque sensors (``_reaction``), less the velocity-product wrench Bullet's second
+(constraint-solver) pass adds to them (``harness.engines.pybullet.reactions``, ``_sensor_extra``).
 """
 
 from __future__ import annotations
@@ -34,9 +35,10 @@ import numpy as np
 
 from harness.engines.base import EngineBase, Integrator, RunSettings, integrator_table, sample_run
 from harness.engines.pybullet.model import MAX_JOINT_VELOCITY, Server, build, pybullet_module
+from harness.engines.pybullet.reactions import constraint_pass_wrenches
 from harness.measure.trajectory import SampleBuffer, Trajectory, unsupported
 from harness.model import rotations
-from harness.model.joints import JOINTS, TRANSLATIONAL
+from harness.model.joints import BALL, JOINTS, TRANSLATIONAL
 from harness.model.scene import Scene
 
 #: Substeps of ``semi_implicit_euler_16``: PyBullet stepped at dt / 16, 16 steps per step of the run.
@@ -86,6 +88,7 @@ class PyBulletEngine(EngineBase):
             buf = SampleBuffer(settings.n_saves + 1, len(names), [b.name for b in jointed])
             for b in jointed:
                 p.enableJointForceTorqueSensor(pm.body, pm.links[b.name], 1, physicsClientId=client)
+            axes = _joint_axes(pm, model) if jointed else {}
 
             def step(count: int) -> None:
                 for _ in range(count):
@@ -102,8 +105,9 @@ class PyBulletEngine(EngineBase):
                 _read(pm, model, k, buf)
                 if jointed:  # the sensors hold the reactions of the accelerations a step computes at its start
                     step(1)
+                    extra = _sensor_extra(pm, model, k, buf, axes)
                     for b in jointed:
-                        buf.set_reaction(b.name, k, *_reaction(pm, model, b, k, buf))
+                        buf.set_reaction(b.name, k, *_reaction(pm, model, b, k, buf, extra[b.name]))
 
             done = sample_run(settings, buf, advance, read)
             solver = p.getPhysicsEngineParameters(physicsClientId=client)
@@ -115,15 +119,16 @@ class PyBulletEngine(EngineBase):
         return replace(traj, engine_energy={})  # PyBullet reports no system energy
 
 
-def _reaction(pm, model, body, k: int, buf: SampleBuffer) -> tuple[np.ndarray, np.ndarray]:
+def _reaction(pm, model, body, k: int, buf: SampleBuffer, extra) -> tuple[np.ndarray, np.ndarray]:
     """``(force_W, moment_W)`` (N, N m) of ``body``'s joint at sample ``k``: PyBullet's joint
     force-torque sensor (``enableJointForceTorqueSensor``; ``getJointState``'s reaction
     ``[Fx, Fy, Fz, Mx, My, Mz]``: the force of the parent on the child, in the child's inertial
     frame, the moment about its centre of mass) turned to world and its moment taken about the
-    joint point, without the component along a hinge's or slide's free direction (the joint
-    spring's force, which an ideal joint's reaction has none of). Read after the step that
-    follows the sample: the sensor holds the articulated-body solve at that step's start state,
-    the sample's."""
+    joint point, less ``extra`` (the wrench Bullet's second, constraint-solver pass adds to the
+    sensor: ``harness.engines.pybullet.reactions``), without the component along a hinge's or
+    slide's free direction (the joint spring's force, which an ideal joint's reaction has none
+    of). Read after the step that follows the sample: the sensor holds the articulated-body
+    solve at that step's start state, the sample's."""
     p = pybullet_module()
 
     i = model.body_names.index(body.name)
@@ -132,11 +137,7 @@ def _reaction(pm, model, body, k: int, buf: SampleBuffer) -> tuple[np.ndarray, n
     R_WI = R_WB @ pm.R_BI[body.name]
     f, m = R_WI @ F[:3], R_WI @ F[3:]
     m = m + rotations.cross(R_WB @ pm.p_BCm_B[body.name], f)
-    for j, other in enumerate(model.bodies):  # the subtree's gyroscopic couples the sensor adds (docstring)
-        if _in_subtree(model, other.name, body.name):
-            R = rotations.matrix(buf.quat_WB[k, j])
-            w = buf.w_WB_W[k, j]
-            m = m - rotations.cross(w, R @ np.asarray(other.I_Cm_B, dtype=float) @ R.T @ w)
+    f, m = f - extra[0], m - extra[1]
     kind = JOINTS[body.joint]
     if kind.axis is not None:
         a = R_WB @ np.asarray(body.axis_B, dtype=float)
@@ -145,6 +146,48 @@ def _reaction(pm, model, body, k: int, buf: SampleBuffer) -> tuple[np.ndarray, n
         else:
             m = m - (m @ a) * a
     return f, m
+
+
+def _joint_axes(pm, model) -> dict[str, np.ndarray]:
+    """A hinge's or slide's unit axis in the child's inertial frame as PyBullet holds it
+    (``getJointInfo``), per jointed body."""
+    p = pybullet_module()
+
+    out = {}
+    for b in model.bodies:
+        if pm.links[b.name] >= 0 and JOINTS[b.joint].axis is not None:
+            info = p.getJointInfo(pm.body, pm.links[b.name], physicsClientId=pm.client)
+            out[b.name] = np.asarray(info[13], dtype=float)
+    return out
+
+
+def _sensor_extra(pm, model, k: int, buf: SampleBuffer, axes: dict) -> dict:
+    """Per jointed body, the wrench (force_W, moment about the joint point_W) that PyBullet's
+    constraint-solver pass added to its sensor in the step just taken from sample ``k``
+    (``harness.engines.pybullet.reactions``): the tree at sample ``k``'s positions and the
+    step's new joint velocities."""
+    p = pybullet_module()
+
+    c = pm.client
+    bodies = []
+    index = {b.name: i for i, b in enumerate(model.bodies)}
+    for i, b in enumerate(model.bodies):
+        link = pm.links[b.name]
+        R_WB = rotations.matrix(buf.quat_WB[k, i])
+        R_WI = R_WB @ pm.R_BI[b.name]
+        c_W = np.asarray(buf.p_WCm_W[k, i], dtype=float)
+        if link < 0:
+            w, v = p.getBaseVelocity(pm.body, physicsClientId=c)
+            rate = (np.asarray(w, dtype=float), np.asarray(v, dtype=float))
+        elif b.joint == BALL.name:
+            rate = np.asarray(p.getJointStateMultiDof(pm.body, link, physicsClientId=c)[1], dtype=float)
+        else:
+            rate = p.getJointState(pm.body, link, physicsClientId=c)[1]
+        bodies.append({"name": b.name, "parent": None if b.parent is None else index[b.parent], "kind": b.joint,
+                       "mass": float(b.mass), "c": c_W, "I_c": R_WB @ np.asarray(b.I_Cm_B, dtype=float) @ R_WB.T,
+                       "pivot": c_W - R_WB @ pm.p_BCm_B[b.name], "R_WI": R_WI, "rate": rate, "link": link,
+                       "axis": R_WI @ axes[b.name] if b.name in axes else None})
+    return constraint_pass_wrenches(bodies)
 
 
 def _describe(settings: RunSettings, scene: Scene, pm, solver: dict, sub: int = 1) -> str:
@@ -180,15 +223,6 @@ def _read(pm, model, k: int, buf: SampleBuffer) -> None:
         buf.quat_WB[k, i] = rotations.from_matrix(R_WI @ pm.R_BI[b.name].T)
         buf.v_WCm_W[k, i] = vel
         buf.w_WB_W[k, i] = omega
-
-
-def _in_subtree(model, name: str, root: str) -> bool:
-    """Whether body ``name`` is ``root`` or one of its descendants."""
-    while name is not None:
-        if name == root:
-            return True
-        name = model.body(name).parent
-    return False
 
 
 ENGINE = PyBulletEngine()
