@@ -169,9 +169,9 @@ DECLARATIONS: tuple[Declaration, ...] = (
                                        "RK3_fixed": "silver", "RK2": "tan"})),
     Declaration("pybullet", "PyBullet", "harness.engines.pybullet.engine", library="pybullet", distribution="pybullet",
                 reads=(URDF,),
-                without_loops=_NO_LOOP_CONSTRAINT.format(engine="PyBullet", what="btMultiBody is a tree (reduced "
-                                                         "coordinates); its point-to-point constraints are soft, solved "
-                                                         "by its iterative constraint solver, and"),
+                without_loops=_NO_LOOP_CONSTRAINT.format(engine="PyBullet", what="btMultiBody (a tree in reduced "
+                                                         "coordinates; its point-to-point constraints are soft, solved "
+                                                         "by its iterative constraint solver)"),
                 without_rolling=_NO_ROLLING_CONSTRAINT.format(engine="PyBullet", what="a frictional contact solved by "
                                                               "impulses (with penetration correction)"),
                 default_integrator="semi_implicit_euler_16",  # stepSimulation at dt/16: semi-implicit Euler, order 1

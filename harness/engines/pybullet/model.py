@@ -56,21 +56,26 @@ MAX_JOINT_VELOCITY = 1e6
 
 def pybullet_module():
     """``pybullet``, imported with its build banner ("pybullet build time: ...", printed by its C
-    code on file descriptor 1 at import) kept off the output."""
+    code at import, on file descriptor 2 in the wheels measured: 3.2.7) kept off the output: both
+    standard descriptors point to /dev/null while it loads."""
     if "pybullet" in sys.modules:
         return sys.modules["pybullet"]
     import ctypes
 
     sys.stdout.flush()
-    saved, devnull = os.dup(1), os.open(os.devnull, os.O_WRONLY)
+    sys.stderr.flush()
+    saved = {fd: os.dup(fd) for fd in (1, 2)}
+    devnull = os.open(os.devnull, os.O_WRONLY)
     try:
-        os.dup2(devnull, 1)
+        for fd in saved:
+            os.dup2(devnull, fd)
         import pybullet
 
         ctypes.CDLL(None).fflush(None)   # its C output is buffered: flushed here, into /dev/null
     finally:
-        os.dup2(saved, 1)
-        os.close(saved)
+        for fd, copy in saved.items():
+            os.dup2(copy, fd)
+            os.close(copy)
         os.close(devnull)
     return pybullet
 

@@ -98,3 +98,16 @@ def test_the_first_reaction_is_the_ideal_one(name, params):
     for body, (f, m) in ref.reactions.items():
         assert np.linalg.norm(traj.reactions[body][0][0] - f[0]) < 1e-12 * f_scale, body
         assert np.linalg.norm(traj.reactions[body][1][0] - m[0]) < 1e-12 * m_scale, body
+
+
+def test_importing_pybullet_prints_no_banner():
+    """PyBullet's C code prints "pybullet build time: ..." (on file descriptor 2, measured with
+    3.2.7) at import: ``pybullet_module`` keeps it off both outputs, so a validate run's progress
+    and a CI log carry none."""
+    import subprocess
+    import sys
+
+    code = "from harness.engines.pybullet.model import pybullet_module; pybullet_module()"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "build time" not in out.stdout + out.stderr, (out.stdout, out.stderr)
