@@ -14,11 +14,11 @@ Modules: ``torque_free`` (Euler's equations without moment, Jacobi elliptic solu
 torque_free's closed forms), ``heavy_top`` (Lagrange top nutation u = cos θ, tip force),
 ``double_pendulum`` (linearised modes and exact modal response), ``plate_pendulum`` (compound
 pendulum about a corner, support force), ``cart_pendulum`` (cart on a rail with a pendulum),
-``spring_pendulum`` (particle on a spring), ``rotating_plate`` (bearing couple of a plate on a
-skew axis), ``rolling_disk`` (steady circular motion and stability of a rolling disk),
-``bicycle`` (the Whipple bicycle benchmark of Meijaard et al. 2007: linearised roll and steer
-equations, eigenvalues, weave and capsize speeds; no scene yet), ``errata`` (the printed results
-found wrong; generates ``ERRATA.md``).
+``spring_pendulum`` (particle on a spring), ``pendulum`` (IFToMM A01, the simple pendulum),
+``rotating_plate`` (bearing couple of a plate on a skew axis), ``rolling_disk`` (steady circular
+motion and stability of a rolling disk), ``bicycle`` (the Whipple bicycle benchmark of Meijaard et
+al. 2007: linearised roll and steer equations, eigenvalues, weave and capsize speeds; no scene
+yet), ``errata`` (the printed results found wrong; generates ``ERRATA.md``).
 """
 
 from harness.references import cart_pendulum

@@ -21,6 +21,7 @@ OVERRIDES = {
     "heavy_top": {"mass": 0.3, "l": 0.05, "I1": 0.001, "I3": 0.0015},
     "double_pendulum": {"m": 0.4, "L": 0.7, "r": 0.02},
     "plate_pendulum": {"m": 0.7, "a": 0.15, "b": 0.4, "h": 0.02},
+    "pendulum": {"m": 0.6, "L": 0.45, "r": 0.03},
     "cart_pendulum": {"M": 3.5, "m": 0.4, "L": 0.6, "r": 0.03},
     "rolling_disk": {"mass": 0.02, "R": 0.03, "h": 0.004},
     "rolling_cylinder_bar": {"M": 2.0, "m": 0.7, "R": 0.15, "h": 0.08, "L": 0.5, "a": 0.01},
