@@ -136,6 +136,9 @@ class RunSettings:
         integrator: name from the engine's ``integrators``.
         rtol, atol: tolerances of adaptive methods (ignored by fixed-step ones); by default
             ``ERROR_CONTROL_TOL`` and ``ERROR_CONTROL_ATOL``, as validate and simulate run.
+        max_step: the largest step (s) of the in-house error-controlled methods (None: the save
+            interval); validate's reference caps its steps at the scene's step (Drake's
+            error-controlled methods take ``dt`` as their largest step).
     """
 
     t_end: float
@@ -144,6 +147,7 @@ class RunSettings:
     integrator: str
     rtol: float = ERROR_CONTROL_TOL
     atol: float = ERROR_CONTROL_ATOL
+    max_step: float | None = None
 
     @property
     def n_saves(self) -> int:

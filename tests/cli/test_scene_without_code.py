@@ -64,7 +64,7 @@ def test_a_copied_folder_validates_on_every_engine(tmp_path, capsys):
         checks = {c["check"] for c in scene["checks"] if c["engine"] == engine}
         assert {"energy_drift", "trajectory.position", "constraint.position", "reaction.force"} <= checks, engine
     model_engines = {c["engine"] for c in scene["checks"] if c["check"].startswith("model.")}
-    assert model_engines == {"mujoco", "pinocchio", "drake", "exudyn"}  # both files checked against the description
+    assert model_engines == {"mujoco", "pinocchio", "drake", "exudyn", "pybullet"}  # both files checked against the description
 
 
 def test_simulate_reaches_the_mapped_parameters(tmp_path, capsys):
@@ -126,7 +126,8 @@ def test_a_folder_with_one_model_file_validates_on_every_engine(tmp_path, capsys
     assert ran | set(scene.get("not_run", {})) == {"reference", *ENGINE_NAMES}, (ran, scene.get("not_run"))
     assert ran == {"reference", *ENGINE_NAMES} - set(scene.get("not_run", {}))  # every engine that runs it reads the one file
     model_engines = {c["engine"] for c in scene["checks"] if c["check"].startswith("model.")}
-    assert model_engines == {"mujoco", "pinocchio", "drake", "exudyn"}
+    assert model_engines == ran - {"reference", "inhouse"}  # every engine that runs it, the file's readers and Exudyn
+    assert ("pybullet" in model_engines) == (keep == "urdf")  # PyBullet reads no MJCF: not run on the MJCF alone
     mujoco = {c["check"] for c in scene["checks"] if c["engine"] == "mujoco" and c["check"].startswith("model.")}
     assert {"model.link3.mass", "model.link3.axis", "model.link3.joint_type"} <= mujoco
     assert ("model.gravity" in mujoco) == (keep == "mjcf")  # a URDF cannot state gravity

@@ -172,6 +172,7 @@ class InhouseEngine(EngineBase):
                 first_step=settings.dt,
                 post_step=post,
                 bodies=nem.nb,
+                max_step=settings.max_step,
             )
             res = stop_at_blowup(nem, res)
         except NotImplementedError as err:  # a joint or force kind the engine has no equations for
@@ -214,7 +215,7 @@ class InhouseEngine(EngineBase):
             multipliers = bool(reactions or nem.contacts)  # the reactions' source, computed in the kernel
             if METHODS[method].adaptive:
                 res = compiled.integrate_dop853(packed, y0, t_save, rtol=settings.rtol, atol=settings.atol,
-                                                first_step=settings.dt, max_step=settings.save_every,
+                                                first_step=settings.dt, max_step=largest_step(settings),
                                                 proj_tol=projection_tolerance(nem), multipliers=multipliers)
             else:
                 res = compiled.integrate_fixed(packed, y0, t_save, FIXED_STEP[method],
@@ -256,9 +257,9 @@ class InhouseEngine(EngineBase):
         if not METHODS[method].adaptive:
             text = f"{method}, dt={settings.dt:g} s"
         elif compiled:
-            text = f"{method}, rtol={settings.rtol:g}, atol={settings.atol:g}, max_step={settings.save_every:g} s"
+            text = f"{method}, rtol={settings.rtol:g}, atol={settings.atol:g}, max_step={largest_step(settings):g} s"
         else:
-            text = f"scipy {method}, rtol={settings.rtol:g}, atol={settings.atol:g}, max_step={settings.save_every:g} s"
+            text = f"scipy {method}, rtol={settings.rtol:g}, atol={settings.atol:g}, max_step={largest_step(settings):g} s"
         if compiled:
             text += ", compiled (Numba)"
         if compiled or (self.project and not METHODS[method].adaptive):
@@ -389,6 +390,12 @@ def stop_at_blowup(nem: NEModel, res: Result) -> Result:
         return res
     lam = None if res.lam is None else res.lam[:k].copy()
     return replace(res, t=res.t[:k].copy(), y=y[:k].copy(), reason=reason, message=what, lam=lam)
+
+
+def largest_step(settings: RunSettings) -> float:
+    """The largest step (s) of an error-controlled run: ``settings.max_step``, at most the save
+    interval."""
+    return min(settings.save_every, settings.max_step or settings.save_every)
 
 
 def projection_tolerance(nem: NEModel) -> float:

@@ -223,6 +223,7 @@ def integrate_adaptive(
     rtol: float,
     atol: float,
     first_step: float | None = None,
+    max_step: float | None = None,
 ) -> Result:
     """Integrate with a SciPy ``OdeSolver`` (``method`` from ``ADAPTIVE``) from ``t_save[0]``
     to ``t_save[-1]``, sampling at ``t_save`` with the solver's dense output (or its exact
@@ -244,6 +245,8 @@ def integrate_adaptive(
         # order than the methods (DOP853: 7 vs 8) and over long steps their error exceeds the
         # tolerance (torque_free, rtol 1e-12: 1e-11 relative energy error at 0.23 s steps).
         kwargs["max_step"] = float(np.min(np.diff(t_save)))
+    if max_step is not None:  # a cap below the save interval (``RunSettings.max_step``)
+        kwargs["max_step"] = min(kwargs.get("max_step", max_step), max_step)
     if first_step is not None:
         kwargs["first_step"] = min(first_step, span)
     try:
@@ -291,10 +294,11 @@ def integrate(
     first_step: float | None = None,
     post_step: Callable[[np.ndarray], np.ndarray] | None = None,
     bodies: int | None = None,
+    max_step: float | None = None,
 ) -> Result:
     """Integrate with the per-state ``method`` (one of ``METHODS`` outside ``COMPILED``); see
     ``integrate_fixed`` and ``integrate_adaptive`` for what the keywords mean to each family
-    (``post_step`` only applies to fixed-step methods, ``rtol``/``atol``/``first_step`` only to
+    (``post_step`` only applies to fixed-step methods, ``rtol``/``atol``/``first_step``/``max_step`` only to
     adaptive ones; ``bodies``, the number of bodies, only to the Lie-group methods ``LIE_GROUP``,
     whose state must be the engine's layout, 13 entries per body: default ``y0.size // 13``).
     The compiled methods run on a packed model, not a Python right-hand side:
@@ -311,5 +315,5 @@ def integrate(
     if method in FIXED_STEP:
         return integrate_fixed(f, y0, t_save, steps_per_save, FIXED_STEP[method], post_step)
     if method in ADAPTIVE:
-        return integrate_adaptive(f, y0, t_save, method, rtol, atol, first_step)
+        return integrate_adaptive(f, y0, t_save, method, rtol, atol, first_step, max_step)
     raise ValueError(f"unknown integrator {method!r} (known: {', '.join(METHODS)})")

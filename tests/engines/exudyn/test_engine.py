@@ -25,7 +25,14 @@ def test_model_as_built_matches_the_description(name):
     model = scene.multibody()
     system = build(model, NODE_TYPE[scene.integrators["exudyn"]])
     found = body_discrepancies(exudyn_bodies(system, model), model, rtol=1e-12)
-    assert found and all(d.passed for d in found), [d.message for d in found if not d.passed]
+    # Exudyn holds the inertia about the body's reference point (its frame origin): the inertia
+    # about the centre of mass read back from it loses m |c|^2 / |I| of its digits (the
+    # pendulum's 1 mm bob 1 m from its frame: 2.5e6), round-off and no more
+    cancel = {b.name: 1.0 + b.mass * float(np.dot(b.p_BCm_B, b.p_BCm_B)) / float(np.abs(b.I_Cm_B).max())
+              for b in model.bodies}
+    bad = [d.message for d in found
+           if not (d.value <= d.tolerance * (cancel.get(d.body, 1.0) if d.quantity == "inertia" else 1.0))]
+    assert found and not bad, bad
     assert np.allclose(exudyn_gravity(system), model.gravity_W, rtol=0, atol=1e-15)
 
 
