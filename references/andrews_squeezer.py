@@ -394,3 +394,23 @@ def _has_published_parameters(scene: "Scene") -> bool:
 
     defaults = load_scene(scene.name, models_dir=scene.directory.parent).params
     return all(float(scene.params[k]) == float(v) for k, v in defaults.items())
+
+
+#: The scene as the benchmark report states it (``harness benchmark``): the IFToMM problem, what
+#: is published, and the required accuracy as a state error relative to the scene's scales (the
+#: library's high precision, 1e-3). ``published_digits`` gives the reference's agreement with the
+#: published state.
+BENCHMARK = {
+    "problem": "IFToMM A03",
+    "title": "Andrews' squeezing mechanism",
+    "published": "the IVP test set's state at t = 0.03 s (PSIDE, 16 digits); the library runs 0.05 s",
+    "required": 1e-3,
+}
+
+
+def published_digits(scene: "Scene") -> float | None:
+    """The reference solution's correct digits of the published positions at t = 0.03 s
+    (``reference_digits``), at the test set's parameters; None at others."""
+    if not _has_published_parameters(scene):
+        return None
+    return reference_digits(scene)[0]

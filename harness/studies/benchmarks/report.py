@@ -1,0 +1,90 @@
+"""What ``harness benchmark`` writes: ``benchmarks.md`` (one table per problem: the published
+figure, each engine's error and agreement in digits, its class, and the time to the required
+accuracy against the baseline engine's) and ``benchmarks.csv`` (one row per problem and engine)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from pathlib import Path
+
+from harness.engines import display, made_with
+from harness.io import atomic
+from harness.studies.benchmarks.run import ProblemResult
+from harness.studies.workprecision.run import BASELINE
+
+FIELDS = ("problem", "scene", "engine", "integrator", "exact", "unit", "digits", "classification", "passed",
+          "required", "time_s", "curve", "ratio_to_baseline", "published_digits")
+
+
+def _g(x, fmt: str = ".2g") -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "—"
+    return format(x, fmt)
+
+
+def markdown(results: list[ProblemResult], prov: dict, command: str | None = None) -> str:
+    """The report; ``command`` is the "Reproduce with" command (default: this process's)."""
+    if command is None:
+        from harness.io.provenance import command_line
+
+        command = command_line()
+    base = display(BASELINE)
+    lines = [
+        "# Published benchmarks: the IFToMM library and others, against every engine",
+        "",
+        f"Made {prov['date_utc']} with {made_with(prov)}. Reproduce with `{command}`.",
+        "",
+        "Per problem and engine: **error** the scene's `exact` check at the scene's step with the engine's default "
+        "integrator (against the closed form or the verified reference of `references/<scene>.py`, in its unit), "
+        "**digits** the agreement, −log10(error / scale) (scale: the motion's length for m, 1 for rad), **class** "
+        "how that error converges with the step (validate's error model), **time** the run time (s, median of "
+        "repeated runs on this machine) of the engine's fastest work-precision curve to reach the problem's required "
+        f"accuracy (the largest state error over the samples, relative to the scene's scales), and its ratio to "
+        f"{base}'s fastest (`harness workprecision` on the same scenes, in the same run).",
+        "",
+    ]
+    for p in results:
+        lines += [f"## {p.problem}: {p.title} (`{p.scene}`)", "",
+                  f"Published: {p.published}."
+                  + (f" The reference reproduces the published figure to {p.published_digits:.1f} digits."
+                     if p.published_digits is not None else ""),
+                  f"Required accuracy: {p.required:g} (state error relative to the scene's scales).", "",
+                  "| engine | integrator | error at the scene's step | digits | class | time to required (s) | fastest curve "
+                  f"| vs {base} |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for r in p.engines:
+            verdict = r.classification + ("" if r.passed else " **✗**")
+            lines.append(f"| {display(r.engine)} | `{r.integrator}` | {_g(r.exact, '.2e')} {r.unit} | {_g(r.digits, '.1f')} "
+                         f"| {verdict} | {_g(r.time_s, '.3g')} | {r.curve or 'not reached'} | {_g(r.ratio, '.2f')} |")
+        for engine, why in p.not_run.items():
+            lines.append(f"| {display(engine)} | — | not run: {why} | | | | | |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def rows(results: list[ProblemResult]) -> list[dict]:
+    """One row per problem and engine (``FIELDS``)."""
+    out = []
+    for p in results:
+        for r in p.engines:
+            out.append({"problem": p.problem, "scene": p.scene, "engine": r.engine, "integrator": r.integrator,
+                        "exact": r.exact, "unit": r.unit, "digits": r.digits, "classification": r.classification,
+                        "passed": r.passed, "required": p.required, "time_s": r.time_s, "curve": r.curve,
+                        "ratio_to_baseline": r.ratio, "published_digits": p.published_digits})
+    return out
+
+
+def write_reports(results: list[ProblemResult], out: Path, prov: dict, command: str | None = None) -> list[Path]:
+    """Write ``benchmarks.md`` and ``benchmarks.csv`` into ``out`` as one set; returns their paths.
+    ``InputError`` if ``out`` cannot be written (the old files are then kept)."""
+    out = Path(out)
+    atomic.check_writable(out)
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=FIELDS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows(results))
+    files = {"benchmarks.md": markdown(results, prov, command), "benchmarks.csv": buf.getvalue()}
+    atomic.write_set(out, files)
+    return [out / name for name in files]

@@ -1,0 +1,130 @@
+"""Published benchmarks against the engines: per problem and engine, the published figure, ours,
+the agreement in digits, the class of the engine's convergence, and the run time to reach the
+problem's required accuracy (the figure of merit of the IFToMM benchmark library).
+
+A problem is a scene whose reference module (``harness.references.<scene>``) states
+``BENCHMARK``: ``problem`` (e.g. "IFToMM A01"), ``title``, ``published`` (what the publication
+gives, one sentence) and ``required`` (the required accuracy as a state error relative to the
+scene's scales, ``harness.judging.quantities``), and optionally ``published_digits(scene)`` (the
+reference's correct digits of the published figure). ``benchmark_study`` runs, on those scenes:
+
+* ``harness.validate.run.validate``: each engine's default integrator at the scene's step, its
+  ``exact`` error (against the scene's closed form or verified reference, in the check's unit)
+  and the class of its convergence (``harness.judging.error_model``); the agreement in digits is
+  ``-log10(exact / scale)``, the scale the reference run's length (m) for an error in m, 1 for rad;
+* ``harness.studies.workprecision.run.run_sweep``: every curve of every engine; the time (s, the
+  median of repeated runs on this machine, ``WorkPrecisionPoint.time_s``) to reach ``required``
+  on the curve's lower envelope (``time_to_error`` of the largest state error over the saved
+  samples), the fastest curve of each engine kept, and its ratio to the baseline engine's
+  (``workprecision.run.BASELINE``, whose ``rollout`` it is measured through).
+
+Nothing here writes a file.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from harness.measure import exact
+from harness.model.scene import Scene, available_scenes
+from harness.studies.workprecision.run import BASELINE, SweepOptions, by_curve, run_sweep, time_to_error
+from harness.validate.run import validate
+
+
+@dataclass
+class EngineResult:
+    """One engine on one problem.
+
+    Attributes:
+        engine: the registered name; integrator: its default on the scene (validate's run).
+        exact: its ``exact`` error at the scene's step (``unit``), NaN where not run.
+        digits: agreement in significant digits, ``-log10(exact / scale)``.
+        classification: the class of its ``exact`` check (``harness.judging.error_model``);
+            passed: whether validate's verdict on it holds.
+        time_s: run time (s) of its fastest curve to reach the problem's required accuracy
+            (NaN: not reached); curve: that curve's label; ratio: ``time_s`` over the baseline's.
+    """
+
+    engine: str
+    integrator: str = ""
+    exact: float = float("nan")
+    unit: str = ""
+    digits: float = float("nan")
+    classification: str = ""
+    passed: bool = False
+    time_s: float = float("nan")
+    curve: str = ""
+    ratio: float = float("nan")
+
+
+@dataclass
+class ProblemResult:
+    """One benchmark problem: its scene, what is published (``BENCHMARK``), the reference's
+    correct digits of the published figure (None where the publication gives no number to
+    compare), one ``EngineResult`` per engine that runs it, and the engines that do not, why."""
+
+    scene: str
+    problem: str
+    title: str
+    published: str
+    required: float
+    published_digits: float | None
+    engines: list[EngineResult] = field(default_factory=list)
+    not_run: dict[str, str] = field(default_factory=dict)
+
+
+def benchmark_scenes(models_dir=None) -> list[str]:
+    """The scenes whose reference module states a ``BENCHMARK``, in name order."""
+    out = []
+    for name in available_scenes(models_dir):
+        module = exact.reference_module(name)
+        if module is not None and hasattr(module, "BENCHMARK"):
+            out.append(name)
+    return out
+
+
+def _digits(value: float, unit: str, scales: dict) -> float:
+    scale = scales.get("length", 1.0) if unit == "m" else 1.0
+    if not (math.isfinite(value) and value >= 0.0):
+        return float("nan")
+    return float("inf") if value == 0.0 else -math.log10(value / scale)
+
+
+def benchmark_study(scenes: list[Scene], engines: list[str], options: SweepOptions = SweepOptions(), *,
+                    jobs: int | None = None, progress=None) -> list[ProblemResult]:
+    """Run the study on ``scenes`` (each with a ``BENCHMARK``) and ``engines`` (module docstring);
+    the problems in the order of their names."""
+    validations = {v.scene: v for v in validate(scenes, engines, jobs=jobs, progress=progress)}
+    sweeps = {s.scene: s for s in run_sweep(scenes, engines, options)}
+    results = []
+    for scene in scenes:
+        module = exact.reference_module(scene.name)
+        bench = module.BENCHMARK
+        digits = getattr(module, "published_digits", None)
+        v, sweep = validations[scene.name], sweeps[scene.name]
+        problem = ProblemResult(scene.name, bench["problem"], bench["title"], bench["published"], float(bench["required"]),
+                                digits(scene) if digits else None, not_run=dict(v.not_run))
+        fastest: dict[str, tuple[float, str]] = {}
+        for label, points in by_curve(sweep.points).items():
+            t = time_to_error(points, problem.required)
+            engine = points[0].engine
+            if math.isfinite(t) and t < fastest.get(engine, (math.inf, ""))[0]:
+                fastest[engine] = (t, label)
+        base = fastest.get(BASELINE, (float("nan"), ""))[0]
+        runs = {r.engine: r for r in v.runs}
+        for engine in engines:
+            if engine in v.not_run:
+                continue
+            check = next((c for c in v.checks if c.engine == engine and c.check == "exact"), None)
+            row = EngineResult(engine, runs[engine].integrator if engine in runs else "")
+            if check is not None:
+                row.exact, row.unit, row.passed = check.value, check.unit, check.passed
+                row.classification = check.classification
+                row.digits = _digits(check.value, check.unit, v.scales)
+            if engine in fastest:
+                row.time_s, row.curve = fastest[engine]
+                row.ratio = row.time_s / base if math.isfinite(base) and base > 0 else float("nan")
+            problem.engines.append(row)
+        results.append(problem)
+    return sorted(results, key=lambda p: p.problem)
