@@ -14,7 +14,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from harness.cli import benchmark as cli_benchmark
+from harness.cli import benchmarks as cli_benchmarks
 from harness.cli import loops as cli_loops
 from harness.cli import rolling as cli_rolling
 from harness.cli import stress as cli_stress
@@ -134,7 +134,7 @@ def build_parser() -> argparse.ArgumentParser:
     cli_rolling.add_parser(sub)
     cli_loops.add_parser(sub)
     cli_sweep.add_parser(sub)
-    cli_benchmark.add_parser(sub)
+    cli_benchmarks.add_parser(sub)
     return p
 
 
@@ -341,7 +341,7 @@ COMMANDS["stress"] = cli_stress.run
 COMMANDS["rolling-study"] = cli_rolling.run
 COMMANDS["loop-study"] = cli_loops.run
 COMMANDS["sweep"] = cli_sweep.run
-COMMANDS["benchmark"] = cli_benchmark.run
+COMMANDS["benchmark"] = cli_benchmarks.run
 
 
 def main(argv: list[str] | None = None) -> int:
