@@ -21,7 +21,7 @@ from harness.model.joints import JOINTS
 from harness.engines.base import EngineBase, RunSettings, sample_run
 from harness.engines.pinocchio.forces import applied_function, joint_slots, point_spring_energy, rnea_reactions, spring_energy
 from harness.engines.pinocchio.lie_group_integrators import METHODS, stepper
-from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, initial_configuration, load_urdf
+from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, advance_function, initial_configuration, load_urdf
 from harness.engines.pinocchio.loops import simulate_loops
 from harness.engines.pinocchio.rolling import simulate_rolling
 from harness.model.scene import Scene
@@ -57,11 +57,7 @@ class PinocchioEngine(EngineBase):
         buf = SampleBuffer(settings.n_saves + 1, len(ids), [name for name, _ in jointed])
         reader = MaximalReader(pmodel, data, ids, buf)
 
-        def advance(k: int) -> None:
-            q, v = state
-            for j in range(per):
-                q, v = step(accel, ((k - 1) * per + j) * h, q, v, h)
-            state[:] = q, v
+        advance = advance_function(state, step, accel, h, per)
 
         def read(k: int) -> None:
             q, v = state

@@ -98,7 +98,7 @@ from harness.engines.pinocchio import linalg
 from harness.engines.pinocchio.forces import (joint_force_function, joint_slots, point_spring_energy, point_wrenches,
                                               rnea_reactions, spring_energy)
 from harness.engines.pinocchio.lie_group_integrators import stepper
-from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, check_finite, initial_configuration, load_urdf
+from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, advance_function, initial_configuration, load_urdf
 from harness.measure.trajectory import Failure, RunStop, SampleBuffer, Trajectory
 from harness.model.joints import JOINTS, keeps_axis, loop_kinds
 from harness.model.multibody import Multibody
@@ -327,13 +327,7 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
 
     state = [q, v]
 
-    def advance(k: int) -> None:
-        q, v = state
-        for j in range(per):
-            q, v = step(accel, ((k - 1) * per + j) * h, q, v, h)
-            check_finite(q, v, ((k - 1) * per + j + 1) * h)
-            q, v = project(q, v)
-        state[:] = q, v
+    advance = advance_function(state, step, accel, h, per, project)
 
     def read(k: int) -> None:
         nonlocal prox

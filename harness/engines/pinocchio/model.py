@@ -189,6 +189,24 @@ def check_finite(q: np.ndarray, v: np.ndarray, t: float) -> None:
         raise RunStop(Failure.NON_FINITE, f"non-finite state at t = {t:.6g} s")
 
 
+def advance_function(state: list, step, accel, h: float, per: int, project=None):
+    """The ``advance(k)`` a Pinocchio run hands ``harness.engines.base.sample_run``: ``per`` steps
+    of ``step`` (s each, ``h``) of ``accel`` from t_{k-1} = (k - 1) per h, the state ``[q, v]``
+    updated in place; with ``project``, the state is checked finite (``check_finite``) and
+    projected onto the constraints after each step."""
+
+    def advance(k: int) -> None:
+        q, v = state
+        for j in range(per):
+            q, v = step(accel, ((k - 1) * per + j) * h, q, v, h)
+            if project is not None:
+                check_finite(q, v, ((k - 1) * per + j + 1) * h)
+                q, v = project(q, v)
+        state[:] = q, v
+
+    return advance
+
+
 class MaximalReader:
     """Fills sample ``k`` of a ``SampleBuffer`` with each body's world pose and twist (centre of
     mass) from Pinocchio's kinematics (``forwardKinematics``, ``oMi``, ``getVelocity`` in

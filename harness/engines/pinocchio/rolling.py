@@ -60,7 +60,7 @@ from harness.engines.base import RunSettings, sample_run
 from harness.engines.pinocchio import linalg
 from harness.engines.pinocchio.forces import rnea_reactions
 from harness.engines.pinocchio.lie_group_integrators import stepper
-from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, check_finite, initial_configuration, load_urdf
+from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, advance_function, initial_configuration, load_urdf
 from harness.model.joints import JOINTS
 from harness.model.rotations import cross
 from harness.model.rolling_contact import FLAT, offset_and_rate
@@ -225,13 +225,7 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
     force = {c.name: np.full((settings.n_saves + 1, 3), np.nan) for c in model.contacts}
     state = [q, v]
 
-    def advance(k: int) -> None:
-        q, v = state
-        for j in range(per):
-            q, v = step(accel, ((k - 1) * per + j) * h, q, v, h)
-            check_finite(q, v, ((k - 1) * per + j + 1) * h)
-            q, v = project(q, v)
-        state[:] = q, v
+    advance = advance_function(state, step, accel, h, per, project)
 
     def read(k: int) -> None:
         if k == 0:
