@@ -1,14 +1,18 @@
 """Which rolling contacts add rows that repeat others (``harness.model.rolling_contact.dependent_rows``):
 a body the world holds through joints alone, or two contacts on one body; a body on a chain with a
-free joint (a rolling disk, a bicycle's wheels three joints deep) adds independent rows."""
+free joint (a rolling disk, a bicycle's wheels three joints deep) adds independent rows. What the
+sanity check (``harness.model.sanity.check_contacts``) refuses."""
 
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from harness.engines import load_scene
+from harness.model.errors import InputError
 from harness.model.multibody import RollingContact
 from harness.model.rolling_contact import anchored, dependent_rows
+from harness.model.sanity import check_multibody
 
 
 def test_a_body_held_by_joints_alone_is_anchored():
@@ -44,3 +48,20 @@ def test_the_bicycle_rows_are_independent_in_every_engine_that_solves_them():
     _, R_ext, P_ext, w_ext = frames(nem.nb, y)
     _, J, _ = evaluate(nem, P_ext, R_ext, w_ext, None)
     assert J.shape == (21, 24) and np.linalg.matrix_rank(J) == 21  # 3 hinges x 5 + 2 contacts x 3: 3 dof left
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"body": "nobody"}, "unknown body 'nobody'"),
+    ({"radius": 0.0}, "radius must be positive"),
+    ({"half_thickness": -1e-3}, "half_thickness must be >= 0"),
+    ({"circle_z": float("nan")}, "circle_z must be finite"),
+    ({"name": "rear_contact"}, "name used twice"),
+])
+def test_sanity_refuses_a_contact_it_cannot_run(change, message):
+    """Any body may roll (the front wheel, three joints deep, passes); a contact naming no body,
+    with no radius, or named twice is refused before any engine sees it."""
+    bike = load_scene("bicycle").multibody()
+    check_multibody(bike, "bicycle")
+    front = replace(bike.contacts[1], **change)
+    with pytest.raises(InputError, match=message):
+        check_multibody(replace(bike, contacts=(bike.contacts[0], front)), "bicycle")
