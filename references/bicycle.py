@@ -8,8 +8,11 @@ for the balance and steer of a bicycle: a benchmark and review", Proc. R. Soc. A
 1955-1982, doi:10.1098/rspa.2007.1857: Table 1 (the benchmark's parameters), section 5 and
 Appendix A (the coefficient matrices from the parameters), section 5 (the benchmark's matrices
 printed to 14 decimals), Table 2 (eigenvalues at 0-10 m/s, the weave and capsize
-speeds). No scene of this repository runs the bicycle yet: this module is the yardstick a
-``bicycle`` scene would be judged by.
+speeds). This module is the yardstick the ``bicycle`` scene is judged by: each engine's
+linearisation about upright straight running (``harness.tools.linearize`` in the benchmark's
+coordinates of ``harness/model/builders/bicycle.py``) against ``state_matrix``, its M^-1 K0,
+M^-1 C1 and M^-1 K2 (``blocks``) against ``linearized``'s, and its own weave and capsize speeds
+(``stability_crossings`` with ``matrix``) against Table 2 (``tests/tools/test_linearize.py``).
 
 The system (SI units)
 ---------------------
@@ -96,6 +99,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields, replace
+from typing import Callable
 
 import numpy as np
 from scipy.optimize import brentq
@@ -108,6 +112,8 @@ __all__ = [
     "state_matrix",
     "eigenvalues",
     "spectral_abscissa",
+    "blocks",
+    "from_blocks",
     "Crossing",
     "stability_crossings",
     "weave_speed",
@@ -249,10 +255,42 @@ def eigenvalues(p: BicycleParams, v: float) -> np.ndarray:
     return np.sort_complex(np.linalg.eigvals(state_matrix(p, v)).astype(complex))
 
 
-def spectral_abscissa(p: BicycleParams, v: float) -> float:
+def spectral_abscissa(p: BicycleParams, v: float, matrix: Callable[[float], np.ndarray] | None = None) -> float:
     """The largest real part of the eigenvalues at speed ``v`` (1/s): negative iff upright
-    straight running at ``v`` is asymptotically stable."""
-    return float(np.max(np.linalg.eigvals(state_matrix(p, v)).real))
+    straight running at ``v`` is asymptotically stable. ``matrix``: the state matrix as a
+    function of the speed (default ``state_matrix(p, .)``; e.g. an engine's linearisation,
+    ``harness.tools.linearize``)."""
+    A = state_matrix(p, v) if matrix is None else np.asarray(matrix(v), dtype=float)
+    return float(np.max(np.linalg.eigvals(A).real))
+
+
+def blocks(A0: np.ndarray, Av: np.ndarray, v: float, g: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(M^-1 K0, M^-1 C1, M^-1 K2)`` (2x2 each; 1/m, 1/m, 1/m^2) from two state matrices of
+    the benchmark form (module docstring): ``A0`` at speed 0 and ``Av`` at speed ``v`` != 0
+    (m/s), gravity ``g`` (m/s^2)::
+
+        M^-1 K0 = -A0[2:, :2] / g,   M^-1 K2 = -(Av[2:, :2] + g M^-1 K0) / v^2,
+        M^-1 C1 = -Av[2:, 2:] / v
+
+    The inverse of ``from_blocks``; what an engine's linearisations at two speeds give of the
+    benchmark's coefficients (M itself needs a force: the linearisation sees only M^-1 times
+    them)."""
+    if v == 0.0 or g == 0.0:
+        raise ValueError("blocks: the speed v and gravity g must be nonzero")
+    MK0 = -np.asarray(A0, float)[2:, :2] / g
+    MK2 = -(np.asarray(Av, float)[2:, :2] + g * MK0) / (v * v)
+    MC1 = -np.asarray(Av, float)[2:, 2:] / v
+    return MK0, MC1, MK2
+
+
+def from_blocks(MK0: np.ndarray, MC1: np.ndarray, MK2: np.ndarray, v: float, g: float) -> np.ndarray:
+    """The state matrix (4x4) at speed ``v`` (m/s) and gravity ``g`` (m/s^2) from
+    ``(M^-1 K0, M^-1 C1, M^-1 K2)``: ``[[0, I], [-(g M^-1 K0 + v^2 M^-1 K2), -v M^-1 C1]]``."""
+    A = np.zeros((4, 4))
+    A[:2, 2:] = np.eye(2)
+    A[2:, :2] = -(g * np.asarray(MK0, float) + v * v * np.asarray(MK2, float))
+    A[2:, 2:] = -v * np.asarray(MC1, float)
+    return A
 
 
 @dataclass(frozen=True)
@@ -268,14 +306,19 @@ class Crossing:
 
 
 def stability_crossings(p: BicycleParams, v_max: float = 10.0, v_min: float = 0.0,
-                        n: int = SCAN_POINTS) -> list[Crossing]:
+                        n: int = SCAN_POINTS, matrix: Callable[[float], np.ndarray] | None = None) -> list[Crossing]:
     """Every sign change of the spectral abscissa on [v_min, v_max] (m/s), in increasing speed:
     a scan of ``n`` speeds brackets each, brentq (xtol 1e-13 m/s) finds it, and the
     eigenvalue of largest real part there classifies it (module docstring, Stability). A
     crossing between two scanned speeds that cross back before the next is missed; the
-    benchmark's crossings are 1.7 m/s apart at the default scan (0.025 m/s)."""
+    benchmark's crossings are 1.7 m/s apart at the default scan (0.025 m/s). ``matrix``: the
+    state matrix as a function of the speed (default ``state_matrix(p, .)``), e.g. an engine's
+    linearisation: its own crossings."""
+    def A(v):
+        return state_matrix(p, v) if matrix is None else np.asarray(matrix(v), dtype=float)
+
     speeds = np.linspace(v_min, v_max, n)
-    alpha = np.array([spectral_abscissa(p, v) for v in speeds])
+    alpha = np.array([spectral_abscissa(p, v, matrix) for v in speeds])
     out = []
     for k in range(n - 1):
         a, b = alpha[k], alpha[k + 1]
@@ -288,30 +331,33 @@ def stability_crossings(p: BicycleParams, v_max: float = 10.0, v_min: float = 0.
         elif a == 0.0:
             v = float(speeds[k])
         else:
-            v = brentq(lambda s: spectral_abscissa(p, s), speeds[k], speeds[k + 1], xtol=SPEED_XTOL,
+            v = brentq(lambda s: spectral_abscissa(p, s, matrix), speeds[k], speeds[k + 1], xtol=SPEED_XTOL,
                        rtol=4.0 * np.finfo(float).eps)
-        lam = np.linalg.eigvals(state_matrix(p, v))
+        lam = np.linalg.eigvals(A(v))
         top = lam[np.argmax(lam.real)]
         scale = max(1.0, float(np.max(np.abs(lam))))
         out.append(Crossing(float(v), bool(b < a), bool(abs(top.imag) > 1e-9 * scale), float(abs(top.imag))))
     return out
 
 
-def weave_speed(p: BicycleParams, v_max: float = 10.0) -> float:
+def weave_speed(p: BicycleParams, v_max: float = 10.0, *, crossings: list[Crossing] | None = None) -> float:
     """v_w (m/s): the lowest speed in (0, v_max] at which the weave pair's real parts turn
-    negative on increasing speed (a stabilising Hopf crossing). ValueError when there is none."""
-    for x in stability_crossings(p, v_max):
+    negative on increasing speed (a stabilising Hopf crossing). ValueError when there is none.
+    ``crossings``: those to read it from (default ``stability_crossings(p, v_max)``; pass an
+    engine's, ``stability_crossings(..., matrix=...)``)."""
+    for x in stability_crossings(p, v_max) if crossings is None else crossings:
         if x.oscillatory and x.stabilising:
             return x.speed
     raise ValueError(f"no stabilising weave crossing below {v_max:g} m/s")
 
 
-def capsize_speed(p: BicycleParams, v_max: float = 10.0) -> float:
+def capsize_speed(p: BicycleParams, v_max: float = 10.0, *, crossings: list[Crossing] | None = None) -> float:
     """v_c (m/s): the lowest speed above the weave speed, up to v_max, at which a real
     eigenvalue (capsize) turns positive (a destabilising crossing through zero). ValueError when
-    there is none."""
-    v_w = weave_speed(p, v_max)
-    for x in stability_crossings(p, v_max):
+    there is none. ``crossings`` as ``weave_speed``."""
+    crossings = stability_crossings(p, v_max) if crossings is None else crossings
+    v_w = weave_speed(p, v_max, crossings=crossings)
+    for x in crossings:
         if x.speed > v_w and not x.oscillatory and not x.stabilising:
             return x.speed
     raise ValueError(f"no capsize crossing between the weave speed {v_w:.6g} and {v_max:g} m/s")

@@ -9,7 +9,7 @@ twins) and its work-precision curves. Everything outside ``harness/engines/`` as
 ``ENGINE`` object holds its integrators (``integrators``, ``Integrator`` records of
 ``harness.engines.base``) and ``simulate``, and optionally the hooks the functions here call:
 ``preload()``, ``load_model_file(scene, model)``, ``fast_method(method, model)``,
-``prepare(runs)``.
+``prepare(runs)``, ``accelerations(scene, model, q, v, t)``.
 """
 
 from __future__ import annotations
@@ -73,6 +73,9 @@ class Declaration:
         colour: its colour in validate's figures.
         linestyle: how the stress study's figures draw its lines (matplotlib's ``ls``).
         curves: its work-precision curves.
+        accelerations: it gives the bodies' accelerations at a given joint state (its
+            ``accelerations`` hook: ``harness.engines.accelerations``, which
+            ``harness.tools.linearize`` differentiates).
     """
 
     name: str
@@ -95,6 +98,7 @@ class Declaration:
     colour: str = ""
     linestyle: str = "-"
     curves: tuple[SweepCurve, ...] = ()
+    accelerations: bool = False
 
     def why_not(self, model) -> str:
         """Why the engine does not run a scene whose system is ``model`` (a ``Multibody``): a
@@ -139,7 +143,7 @@ DECLARATIONS: tuple[Declaration, ...] = (
     Declaration("inhouse", "in-house", "harness.engines.inhouse", loops=IDEAL,
                 loops_how="the cut joint's rows in the KKT system and a projection after each step", rolling=IDEAL,
                 default_integrator="rk4", reference=True,
-                compiled=True, cost_per_step=4e-4, colour="#1f77b4", curves=_REFERENCE_CURVES),
+                compiled=True, cost_per_step=4e-4, colour="#1f77b4", curves=_REFERENCE_CURVES, accelerations=True),
     Declaration("mujoco", "MuJoCo", "harness.engines.mujoco.engine", library="mujoco", reads=(MJCF, URDF),
                 loops=SOFT, loops_how="`<connect>` equalities, soft constraints", rolling=SOFT, default_integrator="RK4",
                 cost_per_step=1e-5, colour="#d62728",
@@ -149,7 +153,7 @@ DECLARATIONS: tuple[Declaration, ...] = (
     Declaration("pinocchio", "Pinocchio", "harness.engines.pinocchio.engine", library="pinocchio", reads=(URDF, MJCF),
                 loops=IDEAL, loops_how="`constraintDynamics` and a projection", rolling=IDEAL, default_integrator="rkmk4",
                 cost_per_step=2e-4, colour="#2ca02c",
-                curves=_curves(("",), {"rkmk4": "tab:green", "euler": "yellowgreen"}, ("",))),
+                curves=_curves(("",), {"rkmk4": "tab:green", "euler": "yellowgreen"}, ("",)), accelerations=True),
     Declaration("exudyn", "Exudyn", "harness.engines.exudyn.engine", library="exudyn", loops=IDEAL,
                 loops_how="the index-3 DAE with generalized-α", rolling=IDEAL,
                 default_integrator="GeneralizedAlpha",  # index-3 DAE, order 2
@@ -276,6 +280,24 @@ def prepare(engine: str, runs) -> None:
         hook = getattr(get_engine(engine), "prepare", None)
         if hook is not None:
             hook(list(runs))
+
+
+def accelerations(engine: str, scene, model, q, v, t: float = 0.0) -> tuple[dict, dict]:
+    """Each body's centre-of-mass acceleration (m/s^2) and angular acceleration (rad/s^2), world
+    frame, per body name, as ``engine``'s dynamics give them at joint coordinates ``q, v`` (per
+    body name, ``harness.model.joints``; on the constraints) and time ``t`` (s) of ``scene``'s
+    system ``model`` (its ``Multibody``): the engine's ``accelerations`` hook, a run's
+    right-hand side at that state (``harness.tools.linearize`` differentiates it).
+    NotImplementedError for an engine without the hook, or a system it does not cover there."""
+    if not declaration(engine).accelerations:
+        raise NotImplementedError(f"{display(engine)} gives no accelerations at a given state (it only runs scenes)")
+    return get_engine(engine).accelerations(scene, model, q, v, t)
+
+
+def with_accelerations() -> tuple[str, ...]:
+    """The engines that give their accelerations at a given state (``Declaration.accelerations``),
+    in registry order."""
+    return tuple(d.name for d in DECLARATIONS if d.accelerations)
 
 
 def reads_other_format(scene, engine: str) -> bool:

@@ -63,9 +63,10 @@ class RollingContact:
     is then only the cylinder's half-length (the MJCF geom's size).
 
     Attributes:
-        body: name of the rolling body: a root body, free (frame at its centre of mass) or on a
-            joint to the world (a cone on a ball joint at its apex: its symmetry axis is body z
-            through the centre of mass); it may have children.
+        body: name of the rolling body, any body of the tree whose symmetry axis is body z
+            through its centre of mass: a root body, free or on a joint to the world (a cone on a
+            ball joint at its apex), or a body deeper in the tree (a bicycle's front wheel, on a
+            hinge to the front frame, on a hinge to the free rear frame); it may have children.
         radius: m, > 0.
         half_thickness: m, >= 0 (0: a thin disk).
         name: name of the contact in trajectories (its force columns ``<name>.Fx`` ...).

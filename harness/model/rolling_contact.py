@@ -34,6 +34,10 @@ circle and the edge term becomes a constant axial offset::
 (the same formulas with ``h sgn(n_z)`` replaced by ``-c``; no edge switch exists, and the height,
 envelope argument and bias are unchanged).
 
+The rolling body may be any body of the tree: a root (free, or on a joint to the world) or a
+body deep in it (a bicycle's front wheel: rear frame, front frame, wheel). Its three rows repeat
+others only where the world holds it through joints alone (``dependent_rows``).
+
 Everything broadcasts over leading axes: rotations ``[..., 3, 3]``, vectors ``[..., 3]``.
 """
 
@@ -41,6 +45,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from harness.model.joints import JOINTS
 from harness.model.rotations import cross
 
 FLAT = 1e-9  # sqrt(1 - n_z^2) below this: the disk lies flat and the contact point is undefined
@@ -131,3 +136,26 @@ def slip_velocity(v_WA_W: np.ndarray, w_W: np.ndarray, R_WB: np.ndarray, radius:
 def is_flat(R_WB: np.ndarray) -> np.ndarray:
     """Whether the disk lies flat (the contact point undefined)."""
     return axis_and_up(R_WB)[2] < FLAT
+
+
+def anchored(model, body: str) -> bool:
+    """Whether the world holds ``body`` of ``model`` (a ``Multibody``) through joints alone: no free
+    joint on its chain to the world (a cone on a ball joint at its apex; not a bicycle's wheel,
+    whose rear frame is free)."""
+    while body is not None:
+        b = model.body(body)
+        if not JOINTS[b.joint].constrained:
+            return False
+        body = b.parent
+    return True
+
+
+def dependent_rows(model) -> bool:
+    """Whether the rolling rows of ``model`` may repeat other rows, so that the engines must solve
+    for dependent rows: a contact on an ``anchored`` body (two points of one rigid body at rest,
+    the joint's and the contact's, have equal velocities along the line joining them: one no-slip
+    row repeats the joints'), or two contacts on one body (the same argument between the two
+    contact points). A contact on a body whose chain to the world has a free joint (a rolling
+    disk, a bicycle's wheels) adds independent rows."""
+    bodies = [c.body for c in getattr(model, "contacts", ())]
+    return len(set(bodies)) < len(bodies) or any(anchored(model, b) for b in bodies)

@@ -61,6 +61,29 @@ def check_multibody(model: Multibody, source: str) -> None:
         raise InputError(f"{source}: gravity is not finite")
     check_forces(model, source)
     check_loops(model, source)
+    check_contacts(model, source)
+
+
+def check_contacts(model: Multibody, source: str) -> None:
+    """Raise InputError unless every rolling contact (``Multibody.contacts``) names a body of the
+    model (any body: a root or one deep in the tree) and has a positive finite radius, a
+    half-thickness >= 0, a finite ``circle_z`` if any, and a name no other contact has (its force
+    columns ``<name>.Fx`` ...)."""
+    bodies = set(model.body_names)
+    seen = set()
+    for c in getattr(model, "contacts", ()):
+        where = f"rolling contact {c.name!r}"
+        if c.name in seen:
+            raise InputError(f"{source}: {where}: name used twice")
+        seen.add(c.name)
+        if c.body not in bodies:
+            raise InputError(f"{source}: {where}: unknown body {c.body!r}")
+        if not (np.isfinite(c.radius) and c.radius > 0.0):
+            raise InputError(f"{source}: {where}: radius must be positive and finite, got {c.radius!r}")
+        if not (np.isfinite(c.half_thickness) and c.half_thickness >= 0.0):
+            raise InputError(f"{source}: {where}: half_thickness must be >= 0 and finite, got {c.half_thickness!r}")
+        if c.circle_z is not None and not np.isfinite(c.circle_z):
+            raise InputError(f"{source}: {where}: circle_z must be finite, got {c.circle_z!r}")
 
 
 #: How far (m, rad; m/s, rad/s) the initial state may be from closing a loop: a builder assembles

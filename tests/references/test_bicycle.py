@@ -434,3 +434,31 @@ def test_state_matrix_is_the_second_order_system():
         qdd = A[2:] @ x
         np.testing.assert_allclose(M @ qdd, -(v * C1 @ x[2:] + (P.g * K0 + v * v * K2) @ x[:2]), rtol=1e-13, atol=1e-15)
         np.testing.assert_array_equal(A[:2] @ x, x[2:])
+
+
+def test_blocks_are_the_benchmark_coefficients_and_from_blocks_their_inverse():
+    """M^-1 K0, M^-1 C1, M^-1 K2 back from the state matrices at 0 and v; the state matrix at any
+    speed from them."""
+    M, C1, K0, K2 = bc.linearized(P)
+    MK0, MC1, MK2 = bc.blocks(bc.state_matrix(P, 0.0), bc.state_matrix(P, 3.0), 3.0, P.g)
+    for got, X in ((MK0, K0), (MC1, C1), (MK2, K2)):
+        np.testing.assert_allclose(got, np.linalg.solve(M, X), rtol=1e-13, atol=1e-14)
+    for v in (0.0, 4.0, 9.0):
+        np.testing.assert_allclose(bc.from_blocks(MK0, MC1, MK2, v, P.g), bc.state_matrix(P, v), rtol=1e-13, atol=1e-13)
+    with pytest.raises(ValueError, match="nonzero"):
+        bc.blocks(bc.state_matrix(P, 0.0), bc.state_matrix(P, 0.0), 0.0, P.g)
+
+
+def test_crossings_of_a_given_state_matrix():
+    """``matrix`` replaces the benchmark's state matrix in the root finding (an engine's own
+    linearisation, ``harness.tools.linearize``): with the benchmark's it finds the same speeds,
+    on a narrow scan too; with another bicycle's, that bicycle's."""
+    default = bc.stability_crossings(P)
+    given = bc.stability_crossings(P, matrix=lambda v: bc.state_matrix(P, v))
+    assert [x.speed for x in given] == [x.speed for x in default]
+    narrow = bc.stability_crossings(P, v_max=7.0, v_min=3.0, n=9, matrix=lambda v: bc.state_matrix(P, v))
+    assert bc.weave_speed(P, crossings=narrow) == pytest.approx(WEAVE_SPEED, abs=1e-12)
+    assert bc.capsize_speed(P, crossings=narrow) == pytest.approx(CAPSIZE_SPEED, abs=1e-12)
+    moon = bc.scaled(P, g=1.62)
+    other = bc.stability_crossings(P, matrix=lambda v: bc.state_matrix(moon, v))
+    assert bc.weave_speed(P, crossings=other) == pytest.approx(bc.weave_speed(moon), abs=1e-12)

@@ -30,8 +30,9 @@ there, with the sign of the initial state. The model is exact as long as the sam
 down (sgn(n_z) constant); a run in which the axis crosses the horizontal is reported failed.
 A contact with one rolling circle (``RollingContact.circle_z``) has the joint at that circle's
 centre, body (0, 0, circle_z) from the centre of mass, and no edge to switch. The rolling body is
-a root body: free, or on a joint to the ground (the rolling cone's spherical apex), whose rows
-then include one the rolling-disc joint repeats (``ExudynSystem.dependent_rows``).
+any body (every body is a node of its own in redundant coordinates: a bicycle's front wheel is
+one); on a body the world holds through joints alone (the rolling cone's spherical apex) the rows
+include one the rolling-disc joint repeats (``ExudynSystem.dependent_rows``).
 
 Loop (cut) joints (``Multibody.loops``, ``harness.model.multibody.LoopJoint``): each is one more
 joint object, an ``ObjectJointGeneric`` between two rigid markers (``MarkerBodyRigid``), one on
@@ -101,6 +102,7 @@ from harness.model.forces import JOINT_SPRINGS, JOINT_TORQUES, POINT_FORCES, POI
 from harness.model.joints import ALIGNED, JOINTS, POINT, TRANSLATIONAL, keeps_axis
 from harness.model.kinematics import forward
 from harness.model.multibody import LoopJoint, Multibody
+from harness.model.rolling_contact import dependent_rows
 
 #: The rows a loop joint may state, per kind, in its joint frame J (z: the hinge axis):
 #: translations along J's x, y, z and rotations about its x, y (``ObjectJointGeneric``'s
@@ -142,7 +144,8 @@ class ExudynSystem:
             names), body_a, body_b or None).
         loop_sensors: loop name -> (``ForceLocal`` sensor, ``TorqueLocal`` sensor), only when asked.
         loop_rows: the rows decision (``LoopRows``), None without loops.
-        dependent_rows: a rolling body on a joint (a cone held at its apex): the rolling-disc
+        dependent_rows: a rolling body the world holds through joints alone (a cone held at its
+            apex; ``harness.model.rolling_contact.dependent_rows``): the rolling-disc
             joint's no-slip row along the line from the joint to the contact repeats the joint's
             (two points of a rigid body have equal velocities along the line joining them), at
             every instant and in a direction that turns with the body, so no row can be left out
@@ -253,10 +256,6 @@ def build(model: Multibody, node_type: str, *, reactions: bool = False) -> Exudy
                                stiffness=float(spring.stiffness), damping=0.0, show=False)
     for contact in model.contacts:
         body = model.body(contact.body)
-        if body.parent is not None:
-            raise NotImplementedError(f"rolling contact {contact.name!r}: the rolling body must be a root body (free, or "
-                                      f"jointed to the ground)")
-        system.dependent_rows = system.dependent_rows or JOINTS[body.joint].constrained
         if contact.circle_z is None:  # the lower rim edge at the initial state
             n_z = frames[body.name][1][2, 2]
             edge = float(np.sign(n_z))
@@ -273,6 +272,7 @@ def build(model: Multibody, node_type: str, *, reactions: bool = False) -> Exudy
         system.contact_sensors[contact.name] = tuple(
             mbs.AddSensor(SensorObject(objectNumber=joint, outputVariableType=t, storeInternal=True, writeToFile=False))
             for t in (ovt.ForceLocal, ovt.RotationMatrix))
+    system.dependent_rows = dependent_rows(model)
     if model.loops:
         system.loop_rows = loop_rows(model)
         for loop in model.loops:

@@ -64,8 +64,9 @@ from harness.engines.base import EngineBase, RunSettings, check_settings, first_
 from harness.engines.inhouse import algebra
 from harness.engines.inhouse.constraints import DynamicsError, project, violation
 from harness.engines.inhouse.integrators import COMPILED, COMPILED_TWIN, FIXED_STEP, LIE_GROUP, METHODS, Result, integrate
-from harness.engines.inhouse.model import NEModel, build, from_trajectory, initial_state, split, to_trajectory
-from harness.engines.inhouse.newton_euler import Baumgarte, contact_force_series, make_rhs, reaction_series, reactions
+from harness.engines.inhouse.model import NEModel, build, from_trajectory, initial_state, split, state_at, to_trajectory
+from harness.engines.inhouse.newton_euler import (Baumgarte, contact_force_series, make_dynamics, make_rhs, reaction_series,
+                                                  reactions)
 from harness.model.multibody import Multibody
 from harness.model.scene import Scene
 from harness.measure.trajectory import Failure, Trajectory, failed, unsupported
@@ -126,6 +127,22 @@ class InhouseEngine(EngineBase):
         ratio = self.loop_baumgarte_ratio if nem.redundant else self.baumgarte_ratio
         omega = ratio * characteristic_rate(nem, y0, gravity_W, settings.t_end)
         return Baumgarte(omega=omega, zeta=self.baumgarte_zeta)
+
+    def accelerations(self, scene: Scene, model: Multibody, q, v, t: float = 0.0) -> tuple[dict, dict]:
+        """The registry's hook (``harness.engines.accelerations``): each body's centre-of-mass
+        acceleration (m/s^2) and angular acceleration (rad/s^2), world, per body name, at joint
+        coordinates ``q, v`` (per body name) and time ``t`` (s): the per-state Newton-Euler
+        equations with every constraint (joints, loops, rolling contacts), without Baumgarte
+        terms (the state is taken to satisfy the constraints), ``alpha_W = R dw_B/dt``."""
+        nem = build(model)
+        y = state_at(model, q, v, nem)
+        ydot, _ = make_dynamics(nem)(float(t), y)
+        _, quat, _, _ = split(nem, y)
+        _, _, acc, wdot_B = split(nem, ydot)
+        R = algebra.quat_matrix(algebra.normalized(quat))
+        alpha = (R @ wdot_B[:, :, None])[:, :, 0]
+        return ({name: acc[i].copy() for i, name in enumerate(nem.body_names)},
+                {name: alpha[i].copy() for i, name in enumerate(nem.body_names)})
 
     def run(self, scene: Scene, settings: RunSettings) -> Trajectory:
         """Run ``scene`` with ``settings``; see ``simulate_model``."""

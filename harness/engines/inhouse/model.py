@@ -52,11 +52,13 @@ the tree's ball/hinge joints. A loop's rows may be redundant (a planar loop clos
 its 5 rows are implied), so ``J M^-1 J^T`` is singular: a model with loops (``NEModel.redundant``)
 solves it by the pseudo-inverse (``constraints.solve_rows``), which gives the motion uniquely and the
 minimum-norm multipliers (the reactions in redundant directions are not determined by rigid-body
-mechanics; the others are). So does a model with a rolling contact on a body that has a joint: a
-cone held at its apex by a ball joint and rolling on its base rim has its apex and rim both at
-rest, and the velocities of two points of a rigid body along the line joining them are equal, so
-one of the rim's no-slip rows (along the contact generator) repeats the joint's; the split of the
-force along that line between apex and rim is not determined, the normal force is.
+mechanics; the others are). So does a model with a rolling contact on a body the world holds
+through joints alone (``harness.model.rolling_contact.dependent_rows``): a cone held at its apex by
+a ball joint and rolling on its base rim has its apex and rim both at rest, and the velocities of
+two points of a rigid body along the line joining them are equal, so one of the rim's no-slip rows
+(along the contact generator) repeats the joint's; the split of the force along that line between
+apex and rim is not determined, the normal force is. A rolling body on a joint to a free body (a
+bicycle's wheels) adds independent rows: Cholesky, as for a tree.
 """
 
 from __future__ import annotations
@@ -66,7 +68,7 @@ from typing import Callable
 
 import numpy as np
 
-from harness.model import kinematics
+from harness.model import kinematics, rolling_contact
 from harness.model import rotations
 from harness.model.forces import FORCES, JOINT_SPRINGS, JOINT_TORQUES, POINT_FORCES, POINT_SPRINGS
 from harness.model.joints import ALIGNED, JOINTS, ON_AXIS, PARALLEL, POINT
@@ -232,7 +234,7 @@ class NEModel:
     contacts: tuple[RollingRows, ...] = ()  # rolling contacts: 3 rows each, after the slide rows (``rolling``)
     torques: tuple[TorqueElement, ...] = ()
     point_springs: tuple[PointSpringElement, ...] = ()
-    redundant: bool = False  # loop joints, or a rolling contact on a jointed body: rows may be dependent (``constraints.solve_rows``)
+    redundant: bool = False  # loop joints, or a rolling contact on an anchored body: rows may be dependent (``constraints.solve_rows``)
 
     @property
     def nc_fast(self) -> int:
@@ -411,7 +413,7 @@ def build(model: Multibody) -> NEModel:
         contacts=contacts,
         torques=torques,
         point_springs=point_springs,
-        redundant=bool(loops) or any(JOINTS[model.body(c.body).joint].constrained for c in model.contacts),
+        redundant=bool(loops) or rolling_contact.dependent_rows(model),
     )
 
 
@@ -436,15 +438,21 @@ def join(p_WCm_W: np.ndarray, quat_WB: np.ndarray, v_WCm_W: np.ndarray, w_WB_B: 
 def initial_state(model: Multibody, nem: NEModel | None = None) -> np.ndarray:
     """State vector at the model's initial joint coordinates ``q0, v0`` (forward kinematics;
     the world-frame angular velocity it returns is rotated into the body frame)."""
-    states = kinematics.forward(model, model.q0, model.v0)
+    return state_at(model, model.q0, model.v0, nem)
+
+
+def state_at(model: Multibody, q: dict[str, np.ndarray], v: dict[str, np.ndarray], nem: NEModel | None = None) -> np.ndarray:
+    """State vector at joint coordinates ``q, v`` (per body name, ``harness.model.joints``):
+    ``initial_state`` at any joint state."""
+    states = kinematics.forward(model, q, v)
     names = nem.body_names if nem is not None else tuple(model.body_names)
     p = np.stack([states[n].p_WCm_W for n in names])
-    q = np.stack([states[n].quat_WB for n in names])
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    v = np.stack([states[n].v_WCm_W for n in names])
-    R = rotations.matrix(q).reshape(len(names), 3, 3)
+    quat = np.stack([states[n].quat_WB for n in names])
+    quat = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
+    vel = np.stack([states[n].v_WCm_W for n in names])
+    R = rotations.matrix(quat).reshape(len(names), 3, 3)
     w_B = np.einsum("nji,nj->ni", R, np.stack([states[n].w_WB_W for n in names]))
-    return join(p, q, v, w_B)
+    return join(p, quat, vel, w_B)
 
 
 def to_trajectory(nem: NEModel, t: np.ndarray, ys: np.ndarray, engine: str = "inhouse", integrator: str = "") -> Trajectory:

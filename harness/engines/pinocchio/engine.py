@@ -21,9 +21,10 @@ from harness.model.joints import JOINTS
 from harness.engines.base import EngineBase, RunSettings, sample_run
 from harness.engines.pinocchio.forces import applied_function, joint_slots, point_spring_energy, rnea_reactions, spring_energy
 from harness.engines.pinocchio.lie_group_integrators import METHODS, stepper
-from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, advance_function, initial_configuration, load_urdf
+from harness.engines.pinocchio.model import (RUN_ERRORS, MaximalReader, advance_function, configuration,
+                                             initial_configuration, load_urdf, maximal_accelerations)
 from harness.engines.pinocchio.loops import simulate_loops
-from harness.engines.pinocchio.rolling import simulate_rolling
+from harness.engines.pinocchio.rolling import rolling_accelerations, simulate_rolling
 from harness.model.scene import Scene
 from harness.measure.trajectory import SampleBuffer, Trajectory
 
@@ -38,6 +39,22 @@ class PinocchioEngine(EngineBase):
         """Load the scene's URDF (its MJCF where it names only one) with ``model``'s physics, as a
         run does (``load_urdf``): InputError where Pinocchio cannot (``harness.engines.load_model_file``)."""
         load_urdf(scene.urdf, scene.urdf_root_joint, model)
+
+    def accelerations(self, scene: Scene, model, q, v, t: float = 0.0) -> tuple[dict, dict]:
+        """The registry's hook (``harness.engines.accelerations``): each body's centre-of-mass
+        acceleration (m/s^2) and angular acceleration (rad/s^2), world, per body name, at joint
+        coordinates ``q, v`` (per body name) and time ``t`` (s), as a run's right-hand side
+        computes them: ``aba`` with the scene's forces, or ``forwardDynamics`` with the rolling
+        rows (``rolling``). NotImplementedError for a scene with loops."""
+        if getattr(model, "contacts", ()):
+            return rolling_accelerations(scene, model, q, v)
+        if getattr(model, "loops", ()):
+            raise NotImplementedError("Pinocchio's accelerations at a state of a loop scene are not available here")
+        pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
+        data = pmodel.createData()
+        qp, vp = configuration(pmodel, ids, model, q, v)
+        a = _accel_function(pmodel, data, ids, model)(t, qp, vp)
+        return maximal_accelerations(pmodel, data, ids, [b.name for b in model.bodies], qp, vp, a)
 
     def run(self, scene: Scene, settings: RunSettings) -> Trajectory:
         model = scene.multibody()

@@ -166,14 +166,37 @@ def initial_configuration(pmodel: pin.Model, ids: list[int], model: Multibody) -
     Conversions: ``to_pinocchio`` (quaternions ``wxyz`` -> ``xyzw``; the free-flyer's linear
     velocity is expressed in the body frame in Pinocchio, in the world in the scene).
     """
+    return configuration(pmodel, ids, model, model.q0, model.v0)
+
+
+def configuration(pmodel: pin.Model, ids: list[int], model: Multibody, q_common, v_common) -> tuple[np.ndarray, np.ndarray]:
+    """Pinocchio (q, v) from joint coordinates ``q_common, v_common`` (per body name,
+    ``harness.model.joints``): ``initial_configuration`` at any joint state."""
     q = pin.neutral(pmodel)
     v = np.zeros(pmodel.nv)
     for body, jid in zip(model.bodies, ids):
         jm = pmodel.joints[jid]
-        qj, vj = to_pinocchio(JOINTS[body.joint], model.q0[body.name], model.v0[body.name], jm.nq)
+        qj, vj = to_pinocchio(JOINTS[body.joint], q_common[body.name], v_common[body.name], jm.nq)
         q[jm.idx_q : jm.idx_q + len(qj)] = qj
         v[jm.idx_v : jm.idx_v + len(vj)] = vj
     return q, v
+
+
+def maximal_accelerations(pmodel: pin.Model, data: pin.Data, ids: list[int], names, q, v, a) -> tuple[dict, dict]:
+    """Each body's centre-of-mass acceleration (m/s^2) and angular acceleration (rad/s^2), world,
+    per body name (``names``, in the order of ``ids``), at Pinocchio's ``(q, v, a)``: the classical
+    acceleration of the joint origin O and the angular acceleration (``getClassicalAcceleration``,
+    LOCAL_WORLD_ALIGNED), and ``a_C = a_O + alpha x r + w x (w x r)`` with r = R lever."""
+    pin.forwardKinematics(pmodel, data, q, v, a)
+    acc, alpha = {}, {}
+    for name, jid in zip(names, ids):
+        R = data.oMi[jid].rotation
+        r = R @ np.array(pmodel.inertias[jid].lever)
+        w = pin.getVelocity(pmodel, data, jid, LOCAL_WORLD_ALIGNED).angular
+        a_O = pin.getClassicalAcceleration(pmodel, data, jid, LOCAL_WORLD_ALIGNED)
+        alpha[name] = np.array(a_O.angular)
+        acc[name] = np.array(a_O.linear) + np.cross(alpha[name], r) + np.cross(w, np.cross(w, r))
+    return acc, alpha
 
 
 #: The exceptions that end a Pinocchio run as a numerical failure (``harness.engines.base.sample_run``):

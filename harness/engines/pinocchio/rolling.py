@@ -26,9 +26,11 @@ term; the last is d(w x p)/dt at fixed w.) Rows x, y: no slip (nonholonomic); ro
 of C (holonomic, z_C = 0). So ``J^T lambda`` is the force lambda (N, world) at C: it is
 reported as the contact force.
 
-Dependent rows. On a body jointed to the world, a rim row can repeat the joint: a cone held at
-its apex has apex and contact point at rest, and two points of a rigid body have equal
-velocities along the line joining them, so the no-slip row along the contact generator is
+Any body of the tree may roll (a bicycle's front wheel, three joints from its free rear frame):
+its joint Jacobian carries the whole chain. Dependent rows. On a body the world holds through
+joints alone (``harness.model.rolling_contact.dependent_rows``), a rim row can repeat the joint:
+a cone held at its apex has apex and contact point at rest, and two points of a rigid body have
+equal velocities along the line joining them, so the no-slip row along the contact generator is
 implied. ``RollingRows.independent`` then reduces the rows to an independent set (SVD of J,
 ``RANK_RTOL``) before ``forwardDynamics`` (whose KKT solve needs independent rows) and the
 velocity projection; the contact force is the minimum-norm one (its component along the
@@ -60,10 +62,11 @@ from harness.engines.base import RunSettings, sample_run
 from harness.engines.pinocchio import linalg
 from harness.engines.pinocchio.forces import rnea_reactions
 from harness.engines.pinocchio.lie_group_integrators import stepper
-from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, advance_function, initial_configuration, load_urdf
+from harness.engines.pinocchio.model import (RUN_ERRORS, MaximalReader, advance_function, configuration,
+                                             initial_configuration, load_urdf, maximal_accelerations)
 from harness.model.joints import JOINTS
 from harness.model.rotations import cross
-from harness.model.rolling_contact import FLAT, offset_and_rate
+from harness.model.rolling_contact import FLAT, dependent_rows, offset_and_rate
 from harness.measure.trajectory import Failure, RunStop, SampleBuffer, Trajectory
 
 PROJECTION_TOL = 1e-13  # m, height error left by the position projection
@@ -97,9 +100,9 @@ class RollingRows:
             jid = ids[index[c.body]]
             self.items.append((c, jid, np.array(pmodel.inertias[jid].lever)))
         self.nc = 3 * len(self.items)
-        #: A rolling body on a joint: its rows may repeat the joint's (module docstring), so the
-        #: rows are reduced to an independent set (``independent``).
-        self.redundant = any(JOINTS[model.body(c.body).joint].constrained for c in model.contacts)
+        #: A rolling body the world holds through joints: its rows may repeat the joints' (module
+        #: docstring), so the rows are reduced to an independent set (``independent``).
+        self.redundant = dependent_rows(model)
         self._a0 = np.zeros(pmodel.nv)
 
     def rows(self, q: np.ndarray, v: np.ndarray | None, heights: bool = True):
@@ -175,6 +178,19 @@ def joint_reactions(pmodel: pin.Model, data: pin.Data, rolling: RollingRows, joi
     pin.forwardKinematics(pmodel, data, q, v)
     fext = rolling.external_forces(lam)
     return rnea_reactions(pmodel, data, jointed, np.zeros(pmodel.nv), fext, q, v, a)
+
+
+def rolling_accelerations(scene, model, q_common, v_common) -> tuple[dict, dict]:
+    """Each body's centre-of-mass and angular accelerations (world; ``maximal_accelerations``)
+    at joint coordinates ``q_common, v_common`` (per body name) of a scene with rolling contacts:
+    ``forwardDynamics`` with the rolling rows (module docstring), as a run's right-hand side."""
+    pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
+    data = pmodel.createData()
+    q, v = configuration(pmodel, ids, model, q_common, v_common)
+    rolling = RollingRows(pmodel, data, ids, model)
+    J, gamma, _ = rolling.independent(*rolling.rows(q, v, heights=False)[1:])
+    a = pin.forwardDynamics(pmodel, data, q, v, np.zeros(pmodel.nv), J, gamma, 0.0).copy()
+    return maximal_accelerations(pmodel, data, ids, [b.name for b in model.bodies], q, v, a)
 
 
 def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:

@@ -27,9 +27,10 @@ Scope: every model the per-state engine builds (``model.build``): free, ball, hi
 joints, loop (cut) joints, rolling contacts, gravity, springs on slide joints, hinge torques,
 point springs, and prescribed point forces whose time law is a ``HarmonicForce``
 (``harness.model.forces``; ``solver.pack`` refuses a force given only as a Python function).
-Dependent constraint rows (``NEModel.redundant``: loop joints, a rolling body with a joint) are
-factored by Cholesky with diagonal pivoting, which drops the pivots at round-off (``_DEPENDENT``
-of the largest diagonal entry: rows that depend on the others exactly; ``_pivoted_cholesky``).
+Dependent constraint rows (``NEModel.redundant``: loop joints, a rolling body the world holds
+through joints alone) are factored by Cholesky with diagonal pivoting, which drops the pivots at
+round-off (``_DEPENDENT`` of the largest diagonal entry: rows that depend on the others exactly;
+``_pivoted_cholesky``).
 Near a singular configuration (a kept pivot below ``_WELL_CONDITIONED``: the unit parallelogram
 four-bar within about 1e-2 rad of its flat positions, where the loop loses an in-plane row) a
 pivot is not an eigenvalue, and a rank decision by pivots differs from the per-state
@@ -458,8 +459,8 @@ def _eigen_solve(S, V, b, x, n, rtol):
 def _factor(A, n, perm, rtol, slip, mass, Iinv, J, B, S, V):
     """Factor A = J M^-1 J^T (n x n, formed by ``_minv_jt`` from J, with B = M^-1 J^T) in place.
     Cholesky when ``rtol`` is 0 (independent rows; a failure is SINGULAR). Else (rows that may be
-    dependent, loop joints or a rolling body with a joint; ``slip`` the first rolling-contact
-    row) Cholesky with diagonal pivoting (``_pivoted_cholesky``), which drops the pivots at
+    dependent, loop joints or a rolling body the world holds through joints; ``slip`` the first
+    rolling-contact row) Cholesky with diagonal pivoting (``_pivoted_cholesky``), which drops the pivots at
     round-off (``_DEPENDENT`` of the largest diagonal entry: rows that depend on the others
     exactly). When every kept pivot is above ``_WELL_CONDITIONED`` of the largest diagonal entry
     that factor is the answer. A smaller kept pivot is a near-singular configuration (a four-bar
