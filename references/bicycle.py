@@ -9,10 +9,10 @@ for the balance and steer of a bicycle: a benchmark and review", Proc. R. Soc. A
 Appendix A (the coefficient matrices from the parameters), section 5 (the benchmark's matrices
 printed to 14 decimals), Table 2 (eigenvalues at 0-10 m/s, the weave and capsize
 speeds). This module is the yardstick the ``bicycle`` scene is judged by: each engine's
-linearisation about upright straight running (``harness.tools.linearize`` in the benchmark's
+linearisation about upright straight running (``harness.engines.linearization`` in the benchmark's
 coordinates of ``harness/model/builders/bicycle.py``) against ``state_matrix``, its M^-1 K0,
 M^-1 C1 and M^-1 K2 (``blocks``) against ``linearized``'s, and its own weave and capsize speeds
-(``stability_crossings`` with ``matrix``) against Table 2 (``tests/tools/test_linearize.py``).
+(``stability_crossings`` with ``matrix``) against Table 2 (``tests/engines/test_linearization.py``).
 
 The system (SI units)
 ---------------------
@@ -99,7 +99,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields, replace
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
+
+if TYPE_CHECKING:  # pragma: no cover
+    from harness.model.scene import Scene
 
 import numpy as np
 from scipy.optimize import brentq
@@ -259,7 +262,7 @@ def spectral_abscissa(p: BicycleParams, v: float, matrix: Callable[[float], np.n
     """The largest real part of the eigenvalues at speed ``v`` (1/s): negative iff upright
     straight running at ``v`` is asymptotically stable. ``matrix``: the state matrix as a
     function of the speed (default ``state_matrix(p, .)``; e.g. an engine's linearisation,
-    ``harness.tools.linearize``)."""
+    ``harness.engines.linearization``)."""
     A = state_matrix(p, v) if matrix is None else np.asarray(matrix(v), dtype=float)
     return float(np.max(np.linalg.eigvals(A).real))
 
@@ -382,3 +385,50 @@ def scaled(p: BicycleParams, *, mass: float = 1.0, length: float = 1.0, g: float
     if g is not None:
         out["g"] = g
     return replace(p, **out)
+
+
+#: The scene as the benchmark report states it (``harness benchmark``): what is published and the
+#: required accuracy of a run (a state error relative to the scene's scales). The benchmark's own
+#: figures are its linearisation's: ``linearization_agreement`` judges an engine's against them.
+BENCHMARK = {
+    "problem": "Whipple bicycle",
+    "title": "the benchmark bicycle of Meijaard, Papadopoulos, Ruina & Schwab 2007",
+    "published": "M, C1, K0, K2 to 14 digits (Appendix A's formulas of Table 1's parameters), the eigenvalues "
+                 "against speed (Table 2), the weave speed 4.29238253634111 m/s and the capsize speed "
+                 "6.02426201538837 m/s; an engine's own linearisation about upright straight running is judged "
+                 "against them",
+    "required": 1e-3,
+}
+
+#: The speed (m/s) besides 0 at which an engine's linearisation gives its coefficients (``blocks``).
+BLOCK_SPEED = 5.0
+
+
+def params_of(scene: "Scene") -> BicycleParams:
+    """The benchmark's parameters at the scene's parameter values (the scene names them as
+    ``BicycleParams`` does)."""
+    from dataclasses import fields
+
+    return BicycleParams(**{f.name: float(scene.params[f.name]) for f in fields(BicycleParams)})
+
+
+def linearization_agreement(scene: "Scene", matrix: Callable[[float], np.ndarray]) -> dict:
+    """An engine's linearisation against the benchmark's at the scene's parameters
+    (``params_of``): ``matrix(v)`` is its state matrix (4x4)
+    about upright straight running at speed v (m/s). Returns ``error``, the largest relative error
+    over the nonzero entries of M^-1 K0, M^-1 C1 and M^-1 K2 from its matrices at 0 and
+    ``BLOCK_SPEED`` (``blocks``) against ``linearized(p)``'s, and ``digits`` = -log10(error);
+    ``weave`` and ``capsize``, its own speeds (m/s, root finding on its spectral abscissa between
+    3 and 7 m/s), and ``speed_error``, their largest distance from the benchmark's (m/s)."""
+    p = params_of(scene)
+    M, C1, K0, K2 = linearized(p)
+    got = blocks(matrix(0.0), matrix(BLOCK_SPEED), BLOCK_SPEED, p.g)
+    worst = 0.0
+    for mine, ref in zip(got, (np.linalg.solve(M, K0), np.linalg.solve(M, C1), np.linalg.solve(M, K2))):
+        nonzero = np.abs(ref) > 1e-12 * np.abs(ref).max()
+        worst = max(worst, float(np.max(np.abs(mine[nonzero] - ref[nonzero]) / np.abs(ref[nonzero]))))
+    crossings = stability_crossings(p, v_max=7.0, v_min=3.0, n=9, matrix=matrix)
+    weave, capsize = weave_speed(p, crossings=crossings), capsize_speed(p, crossings=crossings)
+    speed_error = max(abs(weave - weave_speed(p)), abs(capsize - capsize_speed(p)))
+    return {"error": worst, "digits": float("inf") if worst == 0.0 else -float(np.log10(worst)),
+            "weave": weave, "capsize": capsize, "speed_error": speed_error}

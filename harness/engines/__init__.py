@@ -75,7 +75,7 @@ class Declaration:
         curves: its work-precision curves.
         accelerations: it gives the bodies' accelerations at a given joint state (its
             ``accelerations`` hook: ``harness.engines.accelerations``, which
-            ``harness.tools.linearize`` differentiates).
+            ``harness.engines.linearization`` differentiates).
     """
 
     name: str
@@ -287,7 +287,7 @@ def accelerations(engine: str, scene, model, q, v, t: float = 0.0) -> tuple[dict
     frame, per body name, as ``engine``'s dynamics give them at joint coordinates ``q, v`` (per
     body name, ``harness.model.joints``; on the constraints) and time ``t`` (s) of ``scene``'s
     system ``model`` (its ``Multibody``): the engine's ``accelerations`` hook, a run's
-    right-hand side at that state (``harness.tools.linearize`` differentiates it).
+    right-hand side at that state (``harness.engines.linearization`` differentiates it).
     NotImplementedError for an engine without the hook, or a system it does not cover there."""
     if not declaration(engine).accelerations:
         raise NotImplementedError(f"{display(engine)} gives no accelerations at a given state (it only runs scenes)")

@@ -451,7 +451,7 @@ def test_blocks_are_the_benchmark_coefficients_and_from_blocks_their_inverse():
 
 def test_crossings_of_a_given_state_matrix():
     """``matrix`` replaces the benchmark's state matrix in the root finding (an engine's own
-    linearisation, ``harness.tools.linearize``): with the benchmark's it finds the same speeds,
+    linearisation, ``harness.engines.linearization``): with the benchmark's it finds the same speeds,
     on a narrow scan too; with another bicycle's, that bicycle's."""
     default = bc.stability_crossings(P)
     given = bc.stability_crossings(P, matrix=lambda v: bc.state_matrix(P, v))

@@ -47,7 +47,7 @@ and their second derivatives from the bodies' angular accelerations (``roll_stee
     phi''   = -n''_z / cos phi - n'_z sin phi phi' / cos^2 phi,  n'' = alpha_B x n + w_B x (w_B x n)
     delta'' = (w_B x a) . (w_H - w_B) + a . (alpha_H - alpha_B)
 
-The linearisation of any engine's dynamics in these coordinates (``harness.tools.linearize``) is
+The linearisation of any engine's dynamics in these coordinates (``harness.engines.linearization``) is
 the benchmark's state matrix ``harness.references.bicycle.state_matrix``.
 """
 

@@ -14,8 +14,8 @@ from harness.io import atomic
 from harness.studies.benchmarks.run import ProblemResult
 from harness.studies.workprecision.run import BASELINE
 
-FIELDS = ("problem", "scene", "engine", "integrator", "exact", "unit", "digits", "classification", "passed",
-          "required", "time_s", "curve", "ratio_to_baseline", "published_digits")
+FIELDS = ("problem", "scene", "engine", "integrator", "check", "exact", "unit", "digits", "classification", "passed",
+          "detail", "required", "time_s", "curve", "ratio_to_baseline", "published_digits")
 
 
 def _g(x, fmt: str = ".2g") -> str:
@@ -37,9 +37,12 @@ def markdown(results: list[ProblemResult], prov: dict, command: str | None = Non
         f"Made {prov['date_utc']} with {made_with(prov)}. Reproduce with `{command}`.",
         "",
         "Per problem and engine: **error** the scene's `exact` check at the scene's step with the engine's default "
-        "integrator (against the closed form or the verified reference of `references/<scene>.py`, in its unit), "
+        "integrator (against the closed form or the verified reference of `references/<scene>.py`, in its unit), or, "
+        "where the published figures are a linearisation, the largest relative error of the engine's own "
+        "linearised coefficients against the published ones (`harness.engines.linearization`), "
         "**digits** the agreement, −log10(error / scale) (scale: the motion's length for m, 1 for rad), **class** "
-        "how that error converges with the step (validate's error model), **time** the run time (s, median of "
+        "how that error converges with the step (validate's error model; the dominant check's where the scene has no "
+        "`exact` check), **time** the run time (s, median of "
         "repeated runs on this machine) of the engine's fastest work-precision curve to reach the problem's required "
         f"accuracy (the largest state error over the samples, relative to the scene's scales), and its ratio to "
         f"{base}'s fastest (`harness workprecision` on the same scenes, in the same run).",
@@ -55,8 +58,10 @@ def markdown(results: list[ProblemResult], prov: dict, command: str | None = Non
                   f"| vs {base} |",
                   "|---|---|---|---|---|---|---|---|"]
         for r in p.engines:
-            verdict = r.classification + ("" if r.passed else " **✗**")
-            lines.append(f"| {display(r.engine)} | `{r.integrator}` | {_g(r.exact, '.2e')} {r.unit} | {_g(r.digits, '.1f')} "
+            verdict = r.classification + (f" (`{r.check}`)" if r.check and r.check != "exact" else "") \
+                + ("" if r.passed else " **✗**")
+            error = "; ".join(x for x in ((f"{_g(r.exact, '.2e')} {r.unit}" if math.isfinite(r.exact) else ""), r.detail) if x)
+            lines.append(f"| {display(r.engine)} | `{r.integrator}` | {error} | {_g(r.digits, '.1f')} "
                          f"| {verdict} | {_g(r.time_s, '.3g')} | {r.curve or 'not reached'} | {_g(r.ratio, '.2f')} |")
         for engine, why in p.not_run.items():
             lines.append(f"| {display(engine)} | — | not run: {why} | | | | | |")
@@ -70,8 +75,8 @@ def rows(results: list[ProblemResult]) -> list[dict]:
     for p in results:
         for r in p.engines:
             out.append({"problem": p.problem, "scene": p.scene, "engine": r.engine, "integrator": r.integrator,
-                        "exact": r.exact, "unit": r.unit, "digits": r.digits, "classification": r.classification,
-                        "passed": r.passed, "required": p.required, "time_s": r.time_s, "curve": r.curve,
+                        "check": r.check, "exact": r.exact, "unit": r.unit, "digits": r.digits,
+                        "classification": r.classification, "passed": r.passed, "detail": r.detail, "required": p.required, "time_s": r.time_s, "curve": r.curve,
                         "ratio_to_baseline": r.ratio, "published_digits": p.published_digits})
     return out
 

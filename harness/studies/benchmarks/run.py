@@ -12,6 +12,13 @@ reference's correct digits of the published figure). ``benchmark_study`` runs, o
   ``exact`` error (against the scene's closed form or verified reference, in the check's unit)
   and the class of its convergence (``harness.judging.error_model``); the agreement in digits is
   ``-log10(exact / scale)``, the scale the reference run's length (m) for an error in m, 1 for rad;
+  where the scene has no ``exact`` check, the class is its dominant check's
+  (``harness.validate.report.dominant_check``);
+* for a problem whose published figures are a linearisation (the reference states
+  ``linearization_agreement(scene, matrix)``; the scene's builder its ``Coordinates(model, v)``),
+  each engine that gives its accelerations (``harness.engines.with_accelerations``) linearised
+  about the reference motion at speed v (``harness.engines.linearization``): the error and digits
+  are its coefficients' against the published ones, and the detail its stability speeds;
 * ``harness.studies.workprecision.run.run_sweep``: every curve of every engine; the time (s, the
   median of repeated runs on this machine, ``WorkPrecisionPoint.time_s``) to reach ``required``
   on the curve's lower envelope (``time_to_error`` of the largest state error over the saved
@@ -23,12 +30,16 @@ Nothing here writes a file.
 
 from __future__ import annotations
 
+import importlib
 import math
 from dataclasses import dataclass, field
 
+from harness.engines import with_accelerations
+from harness.engines.linearization import linearize
 from harness.measure import exact
 from harness.model.scene import Scene, available_scenes
 from harness.studies.workprecision.run import BASELINE, SweepOptions, by_curve, run_sweep, time_to_error
+from harness.validate.report import dominant_check
 from harness.validate.run import validate
 
 
@@ -41,7 +52,9 @@ class EngineResult:
         exact: its ``exact`` error at the scene's step (``unit``), NaN where not run.
         digits: agreement in significant digits, ``-log10(exact / scale)``.
         classification: the class of its ``exact`` check (``harness.judging.error_model``);
-            passed: whether validate's verdict on it holds.
+            passed: whether validate's verdict on it holds; check: the check they come from
+            (``exact``, the linearisation's ``coefficients``, else the dominant check).
+        detail: what else the figure says (a linearisation's stability speeds).
         time_s: run time (s) of its fastest curve to reach the problem's required accuracy
             (NaN: not reached); curve: that curve's label; ratio: ``time_s`` over the baseline's.
     """
@@ -53,6 +66,8 @@ class EngineResult:
     digits: float = float("nan")
     classification: str = ""
     passed: bool = False
+    check: str = ""
+    detail: str = ""
     time_s: float = float("nan")
     curve: str = ""
     ratio: float = float("nan")
@@ -82,6 +97,20 @@ def benchmark_scenes(models_dir=None) -> list[str]:
         if module is not None and hasattr(module, "BENCHMARK"):
             out.append(name)
     return out
+
+
+def _linearized(row: EngineResult, scene: Scene, module) -> None:
+    """Fill ``row``'s error and digits from its engine's linearisation against the published one
+    (module docstring); an engine that gives no accelerations keeps NaN and says so."""
+    if row.engine not in with_accelerations():
+        row.detail = "not linearised: the engine gives no accelerations at a state"
+        return
+    coordinates = importlib.import_module(f"harness.model.builders.{scene.builder or scene.name}").Coordinates
+    model = scene.multibody()
+    got = module.linearization_agreement(scene, lambda v: linearize(row.engine, scene, coordinates(model, v)).A)
+    row.exact, row.unit, row.digits = got["error"], "rel", got["digits"]
+    row.detail = (f"weave {got['weave']:.12g} m/s, capsize {got['capsize']:.12g} m/s "
+                  f"({got['speed_error']:.1e} m/s from the published)")
 
 
 def _digits(value: float, unit: str, scales: dict) -> float:
@@ -116,12 +145,18 @@ def benchmark_study(scenes: list[Scene], engines: list[str], options: SweepOptio
         for engine in engines:
             if engine in v.not_run:
                 continue
-            check = next((c for c in v.checks if c.engine == engine and c.check == "exact"), None)
+            mine = [c for c in v.checks if c.engine == engine and not c.check.startswith("model.")]
+            check = next((c for c in mine if c.check == "exact"), None)
             row = EngineResult(engine, runs[engine].integrator if engine in runs else "")
             if check is not None:
-                row.exact, row.unit, row.passed = check.value, check.unit, check.passed
-                row.classification = check.classification
-                row.digits = _digits(check.value, check.unit, v.scales)
+                row.exact, row.unit, row.digits = check.value, check.unit, _digits(check.value, check.unit, v.scales)
+            elif mine:
+                check = dominant_check(mine)
+            if check is not None:
+                row.classification, row.check = check.classification, check.check
+                row.passed = all(c.passed for c in mine)
+            if hasattr(module, "linearization_agreement"):
+                _linearized(row, scene, module)
             if engine in fastest:
                 row.time_s, row.curve = fastest[engine]
                 row.ratio = row.time_s / base if math.isfinite(base) and base > 0 else float("nan")

@@ -1,4 +1,4 @@
-"""``harness.tools.linearize``: Richardson's table, the linearisation of a pendulum against its
+"""``harness.engines.linearization``: Richardson's table, the linearisation of a pendulum against its
 closed form on every engine that gives its accelerations, and the Whipple bicycle's
 linearisation on the in-house engine and Pinocchio against the benchmark (Meijaard et al. 2007):
 the state matrix and M^-1 K0, M^-1 C1, M^-1 K2 to 8 significant digits and more, the eigenvalues,
@@ -17,7 +17,7 @@ from harness.model import rotations
 from harness.model.builders import bicycle as bb
 from harness.model.multibody import Multibody
 from harness.references import bicycle as bc
-from harness.tools import linearize as lz
+from harness.engines import linearization as lz
 
 P = bc.BicycleParams()
 WEAVE_SPEED = 4.29238253634111  # m/s, Table 2(a)
