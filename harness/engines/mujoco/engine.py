@@ -29,7 +29,6 @@ from ``MjData.warning`` counters as before (MuJoCo counts a warning whoever hand
 
 from __future__ import annotations
 
-from dataclasses import replace
 
 import mujoco
 import numpy as np
@@ -75,11 +74,12 @@ class MujocoEngine(EngineBase):
         set_initial_state(m, d, model, scene.mjcf)
         body_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b.name) for b in model.bodies]
         control = _force_controller(m, model, scene)
-        rolling = ContactForceReader(m, model, settings.n_saves + 1) if model.contacts else None  # mujoco_rolling
+        rolling = ContactForceReader(m, model) if model.contacts else None  # mujoco_rolling
         jointed = [(b.name, bid) for b, bid in zip(model.bodies, body_ids) if JOINTS[b.joint].constrained] if "reaction" in scene.checks else []
         force_sites = _force_sites(m, model) if jointed else []
         cuts = [loop.name for loop in model.loops] if jointed else []
-        buf = SampleBuffer(settings.n_saves + 1, len(body_ids), [name for name, _ in jointed] + cuts)
+        buf = SampleBuffer(settings.n_saves + 1, len(body_ids),
+                           [name for name, _ in jointed] + cuts + (rolling.names if rolling is not None else []))
         res6 = np.zeros(6)
 
         def advance(k: int) -> None:
@@ -107,7 +107,7 @@ class MujocoEngine(EngineBase):
                 for name, (force, moment) in cut_reactions(m, d, model).items():
                     buf.set_reaction(name, k, force, moment)
             if rolling is not None:
-                rolling.read(m, d, k)
+                rolling.read(m, d, k, buf)
 
         mujoco.set_mjcb_control(control)
         try:
@@ -119,7 +119,6 @@ class MujocoEngine(EngineBase):
         traj = buf.trajectory(self.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
                               done.saved, stats, done.reason, done.message)
         if rolling is not None:
-            traj = replace(traj, reactions={**traj.reactions, **rolling.series(done.saved)})
             stats["settings"] += ", " + describe_contact(m)
         if model.loops:  # cut joints: soft <connect> equalities (``loops``)
             stats["settings"] += ", " + loop_settings(m)

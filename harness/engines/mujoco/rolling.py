@@ -84,20 +84,20 @@ def describe_contact(m: mujoco.MjModel) -> str:
 
 
 class ContactForceReader:
-    """Reads the floor's force on each rolling body at every saved sample (module docstring)."""
+    """Reads the floor's force on each rolling body at every saved sample into the run's
+    ``SampleBuffer`` (its reactions named after the contacts; module docstring)."""
 
-    def __init__(self, m: mujoco.MjModel, model, n: int):
+    def __init__(self, m: mujoco.MjModel, model):
         self.items = []
         for contact in model.contacts:
             gid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, contact.geom)
             bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, contact.body)
             self.items.append((contact, gid, bid))
-        self.force = {c.name: np.full((n, 3), np.nan) for c in model.contacts}
-        self.moment = {c.name: np.full((n, 3), np.nan) for c in model.contacts}
+        self.names = [c.name for c in model.contacts]
         self._f6 = np.zeros(6)
 
-    def read(self, m: mujoco.MjModel, d: mujoco.MjData, k: int) -> None:
-        """Store sample ``k`` (``mj_forward`` must have run on ``d``)."""
+    def read(self, m: mujoco.MjModel, d: mujoco.MjData, k: int, buf) -> None:
+        """Store sample ``k`` in ``buf`` (``mj_forward`` must have run on ``d``)."""
         for contact, gid, bid in self.items:
             R = d.xmat[bid].reshape(3, 3)
             c_W = d.xipos[bid] + contact_offset(R, contact.radius, contact.half_thickness, contact.circle_z)
@@ -113,8 +113,4 @@ class ContactForceReader:
                     f = -f
                 f_tot += f
                 m_tot += rotations.cross(con.pos - c_W, f)
-            self.force[contact.name][k] = f_tot
-            self.moment[contact.name][k] = m_tot
-
-    def series(self, saved: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-        return {name: (self.force[name][:saved], self.moment[name][:saved]) for name in self.force}
+            buf.set_reaction(contact.name, k, f_tot, m_tot)

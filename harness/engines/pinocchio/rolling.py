@@ -53,7 +53,6 @@ the constrained forward dynamics and the contact forces lambda as external force
 
 from __future__ import annotations
 
-from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
@@ -236,9 +235,9 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
 
     step = stepper(settings.integrator, pmodel)
     h, per = settings.dt, settings.steps_per_save
-    buf = SampleBuffer(settings.n_saves + 1, len(ids), [name for name, _ in jointed])
+    # the joints' reactions, and each contact's force at the contact point (no moment about it)
+    buf = SampleBuffer(settings.n_saves + 1, len(ids), [name for name, _ in jointed] + [c.name for c in model.contacts])
     reader = MaximalReader(pmodel, data, ids, buf)
-    force = {c.name: np.full((settings.n_saves + 1, 3), np.nan) for c in model.contacts}
     state = [q, v]
 
     advance = advance_function(state, step, accel, h, per, project)
@@ -252,7 +251,7 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
         buf.potential[k] = pin.computePotentialEnergy(pmodel, data, q)
         a, lam = solve(q, v)
         for j, (c, _, _) in enumerate(rolling.items):
-            force[c.name][k] = lam[3 * j : 3 * j + 3]
+            buf.set_reaction(c.name, k, lam[3 * j : 3 * j + 3], np.zeros(3))
         if jointed:
             for name, (f, mo) in joint_reactions(pmodel, data, rolling, jointed, q, v, a, lam).items():
                 buf.set_reaction(name, k, f, mo)
@@ -263,6 +262,5 @@ def simulate_rolling(engine, scene, settings: RunSettings, model) -> Trajectory:
     stats = {"steps": max(saved - 1, 0) * per, "wall_s": done.wall_s,
              "settings": f"forwardDynamics (KKT) with the rolling rows, {settings.integrator} on the configuration "
                          f"Lie group, step {h:g} s, projection after each step, root joint {scene.urdf_root_joint}"}
-    traj = buf.trajectory(engine.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
+    return buf.trajectory(engine.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
                           saved, stats, done.reason, done.message)
-    return replace(traj, reactions={**traj.reactions, **{name: (f[:saved], np.zeros((saved, 3))) for name, f in force.items()}})
