@@ -85,8 +85,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from harness.measure.trajectory import Trajectory
     from harness.model.scene import Scene
 
-__all__ = ["FlyballParams", "Motion", "RTOL", "PUBLISHED_CURVE", "PUBLISHED_RESOLUTION", "spring_length", "angular_momentum",
-           "energy", "rhs", "eigenvalues", "reference_solution", "run_coordinates", "EXACT_NEEDS_RUNS",
+__all__ = ["FlyballParams", "Motion", "RTOL", "PUBLISHED_CURVE", "PUBLISHED_RESOLUTION", "spring_length",
+           "angular_momentum", "energy", "rhs", "eigenvalues", "reference_solution", "run_coordinates", "EXACT_NEEDS_RUNS",
            "exact_error_series", "exact_error"]
 
 RTOL = 1e-12

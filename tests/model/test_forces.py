@@ -141,7 +141,8 @@ def test_point_spring_damper_force_power_and_work():
     rate = d @ (v_a - v_b) / L
     assert np.allclose(spring_force(sp, x_a, x_b, v_a, v_b), -(800.0 * (L - 0.5) + 40.0 * rate) * d / L, rtol=1e-14)
     h = 1e-7
-    dV = (spring_potential(sp, x_a + h * v_a, x_b + h * v_b) - spring_potential(sp, x_a - h * v_a, x_b - h * v_b)) / (2 * h)
+    V = lambda s: spring_potential(sp, x_a + s * v_a, x_b + s * v_b)  # noqa: E731
+    dV = (V(h) - V(-h)) / (2 * h)
     power = spring_force(sp, x_a, x_b, v_a, v_b) @ (v_a - v_b)
     assert power == pytest.approx(-dV + float(damper_power(sp, x_a, x_b, v_a, v_b)), rel=1e-7)
     assert float(damper_power(sp, x_a, x_b, v_a, v_b)) == pytest.approx(-40.0 * rate**2, rel=1e-14)

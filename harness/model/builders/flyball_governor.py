@@ -74,9 +74,10 @@ def build(params: dict) -> Multibody:
     )
     k, c, l0 = float(params["k"]), float(params["c"]), float(params["l0"])
     springs = (
-        PointSpring("spring1", "slider", np.array([0.5 * a, 0.0, 0.0]), "rod1", np.array([l_attach, 0.0, 0.0]), k, l0, c),
-        PointSpring("spring2", "slider", np.array([-0.5 * a, 0.0, 0.0]), "rod2", np.array([-l_attach, 0.0, 0.0]), k, l0,
-                    c),
+        PointSpring("spring1", "slider", np.array([0.5 * a, 0.0, 0.0]), "rod1", np.array([l_attach, 0.0, 0.0]),
+                    k, l0, c),
+        PointSpring("spring2", "slider", np.array([-0.5 * a, 0.0, 0.0]), "rod2", np.array([-l_attach, 0.0, 0.0]),
+                    k, l0, c),
     )
     alpha0, dalpha0 = float(params["alpha0"]), float(params["dalpha0"])
     q0 = {"shaft": np.array([0.0]), "rod1": np.array([alpha0]), "rod2": np.array([alpha0]),

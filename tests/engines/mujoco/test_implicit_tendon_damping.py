@@ -38,7 +38,7 @@ def test_one_implicit_step_drops_the_dampers_cross_branch_derivative():
     for j in range(m.nv):
         e = np.eye(m.nv)[j] * 1e-7
         J[:, j] = (_smooth(m, qpos + e, qvel)[2] - _smooth(m, qpos - e, qvel)[2]) / 2e-7
-    assert np.all(np.abs(J[:, 0]) < 1e-8) and np.all(np.abs(J[:, 3]) > 0.1)  # the shaft does not stretch them, the slider does
+    assert np.all(np.abs(J[:, 0]) < 1e-8) and np.all(np.abs(J[:, 3]) > 0.1)  # the shaft stretches neither, the slider both
     D = np.zeros((m.nv, m.nv))  # the whole derivative df/dqvel (dampers, Coriolis and centrifugal terms), numerically
     for j in range(m.nv):
         e = np.eye(m.nv)[j] * 1e-6
