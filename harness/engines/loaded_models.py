@@ -261,7 +261,7 @@ def mujoco_force_discrepancies(m, model: Multibody, rtol: float = 1e-9) -> list[
     """The description's joint torques and point springs (``harness.model.forces``) against a
     compiled MJCF: each torque's ``<general>`` actuator present, on its body's joint, with zero
     gain and constant bias equal to the torque (N m); each spring's tendon present with its
-    stiffness (N/m) and rest length (m), and its two sites on the right bodies at the right
+    stiffness (N/m), damping (N s/m) and rest length (m), and its two sites on the right bodies at the right
     points. Named by the element (``body`` = the actuator or tendon, ``quantity`` e.g.
     ``stiffness``), so a validation check reads ``model.spring.stiffness``."""
     out = []
@@ -287,6 +287,9 @@ def mujoco_force_discrepancies(m, model: Multibody, rtol: float = 1e-9) -> list[
         rest = np.asarray(m.tendon_lengthspring[tid], dtype=float)
         out.append(Discrepancy(sp.name, "stiffness", abs(k - sp.stiffness) / max(sp.stiffness, 1e-12), rtol, "rel",
                                f"{sp.name}: stiffness {k:.9g} N/m, scene says {sp.stiffness:.9g} N/m"))
+        c = float(np.atleast_1d(m.tendon_damping[tid])[0])
+        out.append(Discrepancy(sp.name, "damping", abs(c - sp.damping) / max(sp.damping, 1e-12), rtol, "rel",
+                               f"{sp.name}: damping {c:.9g} N s/m, scene says {sp.damping:.9g} N s/m"))
         scale = max(sp.rest_length, 1e-3)
         out.append(Discrepancy(sp.name, "rest_length", float(np.max(np.abs(rest - sp.rest_length))) / scale, rtol, "rel",
                                f"{sp.name}: spring length {rest.tolist()} m, scene says {sp.rest_length:.9g} m"))

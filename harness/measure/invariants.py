@@ -74,17 +74,21 @@ def angular_momentum(traj: "Trajectory", model: Multibody) -> np.ndarray:
 
 
 def power_of_forces(traj: "Trajectory", model: Multibody) -> np.ndarray:
-    """Power (W) of the scene's force elements that do work (``ForceType.power``: the
-    prescribed point forces) along the trajectory, shape (n,)."""
+    """Power (W) of the scene's force elements that do work (``ForceType.power`` of the elements
+    that deliver it, ``ForceType.delivers``: prescribed point forces, joint torques, and the
+    dampers of point springs, whose power ``-c L'^2`` is negative: the energy they dissipate)
+    along the trajectory, shape (n,)."""
     power = np.zeros(len(traj.t))
     for ft, element in forces.elements(model):
-        if ft.power is not None:
+        if ft.delivers(element):
             power += ft.power(traj, model, element)
     return power
 
 
 def work_of_forces(traj: "Trajectory", model: Multibody) -> np.ndarray:
-    """Work (J) done by the prescribed forces from t[0] to each saved time, shape (n,).
+    """Work (J) done by the force elements that deliver power (``power_of_forces``: prescribed
+    forces, torques; a damper's is negative, minus the energy it dissipated) from t[0] to each
+    saved time, shape (n,).
 
     Cumulative Simpson quadrature of the power on the saved samples (SciPy).
     """

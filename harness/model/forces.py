@@ -21,15 +21,20 @@ Element types
   ``<general>`` actuator on the joint with constant bias (``biastype="affine"``,
   ``biasprm="torque 0 0"``, zero gain); URDF: none (Pinocchio gets it in ``tau``).
 * ``PointSpring``: a linear spring between a point fixed in a body and a point fixed in another
-  body or in the world, force ``-stiffness (L - rest_length)`` along the line (L the distance,
-  m), potential ``stiffness (L - rest_length)^2 / 2``. MJCF: a spatial ``<tendon>`` through the
-  sites ``<name>_a`` and ``<name>_b`` with ``stiffness`` and ``springlength``; URDF: none
-  (Pinocchio gets it as ``fext``).
+  body or in the world, with a linear damper in parallel (``damping`` c, 0: none), force
+  ``-(stiffness (L - rest_length) + damping L')`` along the line (L the distance, m; L' its
+  rate, m/s), potential ``stiffness (L - rest_length)^2 / 2`` (part of ``elastic``); the damper
+  stores nothing and dissipates ``damping L'^2`` (W): its power ``-damping L'^2`` is work in the
+  energy balance, so that ``E(0) - E(t)`` is the energy dissipated, ``integral of damping L'^2``.
+  MJCF: a spatial ``<tendon>`` through the sites ``<name>_a`` and ``<name>_b`` with
+  ``stiffness``, ``springlength`` and ``damping``; URDF: none (Pinocchio gets it as ``fext``).
 
 Adding a force type: its element dataclass and a ``ForceType`` here, its ``Multibody`` field
 (``harness.model.multibody``), the in-house force (``harness.engines.inhouse.model`` and
 ``newton_euler``) and the MJCF writer (``harness.engines.mujoco.model``) where the file format
-has it. Energy, power, sanity and Pinocchio's joint-space forces follow from the table.
+has it. Energy, power, sanity and Pinocchio's joint-space forces follow from the table. A type
+whose power is that of only some of its elements (a point spring's damper) says which
+(``ForceType.delivers``); ``does_work`` and the energy balance read it.
 """
 
 from __future__ import annotations
@@ -140,9 +145,11 @@ class JointTorque:
 @dataclass(frozen=True)
 class PointSpring:
     """A linear spring between the point ``p_A`` fixed in ``body_a`` and the point ``p_B`` fixed
-    in ``body_b`` (or in the world when ``body_b`` is None). With ``d = x_A - x_B`` (world, m) and
-    ``L = |d|``, the force on body_a at its point is ``-stiffness (L - rest_length) d / L`` (N,
-    world) and its opposite acts on body_b; potential ``stiffness (L - rest_length)^2 / 2`` (J).
+    in ``body_b`` (or in the world when ``body_b`` is None), with a linear damper in parallel.
+    With ``d = x_A - x_B`` (world, m), ``L = |d|`` and ``L' = d . (v_A - v_B) / L`` (m/s, the
+    ends' velocities v_A, v_B in world), the force on body_a at its point is ``-(stiffness (L -
+    rest_length) + damping L') d / L`` (N, world) and its opposite acts on body_b; potential
+    ``stiffness (L - rest_length)^2 / 2`` (J); the damper's power ``-damping L'^2`` (W).
 
     Attributes:
         name: the spring's name (MJCF tendon ``<name>``, sites ``<name>_a``, ``<name>_b``).
@@ -152,6 +159,7 @@ class PointSpring:
         p_B: the second end in body_b's frame, or in world for the world (m).
         stiffness: N/m, >= 0.
         rest_length: m, >= 0.
+        damping: N s/m, >= 0 (0: a spring alone).
     """
 
     name: str
@@ -161,6 +169,7 @@ class PointSpring:
     p_B: np.ndarray
     stiffness: float
     rest_length: float
+    damping: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -184,6 +193,9 @@ class ForceType:
         check: ``(element, model, source)``: raise ``InputError`` for a non-physical element.
         mjcf: how an MJCF expresses it (``harness.engines.mujoco.model`` writes it).
         urdf: how a URDF expresses it (None: it cannot).
+        works: ``element -> bool``: whether an element delivers power, for a type whose power is
+            that of some of its elements only (a point spring with a damper); None: every
+            element of a type with ``power`` (``delivers``).
     """
 
     name: str
@@ -198,10 +210,15 @@ class ForceType:
     check: Callable
     mjcf: str
     urdf: str | None
+    works: Callable | None = None
 
     def elements(self, model) -> tuple:
         """The model's elements of this type."""
         return tuple(getattr(model, self.field, ()))
+
+    def delivers(self, element) -> bool:
+        """Whether ``element`` delivers power (its ``power`` counts in the energy balance)."""
+        return self.power is not None and (self.works is None or bool(self.works(element)))
 
 
 # --------------------------------------------------------------------------- point forces
@@ -295,12 +312,36 @@ def spring_ends(traj, model, spring: PointSpring) -> tuple[np.ndarray, np.ndarra
     return x_A, x_B, v_A, v_B
 
 
-def spring_force(spring: PointSpring, x_A: np.ndarray, x_B: np.ndarray) -> np.ndarray:
+def spring_force(spring: PointSpring, x_A: np.ndarray, x_B: np.ndarray, v_A: np.ndarray | None = None,
+                 v_B: np.ndarray | None = None) -> np.ndarray:
     """The force (N, world) on body_a's end of a point spring with ends ``x_A``, ``x_B`` (m,
-    world; broadcasts over leading axes): ``-k (L - L0) (x_A - x_B) / L``."""
+    world) moving at ``v_A``, ``v_B`` (m/s, world; broadcasts over leading axes): ``-(k (L - L0)
+    + c L') (x_A - x_B) / L``, ``L' = (x_A - x_B) . (v_A - v_B) / L``. The velocities are needed
+    only with a damper (``damping`` > 0; ValueError without them)."""
     d = np.asarray(x_A, float) - np.asarray(x_B, float)
     L = np.linalg.norm(d, axis=-1, keepdims=True)
-    return -spring.stiffness * (L - spring.rest_length) * d / L
+    magnitude = spring.stiffness * (L - spring.rest_length)
+    if spring.damping:
+        magnitude = magnitude + spring.damping * length_rate(spring, d, L, v_A, v_B)
+    return -magnitude * d / L
+
+
+def length_rate(spring: PointSpring, d: np.ndarray, L: np.ndarray, v_A, v_B) -> np.ndarray:
+    """L' = d . (v_A - v_B) / L (m/s, keeping the last axis) of a spring with ``d = x_A - x_B``
+    and ``L = |d|`` (keepdims) whose ends move at ``v_A``, ``v_B`` (m/s, world)."""
+    if v_A is None or v_B is None:
+        raise ValueError(f"spring {spring.name!r} has a damper: its force needs the ends' velocities")
+    dv = np.asarray(v_A, float) - np.asarray(v_B, float)
+    return np.sum(d * dv, axis=-1, keepdims=True) / L
+
+
+def damper_power(spring: PointSpring, x_A: np.ndarray, x_B: np.ndarray, v_A: np.ndarray, v_B: np.ndarray) -> np.ndarray:
+    """The power (W) of a point spring's damper, ``-c L'^2`` (broadcasts over leading axes, the
+    last axis dropped): what it dissipates, with the opposite sign (the spring's own force is
+    conservative: its potential)."""
+    d = np.asarray(x_A, float) - np.asarray(x_B, float)
+    L = np.linalg.norm(d, axis=-1, keepdims=True)
+    return -spring.damping * length_rate(spring, d, L, v_A, v_B)[..., 0] ** 2
 
 
 def spring_potential(spring: PointSpring, x_A: np.ndarray, x_B: np.ndarray) -> np.ndarray:
@@ -314,6 +355,13 @@ def _point_spring_potential(traj, model, spring: PointSpring) -> np.ndarray:
     return spring_potential(spring, *spring_ends(traj, model, spring)[:2])
 
 
+def _point_damper_power(traj, model, spring: PointSpring) -> np.ndarray:
+    """-c L'^2 (W) of the spring's damper along a trajectory (zero without one)."""
+    if not spring.damping:
+        return np.zeros(len(traj.t))
+    return damper_power(spring, *spring_ends(traj, model, spring))
+
+
 def _check_point_spring(spring: PointSpring, model, source: str) -> None:
     for body in (spring.body_a, spring.body_b):
         if body is not None and body not in model.body_names:
@@ -323,6 +371,8 @@ def _check_point_spring(spring: PointSpring, model, source: str) -> None:
     if not (np.isfinite(spring.stiffness) and spring.stiffness >= 0.0
             and np.isfinite(spring.rest_length) and spring.rest_length >= 0.0):
         raise InputError(f"{source}: spring {spring.name!r}: stiffness and rest length must be finite and >= 0")
+    if not (np.isfinite(spring.damping) and spring.damping >= 0.0):
+        raise InputError(f"{source}: spring {spring.name!r}: damping must be finite and >= 0")
     if not (np.all(np.isfinite(spring.p_A)) and np.all(np.isfinite(spring.p_B))):
         raise InputError(f"{source}: spring {spring.name!r}: its end points are not finite")
 
@@ -350,8 +400,10 @@ JOINT_TORQUES = ForceType(
 )
 POINT_SPRINGS = ForceType(
     name="point_spring", element=PointSpring, field="point_springs", label="spring", joints=None,
-    potential=_point_spring_potential, power=None, joint_force=None, joint_potential=None, check=_check_point_spring,
-    mjcf="spatial <tendon> <name> through sites <name>_a, <name>_b: stiffness, springlength", urdf=None,
+    potential=_point_spring_potential, power=_point_damper_power, joint_force=None, joint_potential=None,
+    check=_check_point_spring,
+    mjcf="spatial <tendon> <name> through sites <name>_a, <name>_b: stiffness, springlength, damping", urdf=None,
+    works=lambda spring: spring.damping > 0.0,  # a spring alone delivers none: only its damper does
 )
 
 FORCES: dict[str, ForceType] = {ft.name: ft for ft in (POINT_FORCES, JOINT_SPRINGS, JOINT_TORQUES, POINT_SPRINGS)}
@@ -366,8 +418,8 @@ def elements(model):
 
 def does_work(model) -> bool:
     """Whether the model has elements that deliver power (its energy is balanced against their
-    work rather than conserved)."""
-    return any(ft.power is not None and ft.elements(model) for ft in FORCES.values())
+    work rather than conserved): prescribed forces, torques, a point spring's damper."""
+    return any(ft.delivers(element) for ft, element in elements(model))
 
 
 def check_forces(model, source: str) -> None:

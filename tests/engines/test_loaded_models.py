@@ -37,6 +37,8 @@ OVERRIDES = {
     "three_link_chain": {"m1": 1.3, "m3": 0.7, "c3": "0.01,0,-0.2", "I3": "0.005,0.0048,0.0003", "g": 9.7},
     "bicycle": {"w": 1.1, "c": 0.06, "lam": 0.3, "rF": 0.33, "mB": 80.0, "xB": 0.35, "IBxz": 2.0, "IHxz": -0.005,
                 "tyre": 2e-5},
+    "flyball_governor": {"L_shaft": 1.2, "L_rod": 0.8, "m_ball": 3.0, "a_slider": 0.12, "x_AB": 0.14, "l_attach": 0.4,
+                         "k": 5e5, "c": 2e4, "l0": 0.45},
 }
 
 
@@ -115,6 +117,21 @@ def test_a_motor_or_spring_changed_in_the_mjcf_is_named():
     found = [d for d in mujoco_force_discrepancies(spec.compile(), model) if not d.passed]
     assert sorted((d.body, d.quantity) for d in found) == [("motor", "torque"), ("spring", "site_b"), ("spring", "stiffness")]
     assert [d for d in mujoco_force_discrepancies(load_mjcf(scene.mjcf, model), model) if not d.passed] == []
+
+
+def test_a_damper_changed_in_the_mjcf_is_named():
+    """A spring's damper (its tendon's ``damping``) off in the file, or missing, fails the
+    as-written check, naming the spring; the scene's damping reaches the loaded model."""
+    scene = load_scene("flyball_governor")
+    model = scene.multibody()
+    spec = read_spec(scene.mjcf)
+    spec.tendon("spring2").damping = [3e4, 0.0, 0.0]
+    found = [d for d in mujoco_force_discrepancies(spec.compile(), model) if not d.passed]
+    assert [(d.body, d.quantity) for d in found] == [("spring2", "damping")] and "30000 N s/m" in found[0].message
+    over = load_scene("flyball_governor", {"c": 1234.5}).multibody()
+    m = load_mjcf(scene.mjcf, over)
+    assert np.allclose(np.atleast_1d(m.tendon_damping).ravel()[:2], 1234.5)
+    assert [d for d in mujoco_force_discrepancies(m, over) if not d.passed] == []
 
 
 def test_mujoco_at_zero_coordinates_turns_a_joint_with_ref():

@@ -10,7 +10,9 @@ apply them; gravity is set on the plant. A joint a URDF cannot state is added be
 ``Finalize``: the scene's ``urdf_root_joint`` ``spherical`` becomes a ``BallRpyJoint`` at the
 link frame (Drake has no quaternion ball joint: roll-pitch-yaw, singular at pitch +-pi/2); a
 body without a joint floats (Drake's ``QuaternionFloatingJoint``). A ``JointSpring`` is a
-``PrismaticSpring``.
+``PrismaticSpring``; a ``PointSpring`` (with its damper) a ``LinearSpringDamper`` between the
+two body points (the world body's for a world end): force ``k (L - L0) + c L'`` along the line,
+the same element (Drake requires ``L0 > 0``: a zero rest length is not run).
 
 A scene that names only an MJCF is parsed from the MJCF (Drake's own MJCF parser, same
 ``AddModels``): its bodies are the MJCF's, its hinge, slide and ball joints Drake's revolute,
@@ -31,7 +33,7 @@ import numpy as np
 
 from harness.model import rotations
 from harness.model.errors import InputError
-from harness.model.forces import JOINT_SPRINGS, POINT_FORCES, elements
+from harness.model.forces import JOINT_SPRINGS, POINT_FORCES, POINT_SPRINGS, elements
 from harness.model.joints import FREE, JOINTS, ROTATIONAL, TRANSLATIONAL
 from harness.model.multibody import Multibody
 
@@ -59,8 +61,11 @@ def _check_supported(model: Multibody) -> None:
         raise NotImplementedError("Drake has no ideal rolling constraint (its contact is compliant): "
                                   "the rolling disk is not run on Drake")
     for ft, _ in elements(model):
-        if ft not in (JOINT_SPRINGS, POINT_FORCES):
+        if ft not in (JOINT_SPRINGS, POINT_FORCES, POINT_SPRINGS):
             raise NotImplementedError(f"the Drake engine does not model {ft.label}s ({ft.name})")
+    for spring in POINT_SPRINGS.elements(model):
+        if not spring.rest_length > 0.0:
+            raise NotImplementedError(f"spring {spring.name!r}: Drake's LinearSpringDamper needs a rest length > 0")
 
 
 class captured_drake_log:
@@ -95,7 +100,7 @@ def parse(path, root_joint: str, model: Multibody, *, springs: bool = True):
     or it lacks a scene body."""
     from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import MultibodyPlant
-    from pydrake.multibody.tree import BallRpyJoint, PrismaticSpring
+    from pydrake.multibody.tree import BallRpyJoint, LinearSpringDamper, PrismaticSpring
 
     plant = MultibodyPlant(0.0)
     try:
@@ -127,6 +132,14 @@ def parse(path, root_joint: str, model: Multibody, *, springs: bool = True):
             if joint is None or joint.type_name() != "prismatic":
                 raise NotImplementedError(f"the Drake engine has no spring for the joint of {spring.body!r}")
             plant.AddForceElement(PrismaticSpring(joint, float(spring.q_ref), float(spring.stiffness)))
+        for spring in POINT_SPRINGS.elements(model):
+            if not spring.rest_length > 0.0:
+                continue  # refused by _check_supported before a run
+            ends = [plant.world_body() if b is None else plant.GetBodyByName(b, instance)
+                    for b in (spring.body_a, spring.body_b)]
+            plant.AddForceElement(LinearSpringDamper(ends[0], np.asarray(spring.p_A, float), ends[1],
+                                                     np.asarray(spring.p_B, float), float(spring.rest_length),
+                                                     float(spring.stiffness), float(spring.damping)))
     plant.mutable_gravity_field().set_gravity_vector(np.asarray(model.gravity_W, dtype=float))
     with captured_drake_log():  # the run's own capture (engine) records it; a bare parse keeps quiet
         plant.Finalize()

@@ -19,7 +19,8 @@ body has none. A ``JointSpring`` on a slide is a
 ``PointForce`` is a ``CreateForce`` with a load user function ``f_W(t)`` at the point; a
 ``JointTorque`` is a body-fixed ``CreateTorque`` about the hinge axis on the child (and its
 opposite on the parent); a ``PointSpring`` is a ``CreateSpringDamper`` between the two points
-(the ground's point in world) with its stiffness and reference length, no damping.
+(the ground's point in world) with its stiffness, reference length and damping (Exudyn's
+``ObjectConnectorSpringDamper``: force ``k (L - L0) + d L'`` along the line, the same damper).
 
 A ``RollingContact`` is Exudyn's own ideal rolling-disc joint (``CreateRollingDisc``,
 ``ObjectJointRollingDisc``): a thin disc of radius R that rolls without slip on the plane z = 0.
@@ -253,7 +254,7 @@ def build(model: Multibody, node_type: str, *, reactions: bool = False) -> Exudy
         ends = [ground if b is None else system.bodies[b] for b in (spring.body_a, spring.body_b)]
         mbs.CreateSpringDamper(itemNumbers=ends, localPosition0=list(map(float, spring.p_A)),
                                localPosition1=list(map(float, spring.p_B)), referenceLength=float(spring.rest_length),
-                               stiffness=float(spring.stiffness), damping=0.0, show=False)
+                               stiffness=float(spring.stiffness), damping=float(spring.damping), show=False)
     for contact in model.contacts:
         body = model.body(contact.body)
         if contact.circle_z is None:  # the lower rim edge at the initial state

@@ -38,7 +38,8 @@ with parallel frames (slide):
 
 Force elements (``harness.model.forces``): prescribed point forces enter ``NEModel.forces``;
 joint springs (slide joints only) are ``SpringElement``s, hinge torques ``TorqueElement``s and
-springs between body points ``PointSpringElement``s (see ``newton_euler``), not constraints.
+springs between body points (with their dampers) ``PointSpringElement``s (see ``newton_euler``),
+not constraints.
 A force type the in-house engine does not model is refused when the model is built.
 
 Rolling contacts (``harness.model.multibody.RollingContact``: a rim edge rolling without slip on the
@@ -130,7 +131,8 @@ class TorqueElement:
 class PointSpringElement:
     """A spring between two body points (``harness.model.forces.PointSpring``): ends at ``r_a``
     from body ``body_a``'s centre of mass (its frame, m) and ``r_b`` from ``body_b``'s (index
-    ``nb``: the world, ``r_b`` the world point); stiffness ``k`` (N/m), ``rest_length`` (m)."""
+    ``nb``: the world, ``r_b`` the world point); stiffness ``k`` (N/m), ``rest_length`` (m), and
+    the damping ``c`` (N s/m) of its damper in parallel (0: none)."""
 
     body_a: int
     r_a: np.ndarray
@@ -138,6 +140,7 @@ class PointSpringElement:
     r_b: np.ndarray
     k: float
     rest_length: float
+    c: float = 0.0
 
 
 _ROT_U = np.eye(3)[[1, 2, 0]]  # (u_k, v_k) = (e_y, e_z), (e_z, e_x), (e_x, e_y)
@@ -383,7 +386,7 @@ def build(model: Multibody) -> NEModel:
         return index[body], np.asarray(p, dtype=float) - np.asarray(model.body(body).p_BCm_B, dtype=float)
 
     point_springs = tuple(PointSpringElement(*spring_end(ps.body_a, ps.p_A), *spring_end(ps.body_b, ps.p_B),
-                                             float(ps.stiffness), float(ps.rest_length))
+                                             float(ps.stiffness), float(ps.rest_length), float(ps.damping))
                           for ps in POINT_SPRINGS.elements(model))
 
     return NEModel(

@@ -64,6 +64,7 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
     forces = nem.forces
     springs, slides = nem.springs, nem.slides
     torques, point_springs = nem.torques, nem.point_springs
+    damped = any(ps.c for ps in point_springs)  # a damper needs the ends' velocities
     kp, kd = float(gains.kp), float(gains.kd)
     redundant = nem.redundant
     n3, n7, n10 = 3 * nb, 7 * nb, 10 * nb
@@ -74,7 +75,7 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
         W = y[n10:].reshape(nb, 3)
         tau = -cross(W, (I_B @ W[:, :, None])[:, :, 0])  # gyroscopic moment, body frame
         if nc or torques or point_springs:
-            Q, R_ext, P_ext, w_ext = frames(nb, y, with_velocity=bool(nc))
+            Q, R_ext, P_ext, w_ext = frames(nb, y, with_velocity=bool(nc) or damped)
         else:
             Q = algebra.normalized(y[n3:n7].reshape(nb, 4))
             R_ext = quat_matrix(Q) if forces else None
@@ -88,8 +89,9 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
                 spring_force(slides[sp.slide], sp, P_ext, R_ext, F, tau)
             for tq in torques:
                 joint_torque(tq, R_ext, tau)
+            V_ext = linear_velocities(nb, y) if damped else None
             for ps in point_springs:
-                point_spring_force(ps, P_ext, R_ext, F, tau)
+                point_spring_force(ps, P_ext, R_ext, F, tau, V_ext, w_ext)
             f = np.concatenate([F.ravel(), tau.ravel()])
         else:
             f = np.concatenate([weight.ravel(), tau.ravel()])
@@ -144,17 +146,24 @@ def joint_torque(tq, R_ext: np.ndarray, tau: np.ndarray) -> None:
         tau[tq.parent] -= R_ext[tq.parent].T @ (R_ext[tq.child] @ m_B)
 
 
-def point_spring_force(ps, P_ext: np.ndarray, R_ext: np.ndarray, F: np.ndarray, tau: np.ndarray) -> None:
+def point_spring_force(ps, P_ext: np.ndarray, R_ext: np.ndarray, F: np.ndarray, tau: np.ndarray,
+                       V_ext: np.ndarray | None = None, w_ext: np.ndarray | None = None) -> None:
     """Add a point spring's forces (``model.PointSpringElement``) to ``F`` (nb, 3) N world and
-    ``tau`` (nb, 3) N m body frames: ``f = -k (L - L0) d / L`` at end a, ``-f`` at end b,
-    d = x_a - x_b (world, m)."""
+    ``tau`` (nb, 3) N m body frames: ``f = -(k (L - L0) + c L') d / L`` at end a, ``-f`` at end
+    b, d = x_a - x_b (world, m), ``L' = d . (v_a - v_b) / L`` from the ends' velocities
+    ``v = V + w x arm`` (``V_ext``, ``w_ext``: centre-of-mass velocities and world angular
+    velocities (nb+1, 3), the world last; needed only with a damper, c > 0)."""
     nb = len(F)
     a, b = ps.body_a, ps.body_b
     arm_a = R_ext[a] @ ps.r_a
     arm_b = R_ext[b] @ ps.r_b
     d = (P_ext[a] + arm_a) - (P_ext[b] + arm_b)
     L = float(np.sqrt(d @ d))
-    f = -ps.k * (L - ps.rest_length) / L * d
+    magnitude = ps.k * (L - ps.rest_length)
+    if ps.c:
+        dv = (V_ext[a] + algebra.cross(w_ext[a], arm_a)) - (V_ext[b] + algebra.cross(w_ext[b], arm_b))
+        magnitude += ps.c * float(d @ dv) / L
+    f = -magnitude / L * d
     F[a] += f
     tau[a] += algebra.cross(ps.r_a, R_ext[a].T @ f)
     if b < nb:

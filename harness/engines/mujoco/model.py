@@ -2,7 +2,8 @@
 
 The MJCF file is the model as a user writes it; ``load_mjcf`` rewrites, from the scene's
 ``Multibody``, what parameters can change (body positions, masses, centres of mass, inertias,
-gravity, the site where a prescribed force acts, joint springs, the sites of a loop joint's
+gravity, the site where a prescribed force acts, joint springs, point springs with their dampers
+(tendons), the sites of a loop joint's
 ``<connect>`` equalities: ``harness.engines.mujoco.loops``) and sets timestep and integrator.
 Joint types and axes are not rewritten: they are checked (``harness.engines.loaded_models``).
 
@@ -165,7 +166,9 @@ def _write_torque(spec: mujoco.MjSpec, torque: JointTorque, source: Path) -> Non
 
 def _write_point_spring(spec: mujoco.MjSpec, spring: PointSpring, source: Path) -> None:
     """The sites ``<name>_a``, ``<name>_b`` at the spring's ends and the tendon ``<name>``'s
-    ``stiffness`` (N/m) and ``springlength`` (m, both ends of MuJoCo's dead band)."""
+    ``stiffness`` (N/m), ``springlength`` (m, both ends of MuJoCo's dead band) and ``damping``
+    (N s/m: MuJoCo's passive tendon force ``-damping`` times the tendon's rate of length, the
+    damper in parallel; its ``implicit`` integrators take it implicitly)."""
     for end, body, point in (("a", spring.body_a, spring.p_A), ("b", spring.body_b, spring.p_B)):
         site = spec.site(f"{spring.name}_{end}")
         parent = spec.worldbody if body is None else spec.body(body)
@@ -180,7 +183,9 @@ def _write_point_spring(spec: mujoco.MjSpec, spring: PointSpring, source: Path) 
     stiffness[0] = spring.stiffness  # linear spring; MuJoCo's higher-order coefficients zero
     tendon.stiffness = stiffness if stiffness.size > 1 else float(stiffness[0])
     tendon.springlength = [spring.rest_length, spring.rest_length]
-    tendon.damping = np.zeros(len(np.atleast_1d(tendon.damping))) if np.ndim(tendon.damping) else 0.0
+    damping = np.zeros(len(np.atleast_1d(tendon.damping)))
+    damping[0] = spring.damping  # linear damper; MuJoCo's higher-order coefficients zero
+    tendon.damping = damping if np.ndim(tendon.damping) else float(damping[0])
 
 
 MJCF_WRITERS = {JOINT_SPRINGS.name: _write_spring, POINT_FORCES.name: _write_point_force,

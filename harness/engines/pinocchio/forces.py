@@ -3,8 +3,8 @@ loop (``loops``) runs: the scene's applied forces as ``aba`` takes them, the pot
 the elements Pinocchio does not model, and the joint reactions ``rnea`` gives back.
 
 Prescribed point forces and the springs between body points (``PointSpring``, from the current
-configuration) enter ``aba`` as external forces ``fext`` expressed in the local frame of the
-joint that moves the body; every force element acting on a joint coordinate
+configuration, and their dampers from the current velocities) enter ``aba`` as external forces
+``fext`` expressed in the local frame of the joint that moves the body; every force element acting on a joint coordinate
 (``ForceType.joint_force`` in ``harness.model.forces``: joint springs, joint torques) enters as
 its generalised force in ``tau`` (``aba`` has no springs). Pinocchio's
 ``computePotentialEnergy`` knows gravity only: ``spring_energy`` and ``point_spring_energy`` give
@@ -51,6 +51,23 @@ def _world_point(data, ids, body_index, body: str | None, p) -> np.ndarray:
     return np.asarray(p, float) if body is None else data.oMi[ids[body_index[body]]].act(np.asarray(p, float))
 
 
+def _world_velocity(data, ids, body_index, body: str | None, p) -> np.ndarray:
+    """The world velocity (m/s) of the point ``p`` of ``body`` (its joint frame; None: the
+    world's, at rest): ``R (v + w x p)`` from the joint's spatial velocity ``data.v`` in its local
+    frame (``forwardKinematics`` at q and v must have run)."""
+    if body is None:
+        return np.zeros(3)
+    jid = ids[body_index[body]]
+    v = data.v[jid]
+    return data.oMi[jid].rotation @ (np.asarray(v.linear) + np.cross(np.asarray(v.angular), np.asarray(p, float)))
+
+
+def has_dampers(model) -> bool:
+    """Whether a point spring of ``model`` has a damper (its force needs the velocities: the
+    caller's ``forwardKinematics`` then takes v, ``point_wrenches``)."""
+    return any(sp.damping for sp in POINT_SPRINGS.elements(model))
+
+
 def point_spring_energy(pmodel, data, ids, model, q) -> float:
     """Potential energy (J) of the springs between body points (``PointSpring``) at
     configuration q: k (L - L0)^2 / 2 each (Pinocchio does not model them)."""
@@ -92,9 +109,14 @@ def applied_function(pmodel, data, ids, model):
     if wrenches is None:
         return lambda t, q, v: (joint_forces(q, v), None)
 
+    damped = has_dampers(model)
+
     def applied(t, q, v):
         tau = joint_forces(q, v)
-        pin.forwardKinematics(pmodel, data, q)
+        if damped:  # the dampers' velocities too (data.v)
+            pin.forwardKinematics(pmodel, data, q, v)
+        else:
+            pin.forwardKinematics(pmodel, data, q)
         fext = [pin.Force.Zero() for _ in range(pmodel.njoints)]
         for jid, w in wrenches(t).items():
             fext[jid] = pin.Force(w)
@@ -105,10 +127,12 @@ def applied_function(pmodel, data, ids, model):
 
 def point_wrenches(pmodel, data, ids, model):
     """``wrenches(t) -> {joint id: wrench (6,)}``: the scene's prescribed point forces and the
-    springs between body points at time ``t`` (s), each as the spatial force ``[f_L, p x f_L]``
-    (N, N m) in the local frame of the joint that moves its body, summed per joint in the order
-    the forces are listed (point forces, then each spring's end a and end b); None without such
-    forces. Reads the placements ``data.oMi`` (``forwardKinematics`` at q must have run)."""
+    springs between body points (with their dampers) at time ``t`` (s), each as the spatial
+    force ``[f_L, p x f_L]`` (N, N m) in the local frame of the joint that moves its body, summed
+    per joint in the order the forces are listed (point forces, then each spring's end a and end
+    b); None without such forces. Reads the placements ``data.oMi`` (``forwardKinematics`` at q
+    must have run) and, for a damper (``has_dampers``), the joints' velocities ``data.v``
+    (``forwardKinematics`` at q and v)."""
     point_forces = POINT_FORCES.elements(model)
     point_springs = POINT_SPRINGS.elements(model)
     if not point_forces and not point_springs:
@@ -135,9 +159,14 @@ def point_wrenches(pmodel, data, ids, model):
         out = {}
         for jid, p, force_W in forces:
             push(out, jid, p, force_W(t))
-        for spring, ja, p_A, pa, jb, p_B, pb in springs:  # -k (L - L0) d / L on end a, the opposite on end b
-            f = spring_force(spring, _world_point(data, ids, body_index, spring.body_a, p_A),
-                             _world_point(data, ids, body_index, spring.body_b, p_B))
+        for spring, ja, p_A, pa, jb, p_B, pb in springs:  # -(k (L - L0) + c L') d / L on end a, the opposite on end b
+            x_A = _world_point(data, ids, body_index, spring.body_a, p_A)
+            x_B = _world_point(data, ids, body_index, spring.body_b, p_B)
+            if spring.damping:
+                f = spring_force(spring, x_A, x_B, _world_velocity(data, ids, body_index, spring.body_a, p_A),
+                                 _world_velocity(data, ids, body_index, spring.body_b, p_B))
+            else:
+                f = spring_force(spring, x_A, x_B)
             push(out, ja, pa, f)
             if jb is not None:
                 push(out, jb, pb, -f)

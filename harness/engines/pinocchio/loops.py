@@ -95,8 +95,8 @@ import pinocchio as pin
 
 from harness.engines.base import RunSettings, sample_run
 from harness.engines.pinocchio import linalg
-from harness.engines.pinocchio.forces import (joint_force_function, joint_slots, point_spring_energy, point_wrenches,
-                                              rnea_reactions, spring_energy)
+from harness.engines.pinocchio.forces import (has_dampers, joint_force_function, joint_slots, point_spring_energy,
+                                              point_wrenches, rnea_reactions, spring_energy)
 from harness.engines.pinocchio.lie_group_integrators import stepper
 from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, advance_function, initial_configuration, load_urdf
 from harness.measure.trajectory import Failure, RunStop, SampleBuffer, Trajectory
@@ -271,6 +271,7 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
     _baumgarte_off(constraints)
     joint_forces = joint_force_function(pmodel, ids, model)
     wrenches = point_wrenches(pmodel, fdata, ids, model)
+    damped = has_dampers(model)
 
     def applied(t, q, v):
         """The joint-space forces (nv,) and the point forces' wrenches per joint ({} without)."""
@@ -278,6 +279,8 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
         if wrenches is None:
             return tau, {}
         pin.computeJointJacobians(pmodel, fdata, q)  # the placements oMi, and the Jacobians of _external_torque
+        if damped:  # the joints' velocities data.v, which the dampers read (oMi as above)
+            pin.forwardKinematics(pmodel, fdata, q, v)
         return tau, wrenches(t)
     slots = joint_slots(pmodel, ids, model)
     counters = {"rhs_evals": 0, "prox_iter_max": 0, "prox_unconverged": 0, "projection_iter_max": 0}

@@ -13,9 +13,13 @@ no contact (no collision shapes), no joint limit, the joint motors switched off
 Forces: gravity (``setGravity``); a joint spring (``JointSpring``, the spring pendulum) has no
 PyBullet element and is applied as the joint's generalised force ``-k (q - q_ref)`` at the start
 of every step (``TORQUE_CONTROL``, which PyBullet applies for that step only), as the step's
-other forces are. Not modelled, run as "unsupported" with the reason
-(``harness.engines.pybullet.model.check_supported``): loop joints, rolling contact, prescribed
-point forces, joint torques and point springs.
+other forces are; a spring between body points with its damper (``PointSpring``, the flyball
+governor) has none either and is applied the same way, as the pair of world forces
+``-+(k (L - L0) + c L') d / L`` at its two end points (``applyExternalForce`` in the world frame,
+for that step only), from the links' states at the step's start (``getLinkStates``: centre of
+mass, orientation, velocities; ``_point_spring_forces``). Not modelled, run as "unsupported" with
+the reason (``harness.engines.pybullet.model.check_supported``): loop joints, rolling contact,
+prescribed point forces and joint torques.
 
 Maximal coordinates at every saved sample: each body's inertial frame (centre of mass, world
 position, orientation, velocity and angular velocity; ``getBasePositionAndOrientation``,
@@ -28,6 +32,7 @@ force-torque sensors (``_reaction``), less the velocity-product wrench Bullet's 
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import replace
 
@@ -90,12 +95,16 @@ class PyBulletEngine(EngineBase):
                 p.enableJointForceTorqueSensor(pm.body, pm.links[b.name], 1, physicsClientId=client)
             axes = _joint_axes(pm, model) if jointed else {}
 
+            spring_forces = _point_spring_forces(pm, model) if pm.point_springs else None
+
             def step(count: int) -> None:
                 for _ in range(count):
                     for link, stiffness, q_ref in pm.springs:  # the spring's force at the step's start
                         q = p.getJointState(pm.body, link, physicsClientId=client)[0]
                         p.setJointMotorControl2(pm.body, link, p.TORQUE_CONTROL, force=-stiffness * (q - q_ref),
                                                 physicsClientId=client)
+                    if spring_forces is not None:
+                        spring_forces()
                     p.stepSimulation(physicsClientId=client)
 
             def advance(k: int) -> None:  # with reactions, the interval's first step was taken to read sample k - 1's
@@ -148,6 +157,61 @@ def _reaction(pm, model, body, k: int, buf: SampleBuffer, extra) -> tuple[np.nda
     return f, m
 
 
+def _point_spring_forces(pm, model):
+    """``apply()``: the springs between body points with their dampers (``PointSpring``) as
+    external forces for the next step: each end's world position and velocity from its link's
+    state now (centre of mass c, inertial orientation q_WI, velocity v_c, angular velocity w:
+    ``x = c + R_WI r_I``, r_I the end from the centre of mass in the inertial frame, ``v = v_c +
+    w x (x - c)``), the force ``-(k (L - L0) + c L') d / L`` (``harness.model.forces.spring_force``)
+    on end a and its opposite on end b (``applyExternalForce``, world frame, at the end point; none
+    on the world). In plain floats: it runs at every PyBullet step (1.6e5 per simulated second of
+    the flyball governor at its default 16 substeps)."""
+    p = pybullet_module()
+    c = pm.client
+    links = sorted({pm.links[name] for _, *ends in pm.point_springs for name in ends if name is not None})
+    ends = []
+    for spring, a, b in pm.point_springs:
+        pair = []
+        for name, point in ((a, spring.p_A), (b, spring.p_B)):
+            if name is None:  # the world's point, at rest
+                pair.append((None, tuple(float(x) for x in point)))
+            else:  # from the centre of mass, in the inertial frame
+                r_I = pm.R_BI[name].T @ (np.asarray(point, dtype=float) - pm.p_BCm_B[name])
+                pair.append((pm.links[name], tuple(float(x) for x in r_I)))
+        ends.append((float(spring.stiffness), float(spring.rest_length), float(spring.damping), pair))
+    world = p.WORLD_FRAME
+
+    def end_state(state, r):
+        """World position and velocity of the point r (inertial frame) of a link's state."""
+        (cx, cy, cz), (qx, qy, qz, qw), (vx, vy, vz), (wx, wy, wz) = state[0], state[1], state[6], state[7]
+        rx, ry, rz = r  # R r = r + 2 qw (q x r) + 2 q x (q x r)
+        tx, ty, tz = 2.0 * (qy * rz - qz * ry), 2.0 * (qz * rx - qx * rz), 2.0 * (qx * ry - qy * rx)
+        ax = rx + qw * tx + (qy * tz - qz * ty)
+        ay = ry + qw * ty + (qz * tx - qx * tz)
+        az = rz + qw * tz + (qx * ty - qy * tx)
+        return ((cx + ax, cy + ay, cz + az),
+                (vx + (wy * az - wz * ay), vy + (wz * ax - wx * az), vz + (wx * ay - wy * ax)))
+
+    def apply() -> None:
+        states = dict(zip(links, p.getLinkStates(pm.body, links, computeLinkVelocity=1, computeForwardKinematics=1,
+                                                 physicsClientId=c)))
+        for k, L0, damping, pair in ends:
+            (la, ra), (lb, rb) = pair
+            xa, va = (ra, (0.0, 0.0, 0.0)) if la is None else end_state(states[la], ra)
+            xb, vb = (rb, (0.0, 0.0, 0.0)) if lb is None else end_state(states[lb], rb)
+            dx, dy, dz = xa[0] - xb[0], xa[1] - xb[1], xa[2] - xb[2]
+            L = math.sqrt(dx * dx + dy * dy + dz * dz)
+            rate = (dx * (va[0] - vb[0]) + dy * (va[1] - vb[1]) + dz * (va[2] - vb[2])) / L
+            m = -(k * (L - L0) + damping * rate) / L
+            f = (m * dx, m * dy, m * dz)
+            if la is not None:
+                p.applyExternalForce(pm.body, la, f, xa, world, physicsClientId=c)
+            if lb is not None:
+                p.applyExternalForce(pm.body, lb, (-f[0], -f[1], -f[2]), xb, world, physicsClientId=c)
+
+    return apply
+
+
 def _joint_axes(pm, model) -> dict[str, np.ndarray]:
     """A hinge's or slide's unit axis in the child's inertial frame as PyBullet holds it
     (``getJointInfo``), per jointed body."""
@@ -194,6 +258,8 @@ def _describe(settings: RunSettings, scene: Scene, pm, solver: dict, sub: int = 
     from harness.engines import version
 
     springs = ", joint springs as a generalised force at each step's start" if pm.springs else ""
+    if pm.point_springs:
+        springs += ", spring-dampers between body points as external forces at each step's start"
     step = f"fixed step {settings.dt:g} s" if sub == 1 else f"fixed step {settings.dt / sub:g} s ({sub} per step of {settings.dt:g} s)"
     return (f"PyBullet {version('pybullet')} stepSimulation: semi-implicit Euler, {step}, "
             f"btMultiBody (Featherstone, reduced coordinates) from {scene.urdf.name} (inertia from the file), "

@@ -45,7 +45,7 @@ import numpy as np
 
 from harness.model import rotations
 from harness.model.errors import InputError
-from harness.model.forces import JOINT_SPRINGS, elements
+from harness.model.forces import JOINT_SPRINGS, POINT_SPRINGS, elements
 from harness.model.joints import BALL, FREE, HINGE, JOINTS, SLIDE
 from harness.model.multibody import Multibody
 
@@ -129,7 +129,7 @@ class Server:
 
 def check_supported(model: Multibody) -> None:
     """NotImplementedError for what the PyBullet engine does not model: loop joints, rolling
-    contact, force elements other than joint springs."""
+    contact, force elements other than joint springs and point springs (with their dampers)."""
     if model.loops:
         raise NotImplementedError("PyBullet's reduced-coordinate btMultiBody is a tree and a URDF cannot state a loop; "
                                   "its point-to-point constraints (createConstraint) are soft, solved by its "
@@ -138,7 +138,7 @@ def check_supported(model: Multibody) -> None:
         raise NotImplementedError("PyBullet has no ideal rolling constraint (its contact is a frictional contact "
                                   "solved by impulses): the rolling contact is not modelled")
     for ft, _ in elements(model):
-        if ft is not JOINT_SPRINGS:
+        if ft not in (JOINT_SPRINGS, POINT_SPRINGS):
             raise NotImplementedError(f"the PyBullet engine does not model {ft.label}s ({ft.name})")
 
 
@@ -217,6 +217,9 @@ class PyBulletModel:
         R_BI, p_BCm_B: per scene body, the inertial frame's orientation and origin (the centre of
             mass) in the body frame, as ``build`` set them.
         springs: ``(link, stiffness N/m, q_ref m)`` of the joint springs (applied each step).
+        point_springs: ``(spring, body a, body b)`` of the springs between body points (with
+            their dampers; ``PointSpring``, its ends' scene body names, None for the world),
+            applied each step as external forces (``harness.engines.pybullet.engine``).
     """
 
     client: int
@@ -225,6 +228,7 @@ class PyBulletModel:
     R_BI: dict = field(default_factory=dict)
     p_BCm_B: dict = field(default_factory=dict)
     springs: list = field(default_factory=list)
+    point_springs: list = field(default_factory=list)
 
 
 def _principal(I: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -314,6 +318,7 @@ def build(scene, model: Multibody, client: int, dt: float) -> PyBulletModel:
         if link >= 0:
             _motor_off(out.body, link, b.joint, client)
     out.springs = [(out.links[s.body], float(s.stiffness), float(s.q_ref)) for s in JOINT_SPRINGS.elements(model)]
+    out.point_springs = [(s, s.body_a, s.body_b) for s in POINT_SPRINGS.elements(model)]
     p.setGravity(*np.asarray(model.gravity_W, dtype=float).tolist(), physicsClientId=client)
     p.setPhysicsEngineParameter(fixedTimeStep=float(dt), numSubSteps=0, physicsClientId=client)
     set_initial_state(out, model)

@@ -83,7 +83,7 @@ is a tuple of arrays (``solver.pack`` makes it)::
     TORQUE, a hinge torque on child a, parent b (nb = world): [unit axis (child frame) |
     torque N m];
     POINT_SPRING, ends on bodies a and b (b = nb: the world): [r_a | r_b (m, from the COM,
-    body frame; the world point for the world) | k N/m | rest length m];
+    body frame; the world point for the world) | k N/m | rest length m | damping c N s/m];
     ROLLING, a rolling contact of body a whose 3 rows start at row b: [radius m |
     half-thickness m | circle_z m | 1 for one rolling circle, 0 for two rim edges];
     slip: the first rolling-contact row (nc without contacts).
@@ -115,8 +115,9 @@ omega = R w the world angular velocity):
   ``gamma = omega x r'``, C = 0, 0 and the contact's height ``p_z + r_z``;
 * applied forces (``newton_euler``): a prescribed force f at r_B, ``f / m`` and
   ``r_B x R^T f``; a hinge torque ``torque a`` on the child (body frame), its opposite on the
-  parent; a point spring ``-k (L - L0) d / L`` at end a (d = x_a - x_b, L = |d|), its opposite
-  at end b.
+  parent; a point spring ``-(k (L - L0) + c L') d / L`` at end a (d = x_a - x_b, L = |d|,
+  L' = d . (v_a - v_b) / L with the ends' world velocities v = v_WCm_W + R (w_WB_B x r)), its
+  opposite at end b.
 
 Status codes returned by the integrators (``solver.STATUS`` words them): 0 ok, 1 non-finite
 state, 2 singular constraint matrix, 3 projection did not converge, 4 step size underflow,
@@ -789,6 +790,17 @@ def _push(mass, Iinv, R, i, r_B, f, sign, fB, mom, u0):
 
 
 @njit(**_INNER)
+def _point_velocity(y, nb, R, i, r_B, wr, out):
+    """out = the world velocity (m/s) of the point ``r_B`` (m, from body i's centre of mass, body
+    frame): ``v_WCm_W + R (w_WB_B x r_B)`` (wr: a scratch 3-vector). Needs ``_frames``."""
+    w0 = 10 * nb + 3 * i
+    _cross(y[w0: w0 + 3], r_B, wr)
+    _matvec(R[i], wr, out)
+    for m in range(3):
+        out[m] += y[7 * nb + 3 * i + m]
+
+
+@njit(**_INNER)
 def _applied(t, y, mass, Iinv, R, vec, elem, edata, u0):
     """Add the accelerations of the prescribed point forces (their time laws at t, s), hinge
     torques and point springs (elements of kinds FORCE, TORQUE, POINT_SPRING; module docstring)
@@ -814,13 +826,21 @@ def _applied(t, y, mass, Iinv, R, vec, elem, edata, u0):
             c, s = np.cos(wt), np.sin(wt)
             for m in range(3):
                 f[m] = (edata[e, 3 + m] + edata[e, 6 + m] * c) + edata[e, 9 + m] * s
-        elif kind == POINT_SPRING:  # -k (L - L0) d / L at end a, its opposite at end b
+        elif kind == POINT_SPRING:  # -(k (L - L0) + c L') d / L at end a, its opposite at end b
             _matvec(R[a], edata[e, 0:3], arm_a)
             _matvec(R[b], edata[e, 3:6], arm_b)  # the world's R is the identity: the world point
             for m in range(3):
                 d[m] = (_position(y, nb, a, m) + arm_a[m]) - (_position(y, nb, b, m) + arm_b[m])
             L = np.sqrt(_dot(d, d))
             magnitude = -edata[e, 6] * (L - edata[e, 7]) / L
+            damping = edata[e, 8]
+            if damping != 0.0:  # the damper: L' = d . (v_a - v_b) / L, the ends' world velocities
+                _point_velocity(y, nb, R, a, edata[e, 0:3], m_B, m_W)
+                rate = _dot(d, m_W)
+                if b < nb:
+                    _point_velocity(y, nb, R, b, edata[e, 3:6], m_B, m_W)
+                    rate -= _dot(d, m_W)
+                magnitude -= damping * rate / (L * L)
             for m in range(3):
                 f[m] = magnitude * d[m]
         else:

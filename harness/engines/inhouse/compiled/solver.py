@@ -150,7 +150,7 @@ def _elements(nem: NEModel, nc: int) -> tuple[np.ndarray, np.ndarray]:
     for tq in nem.torques:
         add(kernels.TORQUE, tq.child, tq.parent, tq.axis_B, tq.torque)
     for ps in nem.point_springs:
-        add(kernels.POINT_SPRING, ps.body_a, ps.body_b, ps.r_a, ps.r_b, ps.k, ps.rest_length)
+        add(kernels.POINT_SPRING, ps.body_a, ps.body_b, ps.r_a, ps.r_b, ps.k, ps.rest_length, ps.c)
     for k, c in enumerate(nem.contacts):
         add(kernels.ROLLING, c.body, first + 3 * k, c.radius, c.half_thickness,
             0.0 if c.circle_z is None else c.circle_z, float(c.circle_z is not None))
