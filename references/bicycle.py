@@ -9,7 +9,7 @@ for the balance and steer of a bicycle: a benchmark and review", Proc. R. Soc. A
 Appendix A (the coefficient matrices from the parameters), section 5 (the benchmark's matrices
 printed to 14 decimals), Table 2 (eigenvalues at 0-10 m/s, the weave and capsize
 speeds). This module is the yardstick the ``bicycle`` scene is judged by: each engine's
-linearisation about upright straight running (``harness.engines.linearization`` in the benchmark's
+linearisation about upright straight running (an engine's ``linearization.linearize`` in the benchmark's
 coordinates of ``harness/model/builders/bicycle.py``) against ``state_matrix``, its M^-1 K0,
 M^-1 C1 and M^-1 K2 (``blocks``) against ``linearized``'s, and its own weave and capsize speeds
 (``stability_crossings`` with ``matrix``) against Table 2 (``tests/engines/test_linearization.py``).
@@ -262,7 +262,7 @@ def spectral_abscissa(p: BicycleParams, v: float, matrix: Callable[[float], np.n
     """The largest real part of the eigenvalues at speed ``v`` (1/s): negative iff upright
     straight running at ``v`` is asymptotically stable. ``matrix``: the state matrix as a
     function of the speed (default ``state_matrix(p, .)``; e.g. an engine's linearisation,
-    ``harness.engines.linearization``)."""
+    ``linearization.linearize``)."""
     A = state_matrix(p, v) if matrix is None else np.asarray(matrix(v), dtype=float)
     return float(np.max(np.linalg.eigvals(A).real))
 

@@ -342,6 +342,13 @@ def check_scene(scene):
     return scene
 
 
+def integrator_of(scene, engine: str) -> str:
+    """The integrator ``engine`` runs ``scene`` with: the scene's ``[integrators]`` entry, else the
+    engine's declared default on its system (also for an engine the scene does not run, for
+    tools that read what it would hold: ``harness inspect``)."""
+    return scene.integrators.get(engine) or declaration(engine).integrator_for(scene.multibody())
+
+
 def load_scene(name: str, overrides=None, *, models_dir=None):
     """Scene ``name`` as the engines run it: ``harness.model.scene.load_scene`` (the parameter
     ``overrides``, the ``models_dir``) completed by ``check_scene``."""

@@ -32,6 +32,7 @@ import pinocchio as pin
 
 from harness.tools import dynamics_terms as dc
 from harness.tools.check import load_mujoco, load_pinocchio
+from harness.engines import integrator_of
 from harness.engines.as_written import APPLIED_RTOL, AS_WRITTEN_RTOL, as_written, scene_defaults
 from harness.engines.mujoco.model import load_mjcf, read_spec
 from harness.engines.pinocchio.model import load_urdf
@@ -146,7 +147,7 @@ def _mujoco_loop_lines(m: mujoco.MjModel) -> list[str]:
 
 def _mujoco_options(m: mujoco.MjModel, scene: Scene) -> str:
     return (f"  timestep {m.opt.timestep:g} s, integrator {mujoco.mjtIntegrator(m.opt.integrator).name[6:]} "
-            f"(runs use the scene's dt {scene.dt:g} s and {scene.integrators['mujoco']}), "
+            f"(runs use the scene's dt {scene.dt:g} s and {integrator_of(scene, 'mujoco')}), "
             f"gravity {_v(m.opt.gravity)} m/s^2")
 
 
@@ -221,9 +222,10 @@ def _exudyn_load(scene: Scene, model: Multibody) -> Load:
     from harness.engines.exudyn.integrators import NODE_TYPE
     from harness.engines.exudyn.model import build
 
-    node_type = NODE_TYPE[scene.integrators["exudyn"]]
+    method = integrator_of(scene, "exudyn")
+    node_type = NODE_TYPE[method]
     system = build(model, node_type)
-    label = f"Exudyn <- the scene's description (no model file; {node_type} nodes for {scene.integrators['exudyn']})"
+    label = f"Exudyn <- the scene's description (no model file; {node_type} nodes for {method})"
     ld = Load(label, True)
     bodies = exudyn_bodies(system, model)
     gravity = exudyn_gravity(system)

@@ -4,7 +4,7 @@ reactions and rolling-disc joint against the in-house reference, and its failure
 import numpy as np
 import pytest
 
-from harness.engines import get_engine
+from harness.engines import get_engine, integrator_of
 from harness.engines.base import RunSettings
 from harness.engines.exudyn.integrators import IMPLICIT, METHODS, NODE_TYPE
 from harness.engines.exudyn.model import build
@@ -23,7 +23,7 @@ def test_model_as_built_matches_the_description(name):
     holds them, agree with the scene's description (node type of the scene's integrator)."""
     scene = load_scene(name)
     model = scene.multibody()
-    system = build(model, NODE_TYPE[scene.integrators["exudyn"]])
+    system = build(model, NODE_TYPE[integrator_of(scene, "exudyn")])
     found = body_discrepancies(exudyn_bodies(system, model), model, rtol=1e-12)
     # Exudyn holds the inertia about the body's reference point (its frame origin): the inertia
     # about the centre of mass read back from it loses m |c|^2 / |I| of its digits (the
