@@ -28,7 +28,7 @@ import numpy as np
 from harness.engines.base import EngineBase, RunSettings, sample_run
 from harness.engines.drake.integrators import METHODS, SCHEMES
 from harness.engines.drake.model import build, captured_drake_log
-from harness.measure.trajectory import Failure, SampleBuffer, Trajectory, unsupported
+from harness.measure.trajectory import Failure, RunStop, SampleBuffer, Trajectory, unsupported
 from harness.model import rotations
 from harness.model.joints import JOINTS
 from harness.model.scene import Scene
@@ -141,6 +141,11 @@ def _describe(method: str, settings: RunSettings, scene: Scene) -> str:
     return f"Drake {SCHEMES[method]} ({how}) on the continuous MultibodyPlant of {scene.urdf.name}"
 
 
+def context_time(ctx) -> float:
+    """The time (s) of a plant's context."""
+    return float(ctx.get_time())
+
+
 def _read(dm, model, k: int, buf: SampleBuffer) -> None:
     """Fill sample ``k`` of ``buf`` (centre-of-mass position and velocity, orientation, world
     angular velocity, Drake's energies)."""
@@ -150,6 +155,8 @@ def _read(dm, model, k: int, buf: SampleBuffer) -> None:
         X = plant.EvalBodyPoseInWorld(ctx, b)
         V = plant.EvalBodySpatialVelocityInWorld(ctx, b)
         R = X.rotation().matrix()
+        if not np.all(np.isfinite(R)):  # a blown-up state: no orientation to read (its SVD fails)
+            raise RunStop(Failure.NON_FINITE, f"non-finite state by t = {context_time(ctx):.6g} s")
         w = V.rotational()
         r = R @ b.CalcCenterOfMassInBodyFrame(ctx)
         buf.p_WCm_W[k, i] = X.translation() + r

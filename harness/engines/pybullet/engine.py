@@ -41,7 +41,7 @@ import numpy as np
 from harness.engines.base import EngineBase, Integrator, RunSettings, integrator_table, sample_run
 from harness.engines.pybullet.model import MAX_JOINT_VELOCITY, Server, build, pybullet_module
 from harness.engines.pybullet.reactions import constraint_pass_wrenches
-from harness.measure.trajectory import SampleBuffer, Trajectory, unsupported
+from harness.measure.trajectory import Failure, RunStop, SampleBuffer, Trajectory, unsupported
 from harness.model import rotations
 from harness.model.joints import BALL, JOINTS, TRANSLATIONAL
 from harness.model.scene import Scene
@@ -285,6 +285,8 @@ def _read(pm, model, k: int, buf: SampleBuffer) -> None:
             s = states[link]
             pos, orn, vel, omega = s[0], s[1], s[6], s[7]
         R_WI = rotations.matrix(rotations.xyzw_to_wxyz(np.asarray(orn, dtype=float)))
+        if not np.all(np.isfinite(R_WI)):  # a blown-up state: no orientation to read (its SVD fails)
+            raise RunStop(Failure.NON_FINITE, f"non-finite state at sample {k}")
         buf.p_WCm_W[k, i] = pos
         buf.quat_WB[k, i] = rotations.from_matrix(R_WI @ pm.R_BI[b.name].T)
         buf.v_WCm_W[k, i] = vel

@@ -165,3 +165,15 @@ def test_the_maximum_step_is_the_runs_step_never_the_save_interval():
     assert tr.ok, tr.message
     assert tr.stats["steps"] >= round(t_end / scene.dt)
     assert f"max step {scene.dt:g} s" in tr.stats["settings"]
+
+
+def test_a_state_that_turns_non_finite_ends_the_run_as_a_blowup():
+    """A fixed-step RK3 far beyond its stability on a stiff spring (k/m = 1e6 1/s^2): the state
+    overflows to NaN between two samples; the run ends as a blow-up (``Failure.NON_FINITE``) with
+    the samples before it, never with the orientation's SVD error of reading a NaN pose (the
+    stress study recorded it as an error of the worker)."""
+    from harness.measure.trajectory import Failure
+
+    scene = load_scene("spring_pendulum", {"k": 1e6, "r0": 0.18327677127551056, "theta0": 0.3})
+    tr = get_engine("drake").simulate(scene, RunSettings(1.0, 0.00625, 0.025, "RK3_fixed"))
+    assert tr.reason is Failure.NON_FINITE and tr.status == "blowup" and len(tr.t) >= 1, tr.message
