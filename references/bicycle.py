@@ -432,3 +432,10 @@ def linearization_agreement(scene: "Scene", matrix: Callable[[float], np.ndarray
     speed_error = max(abs(weave - weave_speed(p)), abs(capsize - capsize_speed(p)))
     return {"error": worst, "digits": float("inf") if worst == 0.0 else -float(np.log10(worst)),
             "weave": weave, "capsize": capsize, "speed_error": speed_error}
+
+
+def published_eigenvalues(scene: "Scene", speeds) -> np.ndarray:
+    """The benchmark's eigenvalues (1/s, complex, ``eigenvalues``) at each of ``speeds`` (m/s), at
+    the scene's parameters: shape (len(speeds), 4), as Table 2 prints them for the benchmark's."""
+    p = params_of(scene)
+    return np.array([eigenvalues(p, float(v)) for v in speeds])

@@ -47,3 +47,21 @@ def test_the_report_names_an_engine_not_run_and_an_accuracy_not_reached():
     text = markdown([problem], {"date_utc": "today"}, command="harness benchmark")
     assert "| Exudyn | `GeneralizedAlpha` | 1.00e-05 rad | 5.0 | converges | — | not reached | — |" in text
     assert "not run: no loop constraint" in text
+
+
+def test_a_linearisation_problem_draws_its_eigenvalues_against_speed():
+    """The bicycle's published eigenvalues and an engine's (here the published ones again, standing
+    for a perfect linearisation) are drawn, and the report shows the figure."""
+    from harness.engines import load_scene
+    from harness.references import bicycle
+    from harness.studies.benchmarks.report import eigenvalue_png
+
+    scene = load_scene("bicycle")
+    speeds = [0.0, 5.0]
+    published = bicycle.published_eigenvalues(scene, speeds)
+    assert published.shape == (2, 4) and published[1].real.max() < 0.0  # self-stable at 5 m/s
+    problem = ProblemResult("bicycle", "Whipple bicycle", "the bicycle", "M, C1, K0, K2", 1e-3, None,
+                            eigenvalues={"speeds": speeds, "published": published, "fine_speeds": speeds,
+                                         "fine_published": published, "inhouse": published})
+    assert eigenvalue_png(problem).startswith(b"\x89PNG")
+    assert "![eigenvalues](benchmarks_bicycle_eigenvalues.png)" in markdown([problem], {"date_utc": "today"}, command="x")

@@ -1,6 +1,8 @@
 """What ``harness benchmark`` writes: ``benchmarks.md`` (one table per problem: the published
 figure, each engine's error and agreement in digits, its class, and the time to the required
-accuracy against the baseline engine's) and ``benchmarks.csv`` (one row per problem and engine)."""
+accuracy against the baseline engine's), ``benchmarks.csv`` (one row per problem and engine) and,
+for a problem published as a linearisation, ``benchmarks_<scene>_eigenvalues.png`` (the
+eigenvalues against speed)."""
 
 from __future__ import annotations
 
@@ -22,6 +24,10 @@ def _g(x, fmt: str = ".2g") -> str:
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "—"
     return format(x, fmt)
+
+
+def _eigen_name(p: ProblemResult) -> str:
+    return f"benchmarks_{p.scene}_eigenvalues.png"
 
 
 def markdown(results: list[ProblemResult], prov: dict, command: str | None = None) -> str:
@@ -66,7 +72,44 @@ def markdown(results: list[ProblemResult], prov: dict, command: str | None = Non
         for engine, why in p.not_run.items():
             lines.append(f"| {display(engine)} | — | not run: {why} | | | | | |")
         lines.append("")
+        if p.eigenvalues:
+            lines += [f"Eigenvalues against speed, the published and each engine's own linearisation: "
+                      f"`{_eigen_name(p)}`.", "", f"![eigenvalues]({_eigen_name(p)})", ""]
     return "\n".join(lines)
+
+
+def eigenvalue_png(p: ProblemResult) -> bytes:
+    """The eigenvalues' real and imaginary parts (1/s) against speed (m/s): the published ones as
+    lines, each engine's own linearisation as markers."""
+    import numpy as np
+
+    from harness.io.figures import new_figure, png_bytes
+
+    v = np.asarray(p.eigenvalues["speeds"])
+    fig = new_figure(11, 4.6)
+    axes = fig.subplots(1, 2)
+    fine, published = np.asarray(p.eigenvalues["fine_speeds"]), np.asarray(p.eigenvalues["fine_published"])
+    markers = iter("o^sdv")
+    for ax, part, label in ((axes[0], np.real, "real part (1/s)"), (axes[1], np.imag, "imaginary part (1/s)")):
+        for j in range(published.shape[1]):
+            ax.plot(fine, part(published[:, j]), "k.", ms=1.5, label="published (Table 2's formulas)" if j == 0 else None)
+        ax.axhline(0.0, color="grey", lw=0.6)
+        ax.set_xlabel("forward speed v (m/s)")
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+    for engine, values in p.eigenvalues.items():
+        if engine in ("speeds", "published", "fine_speeds", "fine_published"):
+            continue
+        values = np.asarray(values)
+        m = next(markers, "x")
+        for ax, part in ((axes[0], np.real), (axes[1], np.imag)):
+            for j in range(values.shape[1]):
+                ax.plot(v, part(values[:, j]), m, ms=4, mfc="none", label=f"{display(engine)}'s linearisation" if j == 0 else None)
+    axes[0].set_ylim(-10, 10)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"{p.problem}: eigenvalues of upright straight running against speed")
+    fig.tight_layout()
+    return png_bytes(fig, dpi=110)
 
 
 def rows(results: list[ProblemResult]) -> list[dict]:
@@ -90,6 +133,7 @@ def write_reports(results: list[ProblemResult], out: Path, prov: dict, command: 
     writer = csv.DictWriter(buf, fieldnames=FIELDS, lineterminator="\n")
     writer.writeheader()
     writer.writerows(rows(results))
-    files = {"benchmarks.md": markdown(results, prov, command), "benchmarks.csv": buf.getvalue()}
+    files: dict[str, str | bytes] = {"benchmarks.md": markdown(results, prov, command), "benchmarks.csv": buf.getvalue()}
+    files.update({_eigen_name(p): eigenvalue_png(p) for p in results if p.eigenvalues})
     atomic.write_set(out, files)
     return [out / name for name in files]

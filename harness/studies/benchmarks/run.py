@@ -87,6 +87,10 @@ class ProblemResult:
     published_digits: float | None
     engines: list[EngineResult] = field(default_factory=list)
     not_run: dict[str, str] = field(default_factory=dict)
+    #: for a problem published as a linearisation: its eigenvalues (1/s, complex) against speed,
+    #: ``{"speeds": (n,), "published": (n, 4), <engine>: (n, 4)}`` (``EIGEN_SPEEDS``), and the
+    #: published ones on a fine grid for the figure (``fine_speeds``, ``fine_published``)
+    eigenvalues: dict = field(default_factory=dict)
 
 
 def benchmark_scenes(models_dir=None) -> list[str]:
@@ -97,6 +101,23 @@ def benchmark_scenes(models_dir=None) -> list[str]:
         if module is not None and hasattr(module, "BENCHMARK"):
             out.append(name)
     return out
+
+
+#: The speeds (m/s) of the eigenvalue-against-speed figure of a problem published as a
+#: linearisation (Table 2's range for the bicycle).
+EIGEN_SPEEDS = tuple(0.5 * k for k in range(21))
+
+
+def _eigenvalue_curves(problem: ProblemResult, scene: Scene, module, engines) -> None:
+    """The published eigenvalues at ``EIGEN_SPEEDS`` and each linearising engine's."""
+    coordinates = importlib.import_module(f"harness.model.builders.{scene.builder or scene.name}").Coordinates
+    model = scene.multibody()
+    fine = [0.025 * k for k in range(int(round(EIGEN_SPEEDS[-1] / 0.025)) + 1)]
+    problem.eigenvalues = {"speeds": list(EIGEN_SPEEDS), "published": module.published_eigenvalues(scene, EIGEN_SPEEDS),
+                           "fine_speeds": fine, "fine_published": module.published_eigenvalues(scene, fine)}
+    for engine in engines:
+        if engine in with_accelerations() and engine not in problem.not_run:
+            problem.eigenvalues[engine] = [linearize(engine, scene, coordinates(model, v)).eigenvalues for v in EIGEN_SPEEDS]
 
 
 def _linearized(row: EngineResult, scene: Scene, module) -> None:
@@ -161,5 +182,7 @@ def benchmark_study(scenes: list[Scene], engines: list[str], options: SweepOptio
                 row.time_s, row.curve = fastest[engine]
                 row.ratio = row.time_s / base if math.isfinite(base) and base > 0 else float("nan")
             problem.engines.append(row)
+        if hasattr(module, "published_eigenvalues"):
+            _eigenvalue_curves(problem, scene, module, engines)
         results.append(problem)
     return sorted(results, key=lambda p: p.problem)
