@@ -404,23 +404,23 @@ BENCHMARK = {
 BLOCK_SPEED = 5.0
 
 
-def params_of(scene: "Scene") -> BicycleParams:
-    """The benchmark's parameters at the scene's parameter values (the scene names them as
-    ``BicycleParams`` does)."""
+def params_of(params) -> BicycleParams:
+    """The benchmark's parameters from a mapping that names them as ``BicycleParams`` does (a
+    scene's parameter values; other keys ignored)."""
     from dataclasses import fields
 
-    return BicycleParams(**{f.name: float(scene.params[f.name]) for f in fields(BicycleParams)})
+    return BicycleParams(**{f.name: float(params[f.name]) for f in fields(BicycleParams)})
 
 
 def linearization_agreement(scene: "Scene", matrix: Callable[[float], np.ndarray]) -> dict:
     """An engine's linearisation against the benchmark's at the scene's parameters
-    (``params_of``): ``matrix(v)`` is its state matrix (4x4)
+    (``params_of(scene.params)``): ``matrix(v)`` is its state matrix (4x4)
     about upright straight running at speed v (m/s). Returns ``error``, the largest relative error
     over the nonzero entries of M^-1 K0, M^-1 C1 and M^-1 K2 from its matrices at 0 and
     ``BLOCK_SPEED`` (``blocks``) against ``linearized(p)``'s, and ``digits`` = -log10(error);
     ``weave`` and ``capsize``, its own speeds (m/s, root finding on its spectral abscissa between
     3 and 7 m/s), and ``speed_error``, their largest distance from the benchmark's (m/s)."""
-    p = params_of(scene)
+    p = params_of(scene.params)
     M, C1, K0, K2 = linearized(p)
     got = blocks(matrix(0.0), matrix(BLOCK_SPEED), BLOCK_SPEED, p.g)
     worst = 0.0
@@ -437,5 +437,5 @@ def linearization_agreement(scene: "Scene", matrix: Callable[[float], np.ndarray
 def published_eigenvalues(scene: "Scene", speeds) -> np.ndarray:
     """The benchmark's eigenvalues (1/s, complex, ``eigenvalues``) at each of ``speeds`` (m/s), at
     the scene's parameters: shape (len(speeds), 4), as Table 2 prints them for the benchmark's."""
-    p = params_of(scene)
+    p = params_of(scene.params)
     return np.array([eigenvalues(p, float(v)) for v in speeds])

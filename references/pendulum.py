@@ -52,7 +52,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from harness.references.plate_pendulum import pendulum_motion
+from harness.references.plate_pendulum import pendulum_motion, swing_point
 
 if TYPE_CHECKING:  # pragma: no cover
     from harness.measure.trajectory import Trajectory
@@ -86,12 +86,7 @@ def bob_motion(t, L: float, r: float, g: float, theta0: float, dtheta0: float = 
     """Exact position, velocity and acceleration of P1, the bob's centre (each (n, 3), world, m,
     m/s, m/s²), and the angle triple (θ, θ̇, θ̈) (rad, rad/s, rad/s²)."""
     th, dth, ddth = pendulum_motion(t, natural_frequency(L, r, g), theta0, dtheta0)
-    s, c = np.sin(th), np.cos(th)
-    zero = np.zeros_like(th)
-    p = L * np.stack([s, zero, -c], axis=1)
-    v = L * dth[:, None] * np.stack([c, zero, s], axis=1)
-    a = L * ddth[:, None] * np.stack([c, zero, s], axis=1) + L * (dth * dth)[:, None] * np.stack([-s, zero, c], axis=1)
-    return p, v, a, (th, dth, ddth)
+    return (*swing_point(L, th, dth, ddth), (th, dth, ddth))
 
 
 def support_force(t, m: float, L: float, r: float, g: float, theta0: float, dtheta0: float = 0.0) -> np.ndarray:

@@ -185,14 +185,20 @@ def pendulum_motion(t, omega_p: float, phi0: float, dphi0: float) -> tuple[np.nd
 def com_motion(t, a: float, b: float, g: float, phi0: float, dphi0: float = 0.0):
     """Exact centre-of-mass position, velocity and acceleration (each (n, 3), world, m, m/s,
     m/s²) and the angle triple (φ, φ̇, φ̈) of the plate."""
-    r = float(np.hypot(a, b))
     phi, dphi, ddphi = pendulum_motion(t, natural_frequency(a, b, g), phi0, dphi0)
+    return (*swing_point(float(np.hypot(a, b)), phi, dphi, ddphi), (phi, dphi, ddphi))
+
+
+def swing_point(r: float, phi, dphi, ddphi) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Position, velocity and acceleration (each (n, 3), world, m, m/s, m/s²) of a point at
+    distance ``r`` (m) from a pivot at the origin, swinging in the x-z plane at the angle ``phi``
+    (rad, from the downward vertical toward +x), its rate and its acceleration: p = r (sin φ, 0, −cos φ)."""
     s, c = np.sin(phi), np.cos(phi)
     zero = np.zeros_like(phi)
     p = r * np.stack([s, zero, -c], axis=1)
     v = r * dphi[:, None] * np.stack([c, zero, s], axis=1)
     acc = r * ddphi[:, None] * np.stack([c, zero, s], axis=1) + r * (dphi * dphi)[:, None] * np.stack([-s, zero, c], axis=1)
-    return p, v, acc, (phi, dphi, ddphi)
+    return p, v, acc
 
 
 def support_force(t, m: float, a: float, b: float, g: float, phi0: float, dphi0: float = 0.0) -> np.ndarray:

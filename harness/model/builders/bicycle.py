@@ -53,7 +53,7 @@ the benchmark's state matrix ``harness.references.bicycle.state_matrix``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -78,7 +78,7 @@ PITCH_ITER = 50
 
 def benchmark(params) -> reference.BicycleParams:
     """The benchmark's parameters (``BicycleParams``) from the scene's parameter values."""
-    return reference.BicycleParams(**{f.name: float(params[f.name]) for f in fields(reference.BicycleParams)})
+    return reference.params_of(params)
 
 
 def _rot(axis: int, angle: float) -> np.ndarray:

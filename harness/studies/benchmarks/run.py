@@ -108,10 +108,15 @@ def benchmark_scenes(models_dir=None) -> list[str]:
 EIGEN_SPEEDS = tuple(0.5 * k for k in range(21))
 
 
+def _coordinates(scene: Scene):
+    """The ``Coordinates(model, v)`` class of the scene's builder (a problem published as a
+    linearisation: module docstring)."""
+    return importlib.import_module(f"harness.model.builders.{scene.builder or scene.name}").Coordinates
+
+
 def _eigenvalue_curves(problem: ProblemResult, scene: Scene, module, engines) -> None:
     """The published eigenvalues at ``EIGEN_SPEEDS`` and each linearising engine's."""
-    coordinates = importlib.import_module(f"harness.model.builders.{scene.builder or scene.name}").Coordinates
-    model = scene.multibody()
+    coordinates, model = _coordinates(scene), scene.multibody()
     fine = [0.025 * k for k in range(int(round(EIGEN_SPEEDS[-1] / 0.025)) + 1)]
     problem.eigenvalues = {"speeds": list(EIGEN_SPEEDS), "published": module.published_eigenvalues(scene, EIGEN_SPEEDS),
                            "fine_speeds": fine, "fine_published": module.published_eigenvalues(scene, fine)}
@@ -126,8 +131,7 @@ def _linearized(row: EngineResult, scene: Scene, module) -> None:
     if row.engine not in with_accelerations():
         row.detail = "not linearised: the engine gives no accelerations at a state"
         return
-    coordinates = importlib.import_module(f"harness.model.builders.{scene.builder or scene.name}").Coordinates
-    model = scene.multibody()
+    coordinates, model = _coordinates(scene), scene.multibody()
     got = module.linearization_agreement(scene, lambda v: linearize(row.engine, scene, coordinates(model, v)).A)
     row.exact, row.unit, row.digits = got["error"], "rel", got["digits"]
     row.detail = (f"weave {got['weave']:.12g} m/s, capsize {got['capsize']:.12g} m/s "
