@@ -35,6 +35,8 @@ def test_scene_follows_the_recipe(scene):
         assert (folder / name).is_file(), f"models/{scene}/{name}"
     s = load_scene(scene)
     assert s.mjcf.is_file() and s.urdf.is_file()
+    if s.generated:  # "N copies of a unit": its files are written from the description, none kept here
+        assert not (folder / s.mjcf.name).exists() and not (folder / s.urdf.name).exists()
     system = s.builder or scene
     assert (ROOT / "references" / f"{system}.py").is_file() or "exact" not in s.checks
     if s.from_model_file:  # "A scene without code": no builder, every parameter mapped onto the model file

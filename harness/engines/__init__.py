@@ -339,6 +339,11 @@ def check_scene(scene):
             scene.mark_not_run(d.name, why)
     scene.default_integrators({d.name: d.integrator_for(model) for d in DECLARATIONS if d.name not in scene.not_run})
     check_engine_tables(scene, ENGINE_NAMES)
+    against = [c for c in AGAINST_REFERENCE_RUN if c in scene.checks]
+    if REFERENCE_ENGINE in scene.not_run and against:
+        raise InputError(f"{scene.directory / 'scene.toml'}: [checks.{against[0]}] is judged against the reference run, "
+                         f"and [not_run] says its engine ({REFERENCE_ENGINE}) does not run this scene: judge it by its "
+                         "closed form ([checks.exact]) instead")
     return scene
 
 
@@ -347,6 +352,11 @@ def integrator_of(scene, engine: str) -> str:
     engine's declared default on its system (also for an engine the scene does not run, for
     tools that read what it would hold: ``harness inspect``)."""
     return scene.integrators.get(engine) or declaration(engine).integrator_for(scene.multibody())
+
+
+#: The checks judged against the reference run (``harness.judging.checks``): a scene whose
+#: ``[not_run]`` names the reference engine gets no reference run and may declare none of them.
+AGAINST_REFERENCE_RUN = ("trajectory", "contact_force")
 
 
 def load_scene(name: str, overrides=None, *, models_dir=None):

@@ -77,12 +77,19 @@ def scene_defaults(scene: Scene) -> Scene:
     return load_scene(scene.directory.name, models_dir=scene.directory.parent)
 
 
+def files_hold(scene: Scene) -> Scene:
+    """The scene whose values ``scene``'s model files must hold: its ``scene.toml`` defaults
+    (``scene_defaults``), or the scene itself where its files are written from its description
+    for its parameters (``Scene.generated``: ``harness.model.model_files``)."""
+    return scene if scene.generated else scene_defaults(scene)
+
+
 def as_written(scene: Scene, engine: str, model0: Multibody | None = None) -> AsWritten:
     """``engine``'s model file of ``scene`` loaded as written and measured against ``model0``
-    (default: the scene at its ``scene.toml`` defaults). InputError if the file does not load
-    or holds a non-physical body."""
+    (default: the scene whose values the files must hold, ``files_hold``). InputError if the file
+    does not load or holds a non-physical body."""
     if model0 is None:
-        model0 = scene_defaults(scene).multibody()
+        model0 = files_hold(scene).multibody()
     if engine == "mujoco":
         m = _compile_as_written(scene)
         found = body_discrepancies(mujoco_bodies(m, model0), model0, rtol=AS_WRITTEN_RTOL)

@@ -6,7 +6,10 @@ validated parameter values; ``scene.multibody()`` builds the physics (``harness.
 every engine runs: from the scene's builder module (``harness.model.builders.<scene>``, or the
 one its ``builder`` key names), or, for a scene without code (no builder module and no
 ``builder`` key), from its model file, with each parameter put where its ``sets`` key says
-(``scene_multibody``; ``harness.model.from_model_file``: ``TARGETS``).
+(``scene_multibody``; ``harness.model.from_model_file``: ``TARGETS``). A scene whose builder
+generates its system (``generated = true``: N copies of a unit) keeps no model file: its MJCF
+and URDF are written from that system for its current parameters (``harness.model.model_files``)
+and the ``Scene`` points at them.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ import numpy as np
 
 from harness.model.errors import InputError
 from harness.model.from_model_file import ZERO, apply_parameters, check_runnable, parse_target, read_model_file
+from harness.model.model_files import generated_files
 from harness.model.multibody import Multibody
 from harness.model.sanity import check_multibody
 
@@ -109,7 +113,8 @@ def check_steps(t_end: float, dt: float, options: str = "--t-end and --dt") -> N
 _TOP_KEYS = {
     "name": ("string", True), "title": ("string", False), "textbook": ("list of strings", False),
     "mjcf": ("string", False), "urdf": ("string", False), "urdf_root_joint": ("string", False),
-    "builder": ("string", False), "initial_state": ("string", False), "needs": ("table", True),
+    "builder": ("string", False), "initial_state": ("string", False), "generated": ("boolean", False),
+    "needs": ("table", True),
     "parameters": ("table", True),
     "simulation": ("table", True), "integrators": ("table", False), "checks": ("table", False),
     "not_run": ("table", False), "requirements": ("table", False), "model_differences": ("table", False),
@@ -174,6 +179,10 @@ class Scene:
             key; its multibody is read from its model file (``harness.model.from_model_file``).
         initial_state: for a scene without code, ``zero`` (the default), ``qpos0`` or the name of
             a keyframe of its MJCF (``harness.model.from_model_file``); "" otherwise.
+        generated: True for a scene whose model files are written from its built system for
+            its current parameters (``generated = true``; ``mjcf`` and ``urdf`` are then those
+            files, in the user's cache: ``harness.model.model_files``), False for files kept in
+            its folder.
 
     The multibody is built once per ``Scene`` (on first use of ``multibody()``) and shared by
     every engine, check and tool that runs this scene; a copy with other parameters
@@ -201,6 +210,7 @@ class Scene:
     from_model_file: bool = False
     initial_state: str = ""
     model_files: tuple[str, ...] = MODEL_FILE_KEYS
+    generated: bool = False
     _built: Multibody | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getstate__(self) -> dict:
@@ -210,6 +220,8 @@ class Scene:
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self.__dict__["_built"] = None
+        if self.generated and not (self.mjcf.is_file() and self.urdf.is_file()):  # another machine (a Dask worker)
+            self.__dict__["mjcf"], self.__dict__["urdf"] = _write_generated(self)
 
     def mark_not_run(self, engine: str, why: str) -> None:
         """Record, before any run, that ``engine`` does not run this scene and why (as a
@@ -249,6 +261,24 @@ class Scene:
     def with_params(self, **overrides: Any) -> "Scene":
         """A copy with parameters overridden (values as numbers, sequences or strings)."""
         return apply_overrides(self, overrides)
+
+
+def _write_generated(scene: Scene) -> tuple[Path, Path]:
+    """The paths of a generated scene's MJCF and URDF, written from its built system
+    (``harness.model.model_files.generated_files``; the step for the loops' ``solref``)."""
+    return generated_files(scene.multibody(), scene.name, scene.mjcf.name, scene.urdf.name, scene.dt,
+                           str(scene.directory / "scene.toml"))
+
+
+def _with_generated_files(scene: Scene) -> Scene:
+    """``scene`` pointing at its model files written for its parameters when it is generated
+    (its system built once, here: a point its builder refuses is an InputError now); else as is."""
+    if not scene.generated:
+        return scene
+    mjcf, urdf = _write_generated(scene)
+    out = replace(scene, mjcf=mjcf, urdf=urdf)
+    object.__setattr__(out, "_built", scene.multibody())
+    return out
 
 
 # --------------------------------------------------------------------------- scenes without code
@@ -334,6 +364,8 @@ def load_scene(name: str, overrides: Mapping[str, Any] | None = None, *, models_
     data = read_toml(path)
     try:
         scene = apply_overrides(_scene_from_toml(data, path), overrides or {})
+        if not overrides:
+            scene = _with_generated_files(scene)
     except (KeyError, TypeError) as err:  # pragma: no cover - check_description catches these first
         raise InputError(f"{path}: scene description lacks or misstates {err}") from None
     from harness.model.input_files import check_model_file
@@ -380,7 +412,7 @@ def check_description(data: dict, path: Path) -> None:
         value = data[key]
         ok = {"string": lambda v: isinstance(v, str) and v.strip() != "",
               "list of strings": lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
-              "table": lambda v: isinstance(v, dict)}[what](value)
+              "table": lambda v: isinstance(v, dict), "boolean": lambda v: isinstance(v, bool)}[what](value)
         if not ok:
             raise InputError(f"{path}: {_where(key)} must be a {'non-empty ' if what == 'string' else ''}{what}, "
                              f"got {_show(value)}")
@@ -520,6 +552,8 @@ def _check_code_or_data(data: dict, path: Path) -> None:
     if "builder" in data and not has_builder(data["builder"]):
         raise InputError(f"{path}: builder = {data['builder']!r} is not a builder: one of "
                          f"{', '.join(builder_names())} (or no builder key: a scene without code)")
+    if data.get("generated"):
+        _check_generated(data, path)
     if not without_code(data):
         system = data.get("builder") or data["name"]
         mapped = next((p for p, spec in params.items() if "sets" in spec), None)
@@ -544,6 +578,22 @@ def _check_code_or_data(data: dict, path: Path) -> None:
             raise InputError(f"{path}: [checks.{check}] needs a builder (a closed loop or a rolling contact): a scene "
                              f"without one can ask for {', '.join(CHECKS_WITHOUT_CODE)} (and exact with references/"
                              f"{data['name']}.py)")
+
+
+def _check_generated(data: dict, path: Path) -> None:
+    """``generated = true``: a builder makes the system (a scene without code reads its files),
+    the scene names both files (the names they are written under) and keeps neither in its
+    folder (one source: the description)."""
+    if without_code(data):
+        raise InputError(f"{path}: generated = true writes the model files from the system a builder makes; this scene "
+                         f"has no builder (harness.model.builders.{data['name']}, or builder = \"<scene>\")")
+    for key in MODEL_FILE_KEYS:
+        if key not in data:
+            raise InputError(f"{path}: generated = true writes an MJCF and a URDF: name both (mjcf = \"<file>.xml\", "
+                             f"urdf = \"<file>.urdf\"); {key} is missing")
+        if (path.parent / data[key]).exists():
+            raise InputError(f"{path}: generated = true, yet {data[key]} is in {path.parent}: a generated scene's "
+                             "files are written from its description; remove the file or the generated key")
 
 
 def _where(key: str) -> str:
@@ -606,6 +656,7 @@ def _scene_from_toml(data: dict, path: Path) -> Scene:
         from_model_file=without_code(data),
         initial_state=str(data.get("initial_state", "")),
         model_files=files,
+        generated=bool(data.get("generated", False)),
     )
     return scene
 
@@ -622,7 +673,7 @@ def apply_overrides(scene: Scene, overrides: Mapping[str, Any]) -> Scene:
             raise InputError(f"unknown parameter {key!r} for {source} (parameters: {known})")
         p = params[key]
         params[key] = replace(p, value=_coerce(key, raw, p.kind, source))
-    return _follow(replace(scene, parameters=params), set(overrides))
+    return _with_generated_files(_follow(replace(scene, parameters=params), set(overrides)))
 
 
 def _follow(scene: Scene, explicit: set[str]) -> Scene:

@@ -57,7 +57,7 @@ from harness.judging.error_model import NOISE
 from harness.judging.verdict import requirement
 from harness.judging import quantities as vq
 from harness.judging.checks import REFERENCE_LABEL, CheckResult, run_engine as run_engine_of
-from harness.validate.run import default_settings, engine_case, reference_case, reference_settings
+from harness.validate.run import default_settings, engine_case, has_reference, reference_case, reference_settings
 
 QUANTITIES = tuple(q.name for q in vq.TRAJECTORY) + ("energy",)
 UNITS = {q.name: q.judged_unit for q in vq.TRAJECTORY} | {"energy": "rel"}  # units of the judged values
@@ -189,12 +189,14 @@ def debug(scene: Scene, engines: tuple[str, str], t_end: float | None = None, fa
     how its error converges), and find where each quantity's difference first exceeds its
     threshold. InputError for an engine the scene excludes (``[not_run]``)."""
     for e in engines:
-        if e in scene.not_run:
-            raise InputError(f"{e} does not run {scene.name}: {scene.not_run[e]}")
+        if e in scene.not_run or (e == REFERENCE_LABEL and not has_reference(scene)):
+            raise InputError(f"{e} does not run {scene.name}: {scene.not_run[run_engine_of(e)]}")
     if t_end is not None:
         scene = replace(scene, t_end=float(t_end))
     model = scene.multibody()
-    ref, _, ref_checks, solutions = reference_case(scene, fast)
+    ref, ref_checks, solutions = None, [], None  # no reference run: the engines judged without one (validate's)
+    if has_reference(scene):
+        ref, _, ref_checks, solutions = reference_case(scene, fast)
     runs, checks = [], {}
     for e in engines:
         if e == REFERENCE_LABEL:
@@ -205,7 +207,7 @@ def debug(scene: Scene, engines: tuple[str, str], t_end: float | None = None, fa
             runs.append(traj)
             checks[e] = own
     a, b = runs
-    judge = ref if ref.ok and len(ref.t) else a
+    judge = ref if ref is not None and ref.ok and len(ref.t) else a
     if len(judge.t):
         scales = compare.motion_scales(judge, model)
         energy_scale = compare.energy_scale(judge, model)

@@ -33,7 +33,7 @@ import pinocchio as pin
 from harness.tools import dynamics_terms as dc
 from harness.tools.check import load_mujoco, load_pinocchio
 from harness.engines import integrator_of
-from harness.engines.as_written import APPLIED_RTOL, AS_WRITTEN_RTOL, as_written, scene_defaults
+from harness.engines.as_written import APPLIED_RTOL, AS_WRITTEN_RTOL, as_written, files_hold
 from harness.engines.mujoco.model import load_mjcf, read_spec
 from harness.engines.pinocchio.model import load_urdf
 from harness.model.errors import InputError
@@ -159,7 +159,7 @@ def inspect_scene(scene: Scene, *, n_states: int = dc.DEFAULT_STATES, seed: int 
     if n_states < 1:
         raise InputError(f"--states must be >= 1, got {n_states}")
     model = scene.multibody()
-    model0 = scene_defaults(scene).multibody()
+    model0 = files_hold(scene).multibody()
     loads: list[Load] = []
     blocks: list[DynamicsBlock] = []
 

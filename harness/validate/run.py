@@ -40,8 +40,11 @@ against the scene's requirements and declared model differences; no check holds 
 number.
 
 The reference run is itself checked (engine ``reference``) for conservation and against the
-exact solution before it judges anything. Every run (reference, and each scene x engine) is
-made in its own worker process (``harness.validate.workers``): cases run in parallel, and a crash, hang
+exact solution before it judges anything. A scene whose ``[not_run]`` names the reference engine
+(``has_reference``: a finding of that engine's on the scene) gets no reference run: its engines
+are judged by its closed form (``[checks.exact]``) and their own invariants, and it may declare no
+check against the reference (``harness.engines.check_scene`` refuses ``[checks.trajectory]``).
+Every run (reference, and each scene x engine) is made in its own worker process (``harness.validate.workers``): cases run in parallel, and a crash, hang
 or blow-up is recorded as that case's failed ``run`` check while every other result is kept.
 Where the exact solution is itself integrated (the loop scenes' reference DAEs), the reference
 run's worker, which judges its own run with it at the times every run is saved at, returns it
@@ -118,6 +121,12 @@ class SceneValidation:
     @property
     def passed(self) -> bool:
         return all(c.passed for c in self.checks)
+
+
+def has_reference(scene: Scene) -> bool:
+    """Whether validation makes a reference run of ``scene``: not where its ``[not_run]`` names
+    the reference engine (module docstring)."""
+    return REFERENCE_ENGINE not in scene.not_run
 
 
 def save_interval(scene: Scene) -> float:
@@ -209,9 +218,14 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
                             tolerance_changes=list((tolerance_changes or {}).get(s.name, [])),
                             overrides=parameter_overrides(s, defaults[s.name]))
         v.checks.extend(models[s.name])
-        _collect(v, s, "reference", refs[s.name], reference_settings(s, fast))
+        ref = refs.get(s.name)
+        if ref is not None:
+            _collect(v, s, "reference", ref, reference_settings(s, fast))
         trajectories, seconds = {}, {}
         v.not_run = {e: s.not_run[e] for e in engines if e in s.not_run}
+        if ref is None:
+            v.not_run = {REFERENCE_LABEL: f"its engine ({REFERENCE_ENGINE}) does not run this scene; every engine is judged "
+                                          "by the closed form and its own invariants", **v.not_run}
         for e in engines:
             if e in v.not_run:
                 continue
@@ -220,11 +234,12 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
             if outcome.status == "ok" and outcome.value[0].ok:
                 trajectories[e] = outcome.value[0]
                 seconds[e] = outcome.value[3]
-            if refs[s.name].status != "ok" and "trajectory" in s.checks:
+            if ref is not None and ref.status != "ok" and "trajectory" in s.checks:
                 v.checks.append(CheckResult(s.name, e, "trajectory", float("nan"), 0.0, "", False,
-                                            f"no reference: reference run {refs[s.name].status}: {refs[s.name].message}"))
-        if refs[s.name].status == "ok" and refs[s.name].value[0].ok:
-            v.scales = compare.motion_scales(refs[s.name].value[0], s.multibody())
+                                            f"no reference: reference run {ref.status}: {ref.message}"))
+        ok = ref is not None and ref.status == "ok" and ref.value[0].ok
+        if ok:
+            v.scales = compare.motion_scales(ref.value[0], s.multibody())
         names = list(trajectories)
         methods = {e: integrator(e, default_settings(s, e, fast).integrator) for e in names}
         for i, a in enumerate(names):
@@ -232,7 +247,7 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
                 v.cross[f"{a} vs {b}"] = compare.trajectory_error(trajectories[a], trajectories[b])
                 found = extrapolated_difference(s, (methods[a], trajectories[a], seconds.get(a)),
                                                 (methods[b], trajectories[b], seconds.get(b)),
-                                                refs[s.name].value[0] if refs[s.name].status == "ok" else None)
+                                                ref.value[0] if ref is not None and ref.status == "ok" else None)
                 if found:
                     v.cross_extrapolated[f"{a} vs {b}"] = found
         results.append(v)
@@ -243,7 +258,8 @@ def _run_reference_then_engines(scenes: list[Scene], engines: list[str], jobs: i
                                 dask: str | None, fast: bool) -> tuple[dict, dict]:
     """Every scene's reference case, and each scene's engine cases as soon as its reference case
     has ended (they need its trajectory and exact solutions), on one pool of workers: no core
-    waits for the slowest reference before the engines start. Returns ``(refs, outcomes)``:
+    waits for the slowest reference before the engines start (a scene without a reference run,
+    ``has_reference``, starts its engine cases at once). Returns ``(refs, outcomes)``:
     ``{scene: Outcome}`` and ``{(scene, engine): Outcome}``. Raises InputError where a case
     reports bad input (the workers still running are killed on the way out)."""
     from harness.validate.workers import run_cases
@@ -263,8 +279,10 @@ def _run_reference_then_engines(scenes: list[Scene], engines: list[str], jobs: i
         ref, solutions = (outcome.value[0], outcome.value[3]) if outcome.status == "ok" else (None, None)
         return [((s.name, e), engine_case, (s, e, ref, fast, solutions)) for e in engines if e not in s.not_run]
 
-    found = run_cases([(s.name, reference_case, (s, fast)) for s in scenes], jobs, timeout, on_done=tick, dask=dask,
-                      follow=engines_of)
+    first = [(s.name, reference_case, (s, fast)) for s in scenes if has_reference(s)]
+    first += [((s.name, e), engine_case, (s, e, None, fast, None))  # no reference run: the engines at once
+              for s in scenes if not has_reference(s) for e in engines if e not in s.not_run]
+    found = run_cases(first, jobs, timeout, on_done=tick, dask=dask, follow=engines_of)
     refs = {k: o for k, o in found.items() if not isinstance(k, tuple)}
     outcomes = {k: o for k, o in found.items() if isinstance(k, tuple)}
     return refs, outcomes
@@ -306,10 +324,13 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
     ``harness.engines.loaded_models.body_discrepancies``, engine = the loader. A file that does not
     load or holds a non-physical body raises InputError; any other failure to read it back is
     a failed ``model.load`` check. A scene that names one model file only is checked as each
-    engine reads that file (``harness.engines.as_written.as_read``)."""
+    engine reads that file (``harness.engines.as_written.as_read``); a scene whose files are
+    generated for its parameters (``Scene.generated``), against the scene itself."""
     from harness.engines.as_written import MODEL_ENGINES, as_read
 
-    model0 = (defaults if defaults is not None else _defaults(scene)).multibody()
+    holder = scene if scene.generated else defaults if defaults is not None else _defaults(scene)
+    model0 = holder.multibody()
+    against = "the scene's description (files generated from it)" if scene.generated else "scene.toml defaults"
     hint = f"harness inspect {scene.name}"
     if scene.directory.parent.resolve() != MODELS_DIR.resolve():
         hint += f" --models-dir {scene.directory.parent}"
@@ -332,7 +353,7 @@ def model_checks(scene: Scene, engines: list[str], defaults: Scene | None = None
             name = f"model.{d.body}.{d.quantity}" if d.body else f"model.{d.quantity}"
             source = (f"{display(engine)}'s system as built from scene.toml" if not declaration(engine).reads
                       else f"{loaded.path.name} as written")
-            detail = f"{source} vs scene.toml defaults: {d.message}"
+            detail = f"{source} vs {against}: {d.message}"
             if not d.passed:
                 detail += f"; {hint} shows more"
             out.append(CheckResult(scene.name, engine, name, float(d.value), float(d.tolerance), d.unit, d.passed, detail))

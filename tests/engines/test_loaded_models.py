@@ -39,6 +39,7 @@ OVERRIDES = {
                 "tyre": 2e-5},
     "flyball_governor": {"L_shaft": 1.2, "L_rod": 0.8, "m_ball": 3.0, "a_slider": 0.12, "x_AB": 0.14, "l_attach": 0.4,
                          "k": 5e5, "c": 2e4, "l0": 0.45},
+    "four_bar_chain": {"N": 3, "L": 0.8, "m": 1.3, "r": 0.01, "theta0": 1.0},  # its files written for these
 }
 
 

@@ -36,6 +36,21 @@ def test_validate_passes_and_checks_only_what_the_scene_needs():
     assert "constraint.position" in names and "exact" in names
 
 
+def test_a_scene_the_reference_engine_does_not_run_has_no_reference_run():
+    """four_bar_chain's [not_run] names the in-house engine, the reference's: no reference run is
+    made (listed as not run, with why), and MuJoCo's checks are still made and judged by how they
+    converge, its exact check against the closed form."""
+    from dataclasses import replace
+
+    scene = replace(load_scene("four_bar_chain", {"N": 1}), t_end=1.0)
+    (res,) = validate([scene], ["mujoco", "inhouse"], jobs=1)
+    assert {"reference", "inhouse"} <= set(res.not_run) and "does not run this scene" in res.not_run["reference"]
+    assert [r.engine for r in res.runs] == ["mujoco"]
+    exact = next(c for c in res.checks if c.engine == "mujoco" and c.check == "exact")
+    assert exact.classification and len(exact.levels) >= 2 and exact.unit == "m"
+    assert not any(c.check.startswith("trajectory") or c.check == "run" for c in res.checks)
+
+
 def test_in_house_runs_use_the_compiled_twins_unless_per_state():
     scene = short("heavy_top")
     (fast,) = validate([scene], ["inhouse"], jobs=1)

@@ -20,7 +20,9 @@ checks of the files as written are not repeated (they do not depend on the param
 run is made in its own worker process with a timeout (``harness.validate.workers.open_workers``:
 the local pool, or the workers of a Dask scheduler), so a crash or a timeout is that point's
 result. An engine's runs of a point start as soon as that point's reference ends, with the
-exact solution its reference case computed (``harness.measure.solution_cache``).
+exact solution its reference case computed (``harness.measure.solution_cache``); a scene whose
+``[not_run]`` names the reference engine has no reference run (``has_reference``): its engines
+start at once.
 
 A point's result, per engine (``PointResult``), from ``validate``'s verdicts (each check judged
 by how its error converges, ``harness.judging.checks.judge_convergence``; ``harness.judging``):
@@ -64,7 +66,7 @@ from harness.judging.error_model import CONVERGES, DEFECT, MODEL_DIFFERENCE, NOT
 from harness.io.progress import case_label
 from harness.model.errors import InputError
 from harness.model.scene import Scene, check_steps, load_scene
-from harness.validate.run import REFERENCE_METHOD, engine_case, reference_case, save_interval
+from harness.validate.run import REFERENCE_METHOD, engine_case, has_reference, reference_case, save_interval
 from harness.validate.workers import Outcome, effective_jobs, open_workers
 
 MAX_POINTS = 10_000  # points of one sweep (each point is 1 + len(engines) runs)
@@ -336,7 +338,9 @@ def summarize(point: int, values: tuple, engine: str, integrator: str, outcome: 
                        record.wall_s, message, tuple(c.check for c in no_value), failing)
 
 
-def _reference_status(outcome: Outcome) -> str:
+def _reference_status(outcome: Outcome | None) -> str:
+    if outcome is None:  # the scene has no reference run (validate's has_reference)
+        return "not run"
     if outcome.status == "input_error":
         return f"refused: {outcome.message}"
     if outcome.status != "ok":
@@ -383,9 +387,11 @@ def run_sweep(scene: Scene, axes: list[Axis], points: list[tuple[float, ...]], e
             continue
         scenes[i] = s
 
-    pending = collections.deque(("reference", i) for i in scenes)
-    refs: dict[int, Outcome] = {}
-    left: dict[int, int] = {}
+    pending = collections.deque()
+    for i in scenes:  # a scene without a reference run (validate's has_reference): its engines at once
+        pending.extend([("reference", i)] if has_reference(scenes[i]) else [(e, i) for e in runnable])
+    refs: dict[int, Outcome | None] = {i: None for i in scenes if not has_reference(scenes[i])}
+    left: dict[int, int] = {i: len(runnable) for i in refs}
     with open_workers(jobs, dask) as workers:
         while pending or len(workers):
             while pending and workers.free():
@@ -394,7 +400,7 @@ def run_sweep(scene: Scene, axes: list[Axis], points: list[tuple[float, ...]], e
                     workers.start(key, reference_case, (scenes[i],), timeout)
                 else:
                     ref = refs[i]
-                    traj, solutions = (ref.value[0], ref.value[3]) if ref.status == "ok" else (None, None)
+                    traj, solutions = (ref.value[0], ref.value[3]) if ref is not None and ref.status == "ok" else (None, None)
                     workers.start(key, engine_case, (scenes[i], kind, traj, True, solutions), timeout)
             for key, outcome in workers.wait():
                 kind, i = key

@@ -1160,9 +1160,14 @@ SCENE_TIMEOUT = 3600.0  # s allowed to one scene's sweep on a Dask worker (a ful
 def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
                 progress: Progress | None = None) -> SceneSweep:
     """One scene's part of ``run_sweep``: its sweep, the head-to-head timing (with MuJoCo and
-    the in-house engine) and, unless ``options.batch`` is 0, the batched-throughput benchmark;
+    the in-house engine) and, unless ``options.batch`` is 0, the batched-throughput benchmark
+    (none of them where the scene's ``[not_run]`` names the reference engine: no points, and why);
     the wall time of each stage in ``walls`` (``kernels``: loading the compiled kernels first,
     ``warm_kernels``, outside ``total``)."""
+    if REFERENCE_ENGINE in scene.not_run:  # no reference to measure errors against: no points, and why
+        t_end, save = horizon(scene, options)
+        return SceneSweep(scene.name, t_end, save, f"none: the {REF} engine does not run this scene "
+                                                   f"({scene.not_run[REFERENCE_ENGINE]})")
     kernels_s = warm_kernels([scene]) if REFERENCE_ENGINE in engines else 0.0
     start = time.perf_counter()
     res = sweep_scene(scene, engines, options, progress)

@@ -33,7 +33,8 @@ DEFAULT_STEPS = 200
 # four_bar 3.7e-15, four_bar_near_singular 1.7e-15, heavy_top 1.2e-15, plate_pendulum 2.4e-15,
 # rocking_semicylinder 6.4e-16, rolling_cone 3.2e-14, rolling_cylinder_bar 1.9e-15, rolling_disk
 # 1.4e-15, rotating_plate 4.4e-16, slider_crank 3.4e-15, spring_pendulum 8.4e-15,
-# three_link_chain 4.0e-15, torque_free 1.3e-15, torque_free_symmetric 3.3e-16. The dependent
+# three_link_chain 4.0e-15, torque_free 1.3e-15, torque_free_symmetric 3.3e-16, four_bar_chain
+# (N = 2) 2.6e-15. The dependent
 # rows of the loops and of rolling_cone are solved differently (least squares from a pivoted
 # Cholesky factor here, the pseudo-inverse by eigenvalues there): the same accelerations,
 # different round-off.
@@ -50,14 +51,23 @@ def relative_difference(a, b) -> float:
     return worst
 
 
+# Scenes compared at other parameters than their defaults: four_bar_chain (IFToMM A02), which the
+# in-house engine does not run (its [not_run]: a projection that stalls at the first flat position,
+# 0.71 s, with N >= 2 windows, and a 605-row KKT system at its N = 40), over its first 0.2 s at N = 2.
+PARAMS = {"four_bar_chain": {"N": 2}}
+NOT_RUN_HERE = {"four_bar_chain"}  # compared all the same, over steps before its engine's finding
+
+
 def scenes():
-    yield from ((name, {}) for name in available_scenes())
+    yield from ((name, PARAMS.get(name, {})) for name in available_scenes())
     yield "double_pendulum", {"F0": 2.0, "omega_f": 3.0}  # the scene's force is off by default
 
 
 @pytest.mark.parametrize("name,params", list(scenes()))
 def test_rk4_compiled_reproduces_the_per_state_rk4_on_every_scene(name, params):
     scene = load_scene(name).with_params(**params)
+    if name in NOT_RUN_HERE:
+        scene = replace(scene, not_run={e: why for e, why in scene.not_run.items() if e != ENGINE.name})
     steps = STEPS.get(name, DEFAULT_STEPS)
     settings = RunSettings(steps * scene.dt, scene.dt, steps // 5 * scene.dt, "rk4")
     slow = ENGINE.simulate(scene, settings)
