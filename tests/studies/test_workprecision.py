@@ -643,3 +643,12 @@ def test_a_sweep_beyond_the_step_budget_is_refused_before_any_run(tmp_path, caps
     assert "heavy_top: the sweep's finest step (--saves, --t-end): a horizon of 5 s at a step of 7.8125e-09 s is " \
            "6.4e+08 integration steps, more than the 1e+08" in err[0], err
     assert not out.exists()
+
+
+def test_a_scene_the_reference_engine_does_not_run_is_listed_without_points():
+    """four_bar_chain's [not_run] names the in-house engine: no reference to measure errors
+    against, so no curve is run; its reference line says why (``scene_study``)."""
+    from harness.studies.workprecision.run import scene_study
+
+    result = scene_study(load_scene("four_bar_chain", {"N": 1}), list(ENGINE_NAMES), SweepOptions(progress=False))
+    assert result.points == [] and result.reference.startswith("none: the in-house engine does not run this scene")
