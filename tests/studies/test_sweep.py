@@ -225,3 +225,14 @@ def test_the_report_shows_classes_errors_and_failing_checks():
     for r2 in (run, SweepRun("demo", "grid", axes[:1], [(0.0,), (1.0,)], ["mujoco"], 1.0, rows=rows[:2]),
                SweepRun("demo", "random", axes, points, ["mujoco"], 1.0, seed=1, rows=rows)):
         assert figure_png(r2).startswith(PNG)
+
+
+def test_a_scene_the_reference_engine_does_not_run_sweeps_without_a_reference_run():
+    """four_bar_chain's [not_run] names the in-house engine: each point's engines start at once,
+    judged without a reference run (validate's ``has_reference``)."""
+    from harness.studies.sweep.run import run_sweep, with_horizon
+
+    scene = with_horizon(load_scene("four_bar_chain"), 0.5)
+    axes = check_axes(scene, [parse_axis("N=1:2:2", grid=True)])
+    run = run_sweep(scene, axes, grid_points(axes), ["mujoco"], jobs=1)
+    assert [(r.engine, r.status, r.reference) for r in run.rows] == [("mujoco", "ok", "not run")] * 2
