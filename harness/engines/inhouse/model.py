@@ -65,7 +65,7 @@ bicycle's wheels) adds independent rows: Cholesky, as for a tree.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -238,6 +238,9 @@ class NEModel:
     torques: tuple[TorqueElement, ...] = ()
     point_springs: tuple[PointSpringElement, ...] = ()
     redundant: bool = False  # loop joints, or a rolling contact on an anchored body: rows may be dependent (``constraints.solve_rows``)
+    loops: bool = False  # loop joints: singular positions may exist (``constraints.project`` at every stage)
+    Minv_sparse: Any = None  # Minv as a SciPy sparse matrix, for a model of ``SPARSE_ROWS`` rows or more
+    J_fixed: tuple | None = None  # with Minv_sparse and only ball/hinge rows: J_template's entries (rows, cols, values) and the mask of (J_rows, J_cols) on bodies, for a sparse J
 
     @property
     def nc_fast(self) -> int:
@@ -417,7 +420,37 @@ def build(model: Multibody) -> NEModel:
         torques=torques,
         point_springs=point_springs,
         redundant=bool(loops) or rolling_contact.dependent_rows(model),
+        loops=bool(loops),
+        Minv_sparse=sparse_inverse_mass(Minv, nc + 5 * len(slides) + 3 * len(contacts)),
+        J_fixed=sparse_template(J_template, np.array(cols, dtype=int), 6 * nb)
+        if nc >= SPARSE_ROWS and not slides and not contacts else None,
     )
+
+
+def sparse_template(J_template: np.ndarray, cols: np.ndarray, ncol: int) -> tuple:
+    """The constant entries of ``J_template`` on the bodies' columns (< ``ncol``) as
+    ``(rows, cols, values)``, and the mask of the varying entries' columns ``cols`` on them: what
+    ``constraints.evaluate`` assembles a sparse J from."""
+    r, c = np.nonzero(J_template[:, :ncol])
+    return r, c, J_template[r, c], cols < ncol
+
+
+#: From this many constraint rows on, ``constraints.RowSystem`` forms and factors J M^-1 J^T as a
+#: sparse matrix (SciPy's SuperLU) instead of a dense one: each row acts on at most two bodies, so
+#: the dense products and factor (O(nc^3)) dominate a large model's step. Measured on
+#: four_bar_chain (N = 40: 81 bodies, 605 rows) and N = 8 (17 bodies, 125 rows): see
+#: ``constraints.RowSystem``.
+SPARSE_ROWS = 200
+
+
+def sparse_inverse_mass(Minv: np.ndarray, nc: int):
+    """``Minv`` (block diagonal, 6 nb x 6 nb) as a SciPy CSR matrix for a model whose constraint
+    rows are many enough for the sparse solve (``SPARSE_ROWS``), else None."""
+    if nc < SPARSE_ROWS:
+        return None
+    from scipy import sparse
+
+    return sparse.csr_matrix(Minv)
 
 
 def split(nem: NEModel, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -30,10 +30,9 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy.linalg.lapack import dposv
 
 from harness.engines.inhouse import algebra, rolling
-from harness.engines.inhouse.constraints import DynamicsError, evaluate, frames, linear_velocities, slide_reactions, solve_rows
+from harness.engines.inhouse.constraints import DynamicsError, RowSystem, evaluate, project_stage, frames, linear_velocities, slide_reactions
 from harness.engines.inhouse.model import NEModel, build
 from harness.model.multibody import Multibody
 
@@ -56,9 +55,15 @@ class Baumgarte:
         return 2.0 * self.zeta * self.omega
 
 
-def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[float, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte(), stage_tol: float | None = None
+                  ) -> Callable[[float, np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """``dynamics(t, y) -> (dy/dt, lambda)``: state derivative (13 nb,) and constraint
-    multipliers (nc,) at time t (s). Raises DynamicsError on a singular KKT matrix."""
+    multipliers (nc,) at time t (s). Raises DynamicsError on a singular KKT matrix.
+
+    With ``stage_tol`` (m; a model with loop joints under a projected fixed-step method,
+    ``harness.engines.inhouse.projected_stages``) the derivative is that of the state projected
+    onto the constraint manifold (``constraints.project_stage``, positions to ``stage_tol``),
+    whose factored rows the accelerations reuse."""
     nb, nc = nem.nb, nem.nc
     I_B, Minv, weight = nem.I_B, nem.Minv, nem.weight_W
     forces = nem.forces
@@ -66,12 +71,14 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
     torques, point_springs = nem.torques, nem.point_springs
     damped = any(ps.c for ps in point_springs)  # a damper needs the ends' velocities
     kp, kd = float(gains.kp), float(gains.kd)
-    redundant = nem.redundant
     n3, n7, n10 = 3 * nb, 7 * nb, 10 * nb
     no_lambda = np.zeros(0)
     cross, quat_matrix, quat_rate = algebra.cross, algebra.quat_matrix, algebra.quat_rate
 
     def dynamics(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        rows = None
+        if stage_tol is not None and nc:
+            y, rows = project_stage(nem, y, stage_tol)
         W = y[n10:].reshape(nb, 3)
         tau = -cross(W, (I_B @ W[:, :, None])[:, :, 0])  # gyroscopic moment, body frame
         if nc or torques or point_springs:
@@ -99,17 +106,13 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[flo
         lam = no_lambda
         if nc:
             C, J, gamma = evaluate(nem, P_ext, R_ext, w_ext, linear_velocities(nb, y) if slides else None)
-            JM = J @ Minv
+            if rows is None:
+                rows = RowSystem(nem, J)
             rhs = -gamma - J @ a
             if kd or kp:
                 rhs -= kd * (J @ y[n7:]) + kp * C
-            if redundant:  # loop joints: dependent rows, the pseudo-inverse (``constraints.solve_rows``)
-                lam = solve_rows(JM @ J.T, rhs, True)
-            else:
-                _, lam, info = dposv(JM @ J.T, rhs)
-                if info != 0:
-                    raise DynamicsError(f"singular constraint (KKT) matrix at t = {t!r} s")
-            a = a + lam @ JM
+            lam = rows.solve(rhs)
+            a = a + rows.apply(lam)
         return np.concatenate([y[n7:n10], quat_rate(Q, W).ravel(), a]), lam
 
     return dynamics
@@ -171,9 +174,11 @@ def point_spring_force(ps, P_ext: np.ndarray, R_ext: np.ndarray, F: np.ndarray, 
         tau[b] -= algebra.cross(ps.r_b, R_ext[b].T @ f)
 
 
-def make_rhs(nem: NEModel, gains: Baumgarte = Baumgarte()) -> Callable[[float, np.ndarray], np.ndarray]:
-    """``rhs(t, y) -> dy/dt`` of the state vector (units: those of y per second)."""
-    dynamics = make_dynamics(nem, gains)
+def make_rhs(nem: NEModel, gains: Baumgarte = Baumgarte(), stage_tol: float | None = None
+             ) -> Callable[[float, np.ndarray], np.ndarray]:
+    """``rhs(t, y) -> dy/dt`` of the state vector (units: those of y per second); ``stage_tol``
+    as ``make_dynamics``."""
+    dynamics = make_dynamics(nem, gains, stage_tol)
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         return dynamics(t, y)[0]
