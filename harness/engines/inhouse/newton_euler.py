@@ -32,7 +32,7 @@ from typing import Callable
 import numpy as np
 
 from harness.engines.inhouse import algebra, rolling
-from harness.engines.inhouse.constraints import DynamicsError, RowSystem, evaluate, project_stage, frames, linear_velocities, slide_reactions
+from harness.engines.inhouse.constraints import RowSystem, evaluate, frames, linear_velocities, project_stage, slide_reactions
 from harness.engines.inhouse.model import NEModel, build
 from harness.model.multibody import Multibody
 
