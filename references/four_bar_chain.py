@@ -96,6 +96,7 @@ __all__ = [
     "EXACT_NEEDS_RUNS",
     "exact_error_series",
     "exact_error",
+    "exact_trajectory",
     "BENCHMARK",
 ]
 
@@ -186,6 +187,40 @@ def exact_error(scene: "Scene", traj: "Trajectory", settings=None, run=None) -> 
             f"every crank's tip vs the elliptic solution of the parallelogram chain; B0 (A02's output) "
             f"{float(np.max(err[:, 0])):.1e} m, couplers' centres {couplers:.1e} m; A02's slender rods (r = 0) "
             f"within {rod_distance(p, traj.t):.1e} m of the modelled r = {float(p['r']):g} m over the run")
+
+
+def exact_trajectory(scene: "Scene", t) -> "Trajectory":
+    """The exact motion of every body at times ``t`` (s) in maximal coordinates (the common
+    state, ``harness.measure.trajectory.Trajectory``): crank i at angle θ about its pivot
+    (i L, 0, 0), its centre of mass at the pivot + (L/2) e(θ), orientation θ about world −y
+    (quaternion (cos θ/2, 0, −sin θ/2, 0)), velocity (L/2) θ̇ e'(θ), angular velocity −θ̇ ŷ
+    (rad/s, world); coupler i level (identity orientation, at rest in rotation), its centre at
+    B_i + (L/2, 0, 0), moving with B_i at L θ̇ e'(θ) (m/s), e'(θ) = (−sin θ, 0, cos θ). The
+    work-precision study measures every run against it (the scene declares no check against a
+    reference run, so it has none: ``harness.studies.workprecision.run.reference``)."""
+    from harness.measure.trajectory import Trajectory
+
+    t = np.asarray(t, dtype=float)
+    p = scene.params
+    n, L = _n(p), float(p["L"])
+    theta, dtheta, _ = crank_motion(p, t)
+    names = scene.multibody().body_names
+    e = np.stack([np.cos(theta), np.zeros_like(theta), np.sin(theta)], axis=-1)
+    de = np.stack([-np.sin(theta), np.zeros_like(theta), np.cos(theta)], axis=-1)
+    pos, quat = np.zeros((len(t), len(names), 3)), np.zeros((len(t), len(names), 4))
+    vel, omega = np.zeros_like(pos), np.zeros_like(pos)
+    for i in range(n + 1):
+        k = names.index(crank(i, n))
+        pos[:, k] = np.array([i * L, 0.0, 0.0]) + 0.5 * L * e
+        quat[:, k, 0], quat[:, k, 2] = np.cos(0.5 * theta), -np.sin(0.5 * theta)
+        vel[:, k] = 0.5 * L * dtheta[:, None] * de
+        omega[:, k, 1] = -dtheta
+        if i < n:
+            k = names.index(coupler(i, n))
+            pos[:, k] = np.array([(i + 0.5) * L, 0.0, 0.0]) + L * e
+            quat[:, k, 0] = 1.0
+            vel[:, k] = L * dtheta[:, None] * de
+    return Trajectory("closed form", "elliptic", tuple(names), t, pos, quat, vel, omega)
 
 
 #: The scene as the benchmark report states it (``harness benchmark``): the IFToMM problem, what

@@ -123,6 +123,10 @@ _TOP_KEYS = {
 MODEL_FILE_KEYS = ("mjcf", "urdf")
 _NEEDS = ("gravity", "contact", "forcing")
 _SIMULATION = {"t_end": "the horizon in s", "dt": "the step in s", "save_every": "the save interval in s"}
+#: Optional [simulation] keys: validate's per-case wall-clock limit for this scene (s; default the
+#: command's ``--timeout``), for a scene whose every engine takes long (four_bar_chain: A02's 81
+#: bodies over 20 s at three steps).
+_SIMULATION_OPTIONAL = {"timeout": "validate's per-case limit in s"}
 _PARAMETER_KEYS = {"value": True, "kind": True, "unit": False, "doc": False, "sets": False}
 
 
@@ -159,6 +163,8 @@ class Scene:
         needs: ``{"gravity": bool, "contact": bool, "forcing": bool}``.
         parameters: name -> Parameter (values validated).
         t_end, dt, save_every: default horizon, step and save interval (s).
+        timeout: validate's per-case wall-clock limit for this scene (s), or None for the
+            command's ``--timeout`` (``[simulation] timeout``).
         checks: check name -> its table (which checks apply; ``components`` of momentum_drift).
         requirements: check name (``closure.position``) or check table (``closure``) -> a bound
             on its value at the scene's step that every engine must meet, in the check's unit
@@ -211,6 +217,7 @@ class Scene:
     initial_state: str = ""
     model_files: tuple[str, ...] = MODEL_FILE_KEYS
     generated: bool = False
+    timeout: float | None = None
     _built: Multibody | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getstate__(self) -> dict:
@@ -461,7 +468,9 @@ def check_description(data: dict, path: Path) -> None:
             raise InputError(f"{path}: {where} value must be a number or a list of numbers, got {_show(raw)}")
 
     sim = data["simulation"]
-    _known_keys(sim, _SIMULATION, path, "[simulation]")
+    _known_keys(sim, {**_SIMULATION, **_SIMULATION_OPTIONAL}, path, "[simulation]")
+    if "timeout" in sim:
+        _positive(sim["timeout"], path, "[simulation] timeout", _SIMULATION_OPTIONAL["timeout"])
     for key, what in _SIMULATION.items():
         if key not in sim:
             raise InputError(f"{path}: [simulation] lacks {key} ({what})")
@@ -657,6 +666,7 @@ def _scene_from_toml(data: dict, path: Path) -> Scene:
         initial_state=str(data.get("initial_state", "")),
         model_files=files,
         generated=bool(data.get("generated", False)),
+        timeout=float(sim["timeout"]) if "timeout" in sim else None,
     )
     return scene
 

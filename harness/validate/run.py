@@ -40,10 +40,12 @@ against the scene's requirements and declared model differences; no check holds 
 number.
 
 The reference run is itself checked (engine ``reference``) for conservation and against the
-exact solution before it judges anything. A scene whose ``[not_run]`` names the reference engine
-(``has_reference``: a finding of that engine's on the scene) gets no reference run: its engines
-are judged by its closed form (``[checks.exact]``) and their own invariants, and it may declare no
-check against the reference (``harness.engines.check_scene`` refuses ``[checks.trajectory]``).
+exact solution before it judges anything. A scene that declares no check against the reference
+run (``trajectory``, ``contact_force``), or whose ``[not_run]`` names the reference engine (a
+finding of that engine's on the scene; it may then declare no such check, ``harness.engines.check_scene``
+refuses them), gets no reference run (``has_reference``): its engines are judged by its closed
+form (``[checks.exact]``) and their own invariants. four_bar_chain is such a scene: A02's 81
+bodies over 20 s, whose reference run would cost more than all its engines' runs.
 Every run (reference, and each scene x engine) is made in its own worker process (``harness.validate.workers``): cases run in parallel, and a crash, hang
 or blow-up is recorded as that case's failed ``run`` check while every other result is kept.
 Where the exact solution is itself integrated (the loop scenes' reference DAEs), the reference
@@ -61,7 +63,7 @@ from typing import Any
 
 import numpy as np
 
-from harness.engines import declaration, display, get_engine, integrator, model_file, run_method
+from harness.engines import AGAINST_REFERENCE_RUN, declaration, display, get_engine, integrator, model_file, run_method
 from harness.engines.base import ERROR_CONTROL_ATOL, ERROR_CONTROL_TOL, RunSettings  # one set of defaults (simulate's too)
 from harness.judging import refinement
 from harness.judging.checks import (REFERENCE_ENGINE, REFERENCE_LABEL, CheckResult, check_run, extrapolated_difference,
@@ -124,9 +126,10 @@ class SceneValidation:
 
 
 def has_reference(scene: Scene) -> bool:
-    """Whether validation makes a reference run of ``scene``: not where its ``[not_run]`` names
-    the reference engine (module docstring)."""
-    return REFERENCE_ENGINE not in scene.not_run
+    """Whether validation makes a reference run of ``scene``: where it declares a check judged
+    against one (``harness.engines.AGAINST_REFERENCE_RUN``) and the reference engine runs it
+    (module docstring)."""
+    return REFERENCE_ENGINE not in scene.not_run and any(c in scene.checks for c in AGAINST_REFERENCE_RUN)
 
 
 def save_interval(scene: Scene) -> float:
@@ -224,8 +227,10 @@ def validate(scenes: list[Scene], engines: list[str], *, jobs: int | None = None
         trajectories, seconds = {}, {}
         v.not_run = {e: s.not_run[e] for e in engines if e in s.not_run}
         if ref is None:
-            v.not_run = {REFERENCE_LABEL: f"its engine ({REFERENCE_ENGINE}) does not run this scene; every engine is judged "
-                                          "by the closed form and its own invariants", **v.not_run}
+            why = (f"its engine ({REFERENCE_ENGINE}) does not run this scene" if REFERENCE_ENGINE in s.not_run
+                   else "the scene declares no check against a reference run")
+            v.not_run = {REFERENCE_LABEL: f"{why}; every engine is judged by the closed form and its own invariants",
+                         **v.not_run}
         for e in engines:
             if e in v.not_run:
                 continue
@@ -282,7 +287,12 @@ def _run_reference_then_engines(scenes: list[Scene], engines: list[str], jobs: i
     first = [(s.name, reference_case, (s, fast)) for s in scenes if has_reference(s)]
     first += [((s.name, e), engine_case, (s, e, None, fast, None))  # no reference run: the engines at once
               for s in scenes if not has_reference(s) for e in engines if e not in s.not_run]
-    found = run_cases(first, jobs, timeout, on_done=tick, dask=dask, follow=engines_of)
+
+    def limit(key) -> float:
+        """A case's wall-clock limit (s): the command's, or its scene's own ``timeout`` where larger."""
+        return max(timeout, by_name[key[0] if isinstance(key, tuple) else key].timeout or 0.0)
+
+    found = run_cases(first, jobs, limit, on_done=tick, dask=dask, follow=engines_of)
     refs = {k: o for k, o in found.items() if not isinstance(k, tuple)}
     outcomes = {k: o for k, o in found.items() if isinstance(k, tuple)}
     return refs, outcomes

@@ -33,12 +33,13 @@ def open_workers(jobs: int | None = None, dask: str | None = None):
     return Workers(jobs)
 
 
-def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, timeout: float,
+def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, timeout: float | Callable[[Hashable], float],
               on_done: Callable[[Hashable, Outcome], None] | None = None,
               dask: str | None = None,
               follow: Callable[[Hashable, Outcome], list] | None = None) -> dict[Hashable, Outcome]:
     """Run each ``fn(*args)`` in its own process, at most ``effective_jobs(jobs)`` at a time,
-    each limited to ``timeout`` wall-clock seconds from its own start. Returns ``{key: Outcome}``
+    each limited to ``timeout`` wall-clock seconds from its own start (or ``timeout(key)``, per
+    case). Returns ``{key: Outcome}``
     for every case, in the order of ``cases``; ``on_done(key, outcome)``, if given, is called in
     this process as each case ends (e.g. to tick a progress bar). Workers still running when this
     returns or raises (or when the process gets SIGTERM) are killed; on Linux they also die if
@@ -73,7 +74,7 @@ def run_cases(cases: list[tuple[Hashable, Callable, tuple]], jobs: int | None, t
         while pending or len(workers):
             while pending and workers.free():
                 key, fn, args = pending.popleft()
-                workers.start(key, fn, args, timeout)
+                workers.start(key, fn, args, timeout(key) if callable(timeout) else timeout)
             for key, outcome in workers.wait():
                 ended(key, outcome)
     return {key: results[key] for key in order}

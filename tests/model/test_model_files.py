@@ -113,8 +113,8 @@ def test_scene_toml_rules_for_generated_files(tmp_path):
 
 
 def test_a_scene_without_a_reference_run_cannot_ask_for_the_trajectory_check(tmp_path):
-    """four_bar_chain's [not_run] names the reference engine: a [checks.trajectory] there has
+    """A scene whose [not_run] names the reference engine: a [checks.trajectory] there has
     nothing to be judged against (harness.engines.check_scene)."""
-    models = _copy(tmp_path, lambda t: t + "\n[checks.trajectory]\n")
+    models = _copy(tmp_path, lambda t: t + '\n[not_run]\ninhouse = "a finding"\n\n[checks.trajectory]\n')
     with pytest.raises(InputError, match=r"\[checks.trajectory\] is judged against the reference run"):
         load_scene("four_bar_chain", models_dir=models)

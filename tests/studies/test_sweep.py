@@ -227,9 +227,9 @@ def test_the_report_shows_classes_errors_and_failing_checks():
         assert figure_png(r2).startswith(PNG)
 
 
-def test_a_scene_the_reference_engine_does_not_run_sweeps_without_a_reference_run():
-    """four_bar_chain's [not_run] names the in-house engine: each point's engines start at once,
-    judged without a reference run (validate's ``has_reference``)."""
+def test_a_scene_without_a_reference_run_sweeps_without_one():
+    """four_bar_chain declares no check against a reference run: each point's engines start at
+    once, judged without one (validate's ``has_reference``)."""
     from harness.studies.sweep.run import run_sweep, with_horizon
 
     scene = with_horizon(load_scene("four_bar_chain"), 0.5)

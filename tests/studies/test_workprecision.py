@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from harness.cli.main import main
-from harness.engines import ENGINE_NAMES
+from harness.engines import ENGINE_NAMES, get_engine
 from harness.engines.base import RunSettings
 from harness.measure.trajectory import Failure
 from harness.engines import load_scene
@@ -645,10 +645,21 @@ def test_a_sweep_beyond_the_step_budget_is_refused_before_any_run(tmp_path, caps
     assert not out.exists()
 
 
-def test_a_scene_the_reference_engine_does_not_run_is_listed_without_points():
-    """four_bar_chain's [not_run] names the in-house engine: no reference to measure errors
-    against, so no curve is run; its reference line says why (``scene_study``)."""
-    from harness.studies.workprecision.run import scene_study
+def test_a_scene_without_a_reference_run_is_measured_against_its_closed_form():
+    """four_bar_chain has no reference run (validate's has_reference) and its reference module
+    gives the exact motion of every body (exact_trajectory): the sweep measures against that. A
+    scene whose reference engine does not run it and that has no such motion gets no points, and
+    its reference line says why (``scene_study``)."""
+    from dataclasses import replace
 
-    result = scene_study(load_scene("four_bar_chain", {"N": 1}), list(ENGINE_NAMES), SweepOptions(progress=False))
+    from harness.studies.workprecision.run import reference, scene_study
+
+    scene = load_scene("four_bar_chain", {"N": 1})
+    traj, how = reference(scene, 1.0, 0.1)
+    assert how.startswith("the closed form") and traj.t[-1] == pytest.approx(1.0) and len(traj.t) == 11
+    mujoco = get_engine("mujoco").simulate(scene, RunSettings(1.0, 1e-4, 0.1, "RK4"))
+    assert float(np.max(np.abs(mujoco.p_WCm_W - traj.p_WCm_W))) < 1e-4  # its soft loops, at a fine step
+    assert float(np.max(np.abs(mujoco.w_WB_W - traj.w_WB_W))) < 1e-3
+    lost = replace(load_scene("four_bar", {}), not_run={"inhouse": "a finding"})
+    result = scene_study(lost, list(ENGINE_NAMES), SweepOptions(progress=False))
     assert result.points == [] and result.reference.startswith("none: the in-house engine does not run this scene")

@@ -16,6 +16,7 @@ from harness.engines.mujoco.engine import MujocoEngine
 from harness.model.scene import MODELS_DIR, available_scenes
 from harness.engines import load_scene
 from harness.judging import quantities
+from harness.model.errors import InputError
 from harness.validate.run import model_checks, validate
 
 SHORT = {"t_end": 0.5}
@@ -36,19 +37,39 @@ def test_validate_passes_and_checks_only_what_the_scene_needs():
     assert "constraint.position" in names and "exact" in names
 
 
-def test_a_scene_the_reference_engine_does_not_run_has_no_reference_run():
-    """four_bar_chain's [not_run] names the in-house engine, the reference's: no reference run is
-    made (listed as not run, with why), and MuJoCo's checks are still made and judged by how they
-    converge, its exact check against the closed form."""
+def test_a_scene_without_a_check_against_the_reference_has_no_reference_run():
+    """four_bar_chain declares no check against a reference run (no trajectory check: its closed
+    form judges every engine): no reference run is made (listed as not run, with why), and each
+    engine's checks are made and judged by how they converge, its exact check against the closed
+    form. Where the scene's [not_run] names the reference engine, that is the reason given."""
     from dataclasses import replace
 
     scene = replace(load_scene("four_bar_chain", {"N": 1}), t_end=1.0)
     (res,) = validate([scene], ["mujoco", "inhouse"], jobs=1)
-    assert {"reference", "inhouse"} <= set(res.not_run) and "does not run this scene" in res.not_run["reference"]
-    assert [r.engine for r in res.runs] == ["mujoco"]
-    exact = next(c for c in res.checks if c.engine == "mujoco" and c.check == "exact")
-    assert exact.classification and len(exact.levels) >= 2 and exact.unit == "m"
+    assert "declares no check against a reference run" in res.not_run["reference"]
+    assert [r.engine for r in res.runs] == ["mujoco", "inhouse"]
+    for engine in ("mujoco", "inhouse"):
+        exact = next(c for c in res.checks if c.engine == engine and c.check == "exact")
+        assert exact.classification and len(exact.levels) >= 2 and exact.unit == "m"
     assert not any(c.check.startswith("trajectory") or c.check == "run" for c in res.checks)
+    (res,) = validate([replace(scene, not_run={"inhouse": "a finding"})], ["mujoco", "inhouse"], jobs=1)
+    assert {"reference", "inhouse"} <= set(res.not_run) and "does not run this scene" in res.not_run["reference"]
+
+
+def test_a_scene_states_its_own_case_timeout(tmp_path):
+    """four_bar_chain's [simulation] timeout lifts validate's per-case limit for its cases (where
+    larger than --timeout); a non-positive one is refused at load."""
+    import shutil
+
+    from harness.model.scene import MODELS_DIR
+
+    assert load_scene("four_bar_chain").timeout >= 1200.0 and load_scene("pendulum").timeout is None
+    models = tmp_path / "models"
+    shutil.copytree(MODELS_DIR / "four_bar_chain", models / "four_bar_chain")
+    toml = models / "four_bar_chain" / "scene.toml"
+    toml.write_text(re.sub(r"timeout = \d+", "timeout = -1", toml.read_text()))
+    with pytest.raises(InputError, match=r"\[simulation\] timeout"):
+        load_scene("four_bar_chain", models_dir=models)
 
 
 def test_in_house_runs_use_the_compiled_twins_unless_per_state():

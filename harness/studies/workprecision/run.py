@@ -419,7 +419,14 @@ def reference(scene: Scene, t_end: float, save: float, method: str | None = None
     ``REFERENCE_TOL``, steps capped at save / ``REFERENCE_SLICES``) when the compiled form models
     the scene, else (``pack`` raises NotImplementedError, or the compiled run fails) the
     per-state DOP853 at the same tolerance with steps capped at save / 10; "dop853_compiled" or
-    "DOP853" forces one. RuntimeError when the reference run fails."""
+    "DOP853" forces one. A scene without a reference run (validate's ``has_reference``: it
+    declares no check against one) whose reference module gives its exact motion in maximal
+    coordinates (``exact_trajectory(scene, t)``: four_bar_chain) is measured against that
+    instead, at every ``method``. RuntimeError when the reference run fails."""
+    closed = closed_form(scene)
+    if closed is not None:
+        return closed(scene, np.arange(int(round(t_end / save)) + 1) * save), \
+            f"the closed form ({closed.__module__}.exact_trajectory): no reference run"
     engine = get_engine(REFERENCE_ENGINE)
     fine = save / 10.0
     why = ""
@@ -442,6 +449,17 @@ def reference(scene: Scene, t_end: float, save: float, method: str | None = None
     how = (f"{REF} per-state engine, SciPy DOP853 rtol = atol = {REFERENCE_TOL:g}, max step {fine:g} s "
            f"({traj.stats.get('steps', '?')} steps, {traj.stats.get('wall_s', float('nan')):.3g} s){why}")
     return traj, how
+
+
+def closed_form(scene: Scene) -> Callable | None:
+    """The scene's ``exact_trajectory`` (its reference module's exact motion of every body) where
+    validation makes it no reference run (``harness.validate.run.has_reference``), else None."""
+    from harness.measure.exact import reference_module
+    from harness.validate.run import has_reference
+
+    if has_reference(scene):
+        return None
+    return getattr(reference_module(scene), "exact_trajectory", None)
 
 
 def reference_checks(scene: Scene, ref: Trajectory, t_end: float, save: float) -> dict[str, float]:
@@ -1161,10 +1179,11 @@ def scene_study(scene: Scene, engines, options: SweepOptions = SweepOptions(),
                 progress: Progress | None = None) -> SceneSweep:
     """One scene's part of ``run_sweep``: its sweep, the head-to-head timing (with MuJoCo and
     the in-house engine) and, unless ``options.batch`` is 0, the batched-throughput benchmark
-    (none of them where the scene's ``[not_run]`` names the reference engine: no points, and why);
+    (none of them where the scene's ``[not_run]`` names the reference engine and it has no
+    closed-form motion, ``closed_form``: no points, and why);
     the wall time of each stage in ``walls`` (``kernels``: loading the compiled kernels first,
     ``warm_kernels``, outside ``total``)."""
-    if REFERENCE_ENGINE in scene.not_run:  # no reference to measure errors against: no points, and why
+    if REFERENCE_ENGINE in scene.not_run and closed_form(scene) is None:  # nothing to measure errors against
         t_end, save = horizon(scene, options)
         return SceneSweep(scene.name, t_end, save, f"none: the {REF} engine does not run this scene "
                                                    f"({scene.not_run[REFERENCE_ENGINE]})")

@@ -116,3 +116,88 @@ def test_a_loop_to_the_world_closes_a_pendulum():
     traj = ENGINE.simulate_model(pinned, settings(t_end=0.5))
     assert traj.ok, traj.message
     assert np.max(np.abs(traj.p_WCm_W - traj.p_WCm_W[0])) < 1e-12
+
+
+# ---------------------------------------------------------------------------------------------
+# Singular positions: four_bar_chain (IFToMM A02), N parallelogram windows through their flat
+# position, where each window's in-plane rows lose rank.
+
+
+def chain_state(n, theta, dtheta, **params):
+    """(scene, model, nem, y) of four_bar_chain with n windows on its parallelogram branch at crank
+    angle theta (rad from +x toward +z; 0 is flat) turning at dtheta (rad/s)."""
+    from harness.engines.inhouse.model import state_at
+    from harness.model.builders.four_bar_chain import coupler, crank
+
+    scene = load_scene("four_bar_chain", {"N": n, **params})
+    model = scene.multibody()
+    nem = build(model)
+    q = {crank(i, n): np.array([theta]) for i in range(n + 1)} | {coupler(i, n): np.array([-theta]) for i in range(n)}
+    v = {crank(i, n): np.array([dtheta]) for i in range(n + 1)} | {coupler(i, n): np.array([-dtheta]) for i in range(n)}
+    return scene, model, nem, state_at(model, q, v, nem)
+
+
+def test_near_a_flat_position_the_windows_rows_are_kept_whatever_the_bars_radius():
+    """Slender bars (r = 5 mm) make J M^-1 J^T's largest eigenvalue ~1e5 (spin about a bar's own
+    axis); 2e-3 rad from flat the windows' in-plane rows are ~1e-5 of it... and below 1e-10 of it
+    in the unscaled matrix. The rank is decided on the row-scaled matrix: the velocity projection
+    then satisfies every row (it left the windows' rows unprojected before)."""
+    from harness.engines.inhouse.constraints import pseudo_inverse
+
+    _, _, nem, y = chain_state(2, 2e-3, -5.0)
+    _, J, _ = rows(nem, y)
+    A = J @ nem.Minv @ J.T
+    w = np.linalg.eigvalsh(A)
+    assert w[-1] > 1e4 and np.sum(w > RANK_RTOL * w[-1]) < np.linalg.matrix_rank(J, tol=1e-9)  # unscaled: rows lost
+    u = np.random.default_rng(0).normal(size=J.shape[1])
+    projected = u - pseudo_inverse(A)(J @ u) @ (J @ nem.Minv)
+    assert np.max(np.abs(J @ projected)) < 1e-9 * np.max(np.abs(J @ u))
+
+
+def test_a_loop_model_evaluates_each_stage_at_its_projection():
+    """Off the manifold near a flat position, the plain right-hand side turns a stage's velocity
+    error c into a folding acceleration ~c / theta^2; evaluated at the stage's projection it stays
+    at the exact one. On the manifold both are the same."""
+    from harness.engines.inhouse import Baumgarte, projected_stages
+    from harness.engines.inhouse.model import split
+    from harness.engines.inhouse.newton_euler import make_rhs
+
+    _, _, nem, y = chain_state(2, 1e-4, -5.0)
+    plain, staged = make_rhs(nem, Baumgarte(omega=0.0)), projected_stages(nem, Baumgarte(omega=0.0))
+    exact = split(nem, plain(0.0, y))[2]
+    assert np.max(np.abs(split(nem, staged(0.0, y))[2] - exact)) < 1e-9 * np.max(np.abs(exact))
+    off = y.copy()
+    off[7 * nem.nb :] += 1e-7 * np.random.default_rng(1).normal(size=6 * nem.nb)  # a stage's velocity error
+    err_plain = np.max(np.abs(split(nem, plain(0.0, off))[2] - exact))
+    err_staged = np.max(np.abs(split(nem, staged(0.0, off))[2] - exact))
+    assert err_staged < 1e-4 * np.max(np.abs(exact)) and err_plain > 100.0 * err_staged
+
+
+def test_two_windows_pass_the_flat_position_on_the_exact_motion():
+    """N = 2 (A02's trap: a window may fold into an anti-parallelogram at the flat position,
+    t = 0.715 s; the projection used to stall there): per-state rk4 at 1 ms through it."""
+    from harness.references import four_bar_chain
+
+    scene = load_scene("four_bar_chain", {"N": 2})
+    traj = ENGINE.simulate(scene, RunSettings(t_end=1.0, dt=1e-3, save_every=0.05, integrator="rk4"))
+    assert traj.ok, traj.message
+    assert four_bar_chain.exact_error(scene, traj)[0] < 1e-9  # measured 4.5e-11 m
+
+
+def test_a_large_model_solves_its_rows_sparse_as_the_dense_form_does():
+    """From SPARSE_ROWS rows on (four_bar_chain N = 14: 215 rows) the rows are factored sparse
+    (SuperLU, regularised, refined): the same accelerations as the dense pseudo-inverse; the
+    compiled form leaves such a model to the per-state one."""
+    from harness.engines.inhouse import fast_method
+    from harness.engines.inhouse.model import SPARSE_ROWS
+    from harness.engines.inhouse.newton_euler import make_rhs
+    from harness.measure.trajectory import Failure
+
+    scene, model, nem, y = chain_state(14, 0.7, -3.0)
+    assert nem.nc >= SPARSE_ROWS and nem.Minv_sparse is not None and nem.J_fixed is not None
+    dense = replace(nem, Minv_sparse=None, J_fixed=None)
+    a_sparse, a_dense = make_rhs(nem)(0.0, y), make_rhs(dense)(0.0, y)
+    assert np.max(np.abs(a_sparse - a_dense)) < 1e-10 * np.max(np.abs(a_dense))
+    assert fast_method("rk4", model) == "rk4"
+    run = ENGINE.simulate(scene, RunSettings(t_end=0.01, dt=1e-3, save_every=0.01, integrator="rk4_compiled"))
+    assert run.reason is Failure.UNSUPPORTED and "constraint rows" in run.message
