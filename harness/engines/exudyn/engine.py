@@ -11,6 +11,13 @@ structurally implied by the tree (``harness.engines.exudyn.model.loop_rows``); w
 dependent at the initial state only, every row is kept and the run uses Eigen's full-pivot LU
 (``EigenDense`` with ``ignoreSingularJacobian``). The run record's settings name the rows.
 
+The linear solver of the Newton iteration (``linear_solver``) goes by the assembled system's
+size: Exudyn's dense LU with full Newton below ``SPARSE_MIN_SIZE`` coordinates (every shipped
+scene but four_bar_chain), Eigen's sparse LU with one Newton Jacobian per step from there on
+(four_bar_chain at N = 40, 1131 coordinates: 20 s at a 1 ms step in 24-33 s instead of
+800-1660 s), and the full-pivot LU whatever the size where rows are dependent. The run record's
+settings name it.
+
 Maximal coordinates come from Exudyn's sensors at every saved sample: the centre of mass
 position and velocity (m, m/s, world), the rotation matrix and the world angular velocity
 (rad/s). Exudyn reports no system energy: the harness computes it from these.
@@ -50,7 +57,8 @@ from harness.model import rotations
 from harness.model.joints import JOINTS
 from harness.model.scene import Scene
 
-#: Newton iteration of the implicit methods: full Newton (Jacobian every iteration), converged
+#: Newton iteration of the implicit methods: full Newton (Jacobian every iteration; once a step
+#: from ``SPARSE_MIN_SIZE`` coordinates, ``linear_solver``), converged
 #: when the residual falls below these (relative to the first residual of the step; absolute).
 NEWTON_RTOL = 1e-8
 NEWTON_ATOL = 1e-12
@@ -66,12 +74,33 @@ NEWTON_ATOL = 1e-12
 #: energy 1.5e-5, 3.7e-6, 9.3e-7 (tests/engines/exudyn/test_engine.py).
 SPECTRAL_RADIUS = 0.9
 
+#: Size of the assembled system (Exudyn's ODE2 and algebraic coordinates: 6 per rigid body on
+#: rotation-vector nodes, 7 on Euler parameters, and every joint's multipliers; ``system_size``)
+#: from which a run solves with Eigen's sparse LU (``LinearSolverType.EigenSparse``) and takes one
+#: Newton Jacobian per step (``linear_solver``); below it, Exudyn's dense LU (``EXUdense``) and
+#: full Newton. Wall time, GeneralizedAlpha at a 1 ms step, full Newton both (shared 2-core
+#: machine): four_bar (39 coordinates) 2 s in 0.114 s dense, 0.128 s sparse (best of 3);
+#: four_bar_chain N = 2 (67) 0.23 s, 0.22 s; andrews_squeezer (95; 0.03 s at 1e-5 s) 0.63 s,
+#: 0.50 s (best of 3); four_bar_chain N = 4 (123) 0.62 s, 0.39 s; N = 8 (235) 2.0 s, 0.78 s;
+#: N = 40 (1131) 51-72 ms a step dense (its factorization ~90 %), 1.7 ms sparse. The threshold
+#: sits above every shipped scene but four_bar_chain (the largest, andrews_squeezer, has 95),
+#: whose runs stay as they were (tests/engines/exudyn/test_linear_solver.py).
+SPARSE_MIN_SIZE = 100
+
+#: With the sparse LU the step's Newton Jacobian, computed at its first iteration, is kept while
+#: each iteration reduces the residual by at least this factor; a poorer one takes a new
+#: Jacobian (Exudyn's ``modifiedNewtonContractivity``). Exudyn's default, 0.5, lets a step next to
+#: four_bar_chain's flat position creep at 0.38 an iteration down to the residual floor there
+#: (``linear_solver``): N = 4 at a 2 ms step stopped at t = 1.236 s; at 0.1 it runs the 20 s.
+STEP_JACOBIAN_CONTRACTIVITY = 0.1
+
 
 class ExudynEngine(EngineBase):
     """Runs a scene in Exudyn, built from the scene's description. ``modified_newton``: reuse the
     Newton Jacobian across iterations and steps (Exudyn's modified Newton) where full Newton
-    (``NEWTON_RTOL``, validation's setting) is not needed: the step converges to the same
-    tolerances, 20 times faster on a 30-body robot (``harness check``'s witness runs)."""
+    (``NEWTON_RTOL``, validation's setting; one Jacobian per step on a large system,
+    ``linear_solver``) is not needed: the step converges to the same tolerances, 20 times faster
+    on a 30-body robot (``harness check``'s witness runs)."""
 
     name = "exudyn"
     integrators = METHODS
@@ -106,12 +135,7 @@ class ExudynEngine(EngineBase):
         except NotImplementedError as err:
             return unsupported(self.name, method, names, f"{method}: {err}")
         n_steps = settings.n_saves * settings.steps_per_save
-        ss = _solver_settings(exu, settings, n_steps, self.modified_newton)
-        if system.dependent_rows or (system.loop_rows is not None and system.loop_rows.singular):
-            # rows dependent throughout (a rolling body on a joint) or at the initial state only
-            # (loop rows): Eigen's full-pivot LU resolves them
-            ss.linearSolver.solverType = exu.LinearSolverType.EigenDense
-            ss.linearSolver.ignoreSingularJacobian = True
+        ss = _solver_settings(exu, settings, n_steps, self.modified_newton, solver=linear_solver(system))
         printing = exu.config.printToConsole
         exu.config.printToConsole = False  # Exudyn's own failure banner; the run record says it
         reason, message = Failure.NONE, ""
@@ -144,7 +168,7 @@ class ExudynEngine(EngineBase):
             "steps": n_steps if reason is Failure.NONE else max(len(out.t) - 1, 0) * settings.steps_per_save,
             "wall_s": time.perf_counter() - start,
             "wall_solve_s": wall_solve,
-            "settings": _describe(method, settings, model, system),
+            "settings": _describe(method, settings, model, system, self.modified_newton),
         })
         if reason is not Failure.NONE:
             return replace(out, reason=reason, message=message)
@@ -153,10 +177,59 @@ class ExudynEngine(EngineBase):
         return out
 
 
-def _solver_settings(exu, settings: RunSettings, n_steps: int, modified_newton: bool = False):
+def system_size(system) -> int:
+    """Coordinates of the assembled Exudyn system (ODE2, ODE1 and algebraic): the order of the
+    Newton iteration's linear system."""
+    sd = system.mbs.systemData
+    return int(sd.ODE2Size() + sd.ODE1Size() + sd.AEsize())
+
+
+def linear_solver(system) -> str:
+    """Exudyn's ``LinearSolverType`` (name) for ``system``'s Newton iteration:
+
+    * ``EigenDense`` (Eigen's full-pivot LU, with ``ignoreSingularJacobian``) where rows are
+      dependent, throughout (a rolling body on a joint, ``ExudynSystem.dependent_rows``) or at the
+      initial state only (``LoopRows.singular``): it resolves them, whatever the size (Exudyn's
+      ``ignoreSingularJacobian`` works with its dense solvers only);
+    * ``EigenSparse`` (Eigen's SparseLU) from ``SPARSE_MIN_SIZE`` coordinates (``system_size``):
+      the Newton matrix of a multibody system is sparse (a joint couples two bodies) and the
+      dense LU's cost grows with the cube of its order. The step then takes one Newton Jacobian
+      (Exudyn's modified Newton with ``modifiedNewtonJacUpdatePerStep``: the Jacobian of the
+      step's first iteration kept for the others while they contract by
+      ``STEP_JACOBIAN_CONTRACTIVITY``), converged to the same tolerances;
+    * ``EXUdense`` (Exudyn's dense LU, its default) below that size, with full Newton.
+
+    Measured on four_bar_chain (GeneralizedAlpha; wall times on the shared 2-core machine). N = 40
+    (1131 coordinates), 1 ms step: 51-72 ms a step dense with full Newton, 1.7 ms sparse with full
+    Newton (2 Jacobians a step), 1.1 ms sparse with one Jacobian a step (2 iterations a step in
+    each); keeping the Jacobian across steps too (``ExudynEngine(modified_newton=True)``) takes 7
+    iterations a step there and is no faster. N = 40 over 20 s at 2, 1, 0.5 ms: exact error
+    1.283e-3, 3.205e-4, 8.12e-5 m (order 2.0, 2.0), in 15, 24, 58 s (dense with full Newton:
+    1.283e-3 m in 723 s at 2 ms, 3.2e-4 m in 800-1660 s at 1 ms). Through the flat positions,
+    where N loop rows become dependent for an instant, the sparse run is the dense one's: exact
+    error 2.355e-5 m both over 2 s at N = 40 (first flat position at t = 0.715 s); positions
+    within 4e-10 m over 1 s at N = 4, 2.5e-8 m over 3 s at N = 8.
+
+    A step that lands next to a flat position may leave Newton stalled at a residual of
+    ~1e-7 of the step's first one, above ``NEWTON_RTOL`` (a near-singular root: full Newton
+    wanders or cycles there), and the run stops there (status failed). Which runs meet such a
+    step goes by round-off, whatever the solver: over N = 2, 3, 4, 5, 6, 8, 12 at 2, 1, 0.5 ms
+    (20 s), the dense LU with full Newton (the previous setting) stopped at N = 8, 2 ms
+    (t = 18.35 s; it took 23 iterations at a step of N = 4, 2 ms and 14 at N = 12, 1 ms), the
+    sparse LU with full Newton at N = 8, 2 ms and N = 12, 1 ms, the sparse LU with one Jacobian
+    per step at N = 12, 1 ms (t = 16.42 s); at N = 40 both sparse settings ran all three steps.
+    """
+    if system.dependent_rows or (system.loop_rows is not None and system.loop_rows.singular):
+        return "EigenDense"
+    return "EigenSparse" if system_size(system) >= SPARSE_MIN_SIZE else "EXUdense"
+
+
+def _solver_settings(exu, settings: RunSettings, n_steps: int, modified_newton: bool = False, *,
+                     solver: str = "EXUdense"):
     """Exudyn ``SimulationSettings`` for a fixed-step run of ``n_steps`` steps to ``t_end`` with
-    sensors stored every save interval, nothing written to files or the console; full Newton
-    unless ``modified_newton``."""
+    sensors stored every save interval, nothing written to files or the console, the Newton
+    iteration's linear ``solver`` (``linear_solver``); full Newton unless ``modified_newton``
+    (the Jacobian kept across steps) or the sparse solver (one Jacobian per step)."""
     ss = exu.SimulationSettings()
     ti = ss.timeIntegration
     ti.numberOfSteps = n_steps
@@ -166,6 +239,13 @@ def _solver_settings(exu, settings: RunSettings, n_steps: int, modified_newton: 
     ti.automaticStepSize = False
     ti.generalizedAlpha.spectralRadius = SPECTRAL_RADIUS
     ti.newton.useModifiedNewton = modified_newton
+    ss.linearSolver.solverType = getattr(exu.LinearSolverType, solver)
+    if solver == "EigenDense":  # dependent rows: the full-pivot LU resolves them
+        ss.linearSolver.ignoreSingularJacobian = True
+    if solver == "EigenSparse" and not modified_newton:  # a large system: one Jacobian per step
+        ti.newton.useModifiedNewton = True
+        ti.newton.modifiedNewtonJacUpdatePerStep = True
+        ti.newton.modifiedNewtonContractivity = STEP_JACOBIAN_CONTRACTIVITY
     ti.newton.relativeTolerance = NEWTON_RTOL
     ti.newton.absoluteTolerance = NEWTON_ATOL
     ss.solution.file.write = False
@@ -176,11 +256,25 @@ def _solver_settings(exu, settings: RunSettings, n_steps: int, modified_newton: 
     return ss
 
 
-def _describe(method: str, settings: RunSettings, model, system=None) -> str:
+#: How the run record names each linear solver (``linear_solver``).
+SOLVER_TEXT = {"EXUdense": "dense LU (EXUdense)", "EigenSparse": "sparse LU (EigenSparse)",
+               "EigenDense": "full-pivot LU (EigenDense, ignoreSingularJacobian)"}
+
+
+def _describe(method: str, settings: RunSettings, model, system=None, modified_newton: bool = False) -> str:
     node = NODE_TYPE[method]
     text = f"Exudyn {method} on {node} nodes, step {settings.dt:g} s"
     if method in IMPLICIT:
-        text += f", full Newton (rtol {NEWTON_RTOL:g}, atol {NEWTON_ATOL:g})"
+        solver = "EXUdense" if system is None else linear_solver(system)
+        if modified_newton:
+            newton = "modified Newton (Jacobian kept across steps)"
+        elif solver == "EigenSparse":
+            newton = f"Newton with one Jacobian per step (a new one below {STEP_JACOBIAN_CONTRACTIVITY:g} contraction)"
+        else:
+            newton = "full Newton"
+        text += f", {newton} (rtol {NEWTON_RTOL:g}, atol {NEWTON_ATOL:g})"
+        if system is not None:
+            text += f", {SOLVER_TEXT[solver]} on {system_size(system)} coordinates"
         if method == "GeneralizedAlpha":
             text += f", spectral radius {SPECTRAL_RADIUS:g}, index-3 constraints"
         else:

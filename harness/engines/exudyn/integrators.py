@@ -9,7 +9,8 @@ Lie-group form, it runs):
 
 * ``GeneralizedAlpha``: Lie-group generalized-alpha on rotation-vector nodes, spectral radius
   0.9 (``harness.engines.exudyn.engine.SPECTRAL_RADIUS``: at 1 the undamped index-3 multipliers
-  wander), constraints at position level (index 3), full Newton iteration per step. Order 2;
+  wander), constraints at position level (index 3), full Newton iteration per step (one
+  Jacobian per step with the sparse LU of a large system: ``engine.linear_solver``). Order 2;
   its Lagrange multipliers (the joint reactions and contact forces) order 1 (``reaction_order``:
   the order reduction of index-3 generalized-alpha without perturbed starting values, Arnold &
   Bruls 2007; measured on the spring pendulum's joint moment at a sampled set (m = 1.99 kg, k = 301
