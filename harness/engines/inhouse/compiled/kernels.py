@@ -30,22 +30,35 @@ point springs, and prescribed point forces whose time law is a ``HarmonicForce``
 Dependent constraint rows (``NEModel.redundant``: loop joints, a rolling body the world holds
 through joints alone) are factored by Cholesky with diagonal pivoting, which drops the pivots at
 round-off (``_DEPENDENT`` of the largest diagonal entry: rows that depend on the others exactly;
-``_pivoted_cholesky``).
-Near a singular configuration (a kept pivot below ``_WELL_CONDITIONED``: the unit parallelogram
-four-bar within about 1e-2 rad of its flat positions, where the loop loses an in-plane row) a
-pivot is not an eigenvalue, and a rank decision by pivots differs from the per-state
-pseudo-inverse's (eigenvalues below ``RANK_RTOL`` of the largest dropped) in a band around the
-singular position: there J M^-1 J^T is eigen-decomposed (``_jacobi_eigen``) and both the
-accelerations and the projection apply the per-state pseudo-inverse itself (``_factor``,
-``_eigen_solve``). Measured on that parallelogram (a = b = c = d = 1 m, 1 kg bars, IFToMM A02
-with N = 1), deciding by pivots: within 2e-3 rad of the flat positions the accelerations left
-the per-state ones by up to 3e-6 of the largest on the manifold and 1.3e-3 at a Runge-Kutta
-stage 1e-6 off it, and the projection by 1.2e-7; one passage added 3.5e-10 J of energy;
-rk4_compiled ended 10 s 4.3e-9 rad from the exact motion (per-state rk4 2.0e-10), 2.1e-9 at dt
-2.5e-4 (no convergence), and dop853_compiled (rtol 1e-10) took 1174 steps for 1.5 s. With the
-eigen-decomposition: within 4e-11 of the per-state accelerations there and 2e-15 of its
-projection, 1.9e-10 and 7.8e-13 rad, 160 steps. Away from such configurations the factor and
-every result are unchanged (bit for bit on every scene). Otherwise the accelerations take the
+``_pivoted_cholesky``), of the row-scaled matrix ``S = D^-1/2 A D^-1/2`` (A = J M^-1 J^T,
+D = diag A; ``_factor``): every rank decision is taken on S, as the per-state pseudo-inverse
+takes it (``constraints.pseudo_inverse``), and the solves scale by 1/sqrt(D) in and out
+(``_solve``; the multipliers, and so the reactions, are A's). Unscaled, a slender rod's spin
+about its own axis (inertia m r^2 / 2) made the largest diagonal entry of A 1e4 to 1e5 times
+a window's in-plane rows (four_bar_chain, r = 5 mm), and near a flat position of its
+parallelograms those rows' pivots fell to the round-off floor: measured along four_bar_chain
+(N = 2, 20 s, every step), unscaled kept pivots down to 2.9e-13 of the largest and dropped ones
+up to 4.2e-14 (a real row dropped), the projection stalled at the first flat position (0.715 s,
+"position projection did not converge", rk4_compiled and dop853_compiled alike); scaled, dropped
+pivots at most 2.1e-15 on every loop scene, rolling_cone and four_bar_chain, kept ones at least
+7.7e-4 (bricard) on the loop scenes and 2.4e-9 on four_bar_chain.
+Near a singular configuration (a kept pivot of S below ``_WELL_CONDITIONED``: the unit
+parallelogram four-bar within about 7e-5 rad of its flat positions, pivot ~2 theta^2, where the
+loop loses an in-plane row; unscaled the band was about 1e-2 rad wide) a pivot is not an
+eigenvalue, and a rank decision by pivots differs from the per-state pseudo-inverse's
+(eigenvalues of S below ``RANK_RTOL`` of the largest dropped, theta below about 2e-5 rad there)
+in a band around the singular position: there S is eigen-decomposed (``_jacobi_eigen``) and
+both the accelerations and the projection apply the per-state pseudo-inverse itself
+(``_factor``, ``_eigen_solve``). Measured on that parallelogram (a = b = c = d = 1 m, 1 kg
+bars, IFToMM A02 with N = 1), unscaled and before the stage projection below, deciding by
+pivots: within 2e-3 rad of the flat positions the accelerations left the per-state ones by up
+to 3e-6 of the largest on the manifold and 1.3e-3 at a Runge-Kutta stage 1e-6 off it, and the
+projection by 1.2e-7; one passage added 3.5e-10 J of energy; rk4_compiled ended 10 s 4.3e-9
+rad from the exact motion (per-state rk4 2.0e-10), 2.1e-9 at dt 2.5e-4 (no convergence), and
+dop853_compiled (rtol 1e-10) took 1174 steps for 1.5 s. With the eigen-decomposition: within
+4e-11 of the per-state accelerations there and 2e-15 of its projection, 1.9e-10 and 7.8e-13
+rad, 160 steps. Away from such configurations the factor and every result of a model without
+dependent rows are unchanged (bit for bit). Otherwise the accelerations take the
 minimum-norm least-squares multipliers from that factor (``_least_squares_solve``), as the
 per-state pseudo-inverse (``constraints.solve_rows``) does: off the constraint manifold (a Runge-Kutta
 stage) the dependent rows' bias is inconsistent, and holding the kept rows exactly instead made
@@ -55,8 +68,25 @@ rk4 at 0.44 s, 8e-8 over 5 s, energy drift 2.3e-8; with least squares 1.4e-13 ov
 others' multipliers zero): its result is the manifold either way. Position rows are pivoted before the rolling
 contacts' no-slip rows, so the Gauss-Newton projection corrects every position error in one
 step (the per-state pseudo-inverse splits the error of a joint row with the no-slip row that
-repeats it, and converges linearly). A model without dependent rows takes plain Cholesky (a
-non-positive pivot is SINGULAR).
+repeats it, and converges linearly). A model without dependent rows takes plain Cholesky of A
+itself (a non-positive pivot is SINGULAR).
+
+Stage projection: a model with loop joints (``NEModel.loops``; ``stage_tol`` in the model
+tuple) evaluates every right-hand side, so every stage of every method (``erk``, its Lie-group
+form, ``erk_rows``, ``dop853``), at the projection of its state onto the constraint manifold
+(``rhs``), as the per-state ``projected_stages`` (whose docstring says why: near a flat
+position a stage's velocity error became a folding velocity). Measured on four_bar_chain
+(N = 2, 20 s, error of the crank tips against the exact motion at the end of the run):
+rk4_compiled 3.1e-8 / 3.5e-9 / 1.8e-9 m at dt 2e-3 / 1e-3 / 5e-4 s (per-state rk4 1.6e-8 /
+2.0e-9 / 1.5e-9; without the stage projection 8.4e-9 / 7.8e-10 / 7.4e-5); dop853_compiled
+(rtol 1e-13) 2.0e-8 m in 1277 steps (N = 3: 1.0e-7 m, 1490 steps), without the stage
+projection a step size underflow at 4.6 s (N = 3: 5.2 s). The two forms agree to 1e-11 m until
+a passage very close to flat (t ~ 15 s), which amplifies any round-off difference: a relative
+perturbation of 1e-15 of the initial state moves either form's end error by as much (dt 2e-3:
+per-state 5.0e-9 to 2.5e-8 m, compiled 2.5e-8 to 3.1e-8 m). It costs a Gauss-Newton step (an
+evaluation of the rows and a factor) or two more per stage: the default runs of bricard,
+andrews_squeezer, four_bar and slider_crank took 1.4 / 1.3 / 1.8 / 1.8 times the wall time with
+rk4_compiled, 1.2 / 1.2 / 1.7 / 1.8 with dop853_compiled.
 
 Units and frames: as ``harness.engines.inhouse.model`` (state ``y = [p_WCm_W | quat_WB (wxyz)
 | v_WCm_W | w_WB_B]``: centre-of-mass positions (m) and velocities (m/s) in the world frame,
@@ -86,7 +116,9 @@ is a tuple of arrays (``solver.pack`` makes it)::
     body frame; the world point for the world) | k N/m | rest length m | damping c N s/m];
     ROLLING, a rolling contact of body a whose 3 rows start at row b: [radius m |
     half-thickness m | circle_z m | 1 for one rolling circle, 0 for two rim edges];
-    slip: the first rolling-contact row (nc without contacts).
+    slip: the first rolling-contact row (nc without contacts);
+    stage_tol: m, the tolerance of the stage projection of a model with loop joints (``rhs``;
+    ``projection_tolerance``), 0 for a model without.
 
 Loop joints are ball/hinge joints like the tree's (jc the cut joint's ``body_a`` with its own
 axis, jp its ``body_b`` or the world with the perpendiculars of its axis), after them. Rows in
@@ -139,12 +171,17 @@ OK, NONFINITE, SINGULAR, NO_PROJECTION, UNDERFLOW, TOO_MANY_STEPS, BAD_ERROR, FL
 FORCE, TORQUE, POINT_SPRING, ROLLING = 0, 1, 2, 3  # kinds of the model's elements (module docstring)
 _QUADRATIC = 1e-9  # as constraints.project: below this a Gauss-Newton step is not re-evaluated
 _PROJECTION_ITERATIONS = 8
-# The pivoted Cholesky of J M^-1 J^T (``_factor``), as fractions of its largest diagonal entry:
-# pivots at or below _DEPENDENT are rows that depend on the others exactly (round-off: at most
-# 8.2e-16 on the loop scenes and rolling_cone, along their runs), and a factor whose every kept
-# pivot is at least _WELL_CONDITIONED is used as it is (the smallest on those runs: 6.4e-7,
-# four_bar_near_singular); in between, a near-singular configuration, the per-state
-# pseudo-inverse's rank decision by eigenvalues (``_jacobi_eigen``).
+# The pivoted Cholesky of the row-scaled J M^-1 J^T (``_factor``: unit diagonal), as fractions of
+# its largest diagonal entry: pivots at or below _DEPENDENT are rows that depend on the others
+# exactly (round-off: at most 2.1e-15 on the loop scenes, rolling_cone and four_bar_chain at
+# N = 2, at every step of their runs; unscaled 8.2e-16 on the first ones, but 4.2e-14 on
+# four_bar_chain, a real row), and a factor whose every kept pivot is at least _WELL_CONDITIONED
+# is used as it is (the smallest on those runs: 7.7e-4, bricard; four_bar_chain 2.4e-9, one step
+# in 20000 in the band; unscaled 6.4e-7 on four_bar_near_singular and 2.9e-13 on four_bar_chain,
+# 217 steps); in between, a near-singular configuration, the per-state pseudo-inverse's rank
+# decision by eigenvalues (``_jacobi_eigen``). Near a flat parallelogram the smallest eigenvalue
+# of the scaled matrix is about 1/10 of the smallest pivot (A02 at theta 1e-2 to 3e-6 rad), so
+# the band starts 10 times above the eigenvalue the pseudo-inverse drops (``RANK_RTOL``).
 _DEPENDENT = 1e-13
 _WELL_CONDITIONED = 1e-8
 _JACOBI_SWEEPS = 30  # a cap: Jacobi converges quadratically, 5-10 sweeps for these sizes
@@ -457,24 +494,44 @@ def _eigen_solve(S, V, b, x, n, rtol):
 
 
 @njit(**_INNER)
-def _factor(A, n, perm, rtol, slip, mass, Iinv, J, B, S, V):
+def _scale(A, n, d):
+    """A <- D^-1/2 A D^-1/2 in place (n x n, both triangles) with d = sqrt(diag A) (each row's own
+    mobility; 1 for a zero row) into d: the row-scaled matrix, unit diagonal, on which the rank is
+    decided (``_factor``)."""
+    for i in range(n):
+        di = np.sqrt(abs(A[i, i]))
+        d[i] = di if di != 0.0 else 1.0
+    for i in range(n):
+        for j in range(n):
+            A[i, j] = A[i, j] / (d[i] * d[j])
+
+
+@njit(**_INNER)
+def _factor(A, n, perm, rtol, slip, mass, Iinv, J, B, S, V, d):
     """Factor A = J M^-1 J^T (n x n, formed by ``_minv_jt`` from J, with B = M^-1 J^T) in place.
-    Cholesky when ``rtol`` is 0 (independent rows; a failure is SINGULAR). Else (rows that may be
-    dependent, loop joints or a rolling body the world holds through joints; ``slip`` the first
-    rolling-contact row) Cholesky with diagonal pivoting (``_pivoted_cholesky``), which drops the pivots at
-    round-off (``_DEPENDENT`` of the largest diagonal entry: rows that depend on the others
-    exactly). When every kept pivot is above ``_WELL_CONDITIONED`` of the largest diagonal entry
-    that factor is the answer. A smaller kept pivot is a near-singular configuration (a four-bar
-    parallelogram passing its flat position, where the loop loses an in-plane row): there
-    dropping a pivot is not dropping an eigenvalue, and the factor's rank decision would
-    differ from the per-state pseudo-inverse's (``constraints.solve_rows``: eigenvalues below
-    ``rtol`` of the largest dropped) in a band around the singular position, its truncation
-    error along a row rather than an eigenvector. So A is formed again into S and
-    eigen-decomposed (``_jacobi_eigen``, eigenvectors into V), and ``_solve`` applies the
-    pseudo-inverse with the per-state rank decision. Returns (status, rank, eigen): eigen true
-    when S and V hold the decomposition (rank is then the Cholesky's)."""
+    Cholesky when ``rtol`` is 0 (independent rows; a failure is SINGULAR; d is not used). Else
+    (rows that may be dependent, loop joints or a rolling body the world holds through joints;
+    ``slip`` the first rolling-contact row) the row-scaled matrix ``D^-1/2 A D^-1/2`` (``_scale``,
+    D = diag A, sqrt(diag A) into d) is factored: the rank is decided on it, as the per-state
+    pseudo-inverse decides it (``constraints.pseudo_inverse``), and ``_solve`` scales its
+    right-hand side and solution by 1/d. Unscaled, a slender rod's spin about its own axis made
+    A's largest diagonal entry and eigenvalue 1e4 to 1e5 times those of a window's in-plane rows
+    (four_bar_chain, r = 5 mm), and near a flat position those rows fell below the thresholds
+    relative to the largest (below). The scaled matrix is factored by Cholesky with diagonal
+    pivoting (``_pivoted_cholesky``), which drops the pivots at round-off (``_DEPENDENT`` of the
+    largest diagonal entry, 1 once scaled: rows that depend on the others exactly). When every
+    kept pivot is above ``_WELL_CONDITIONED`` that factor is the answer. A smaller kept pivot is a
+    near-singular configuration (a four-bar parallelogram passing its flat position, where the
+    loop loses an in-plane row): there dropping a pivot is not dropping an eigenvalue, and the
+    factor's rank decision would differ from the per-state pseudo-inverse's (eigenvalues of the
+    scaled matrix below ``rtol`` of the largest dropped) in a band around the singular position,
+    its truncation error along a row rather than an eigenvector. So A is formed again into S,
+    scaled by the same d and eigen-decomposed (``_jacobi_eigen``, eigenvectors into V), and
+    ``_solve`` applies the pseudo-inverse with the per-state rank decision. Returns (status,
+    rank, eigen): eigen true when S and V hold the decomposition (rank is then the Cholesky's)."""
     if not rtol > 0.0:
         return _cholesky(A, n), n, False
+    _scale(A, n, d)
     st, rank, dmax = _pivoted_cholesky(A, n, perm, _DEPENDENT, slip)
     if st != OK:
         return st, rank, False
@@ -484,19 +541,34 @@ def _factor(A, n, perm, rtol, slip, mass, Iinv, J, B, S, V):
     if smallest >= _WELL_CONDITIONED * dmax:
         return OK, rank, False
     _minv_jt(mass, Iinv, n, J, S, B)  # A again (the factor overwrote it), into S
+    for i in range(n):
+        for j in range(n):
+            S[i, j] = S[i, j] / (d[i] * d[j])
     return _jacobi_eigen(S, V, n), rank, True
 
 
 @njit(**_INNER)
-def _solve(A, b, x, n, rank, perm, rtol, eigen, S, V):
+def _solve(A, b, x, n, rank, perm, rtol, eigen, least_squares, S, V, d):
     """x = (J M^-1 J^T)^-1 b with ``_factor``'s factor in A, or with its eigen-decomposition in
-    S and V when ``eigen`` (the pseudo-inverse, ``_eigen_solve``); b may be overwritten."""
+    S and V when ``eigen`` (the pseudo-inverse, ``_eigen_solve``); with ``least_squares`` and
+    dropped rows, the minimum-norm least-squares solution from the factor
+    (``_least_squares_solve``; S is scratch), else the kept rows solved exactly
+    (``_pivoted_solve``). For rows that may be dependent (``rtol`` > 0) the factor is the
+    row-scaled matrix's: b is scaled by 1/d first and x by 1/d after (x = D^-1/2 S^+ D^-1/2 b,
+    the unscaled multipliers). b is overwritten."""
+    if not rtol > 0.0:
+        _cholesky_solve(A, b, x, n)
+        return
+    for i in range(n):
+        b[i] /= d[i]
     if eigen:
         _eigen_solve(S, V, b, x, n, rtol)
-    elif rtol > 0.0:
-        _pivoted_solve(A, b, x, n, rank, perm)
+    elif least_squares and rank < n:
+        _least_squares_solve(A, b, x, n, rank, perm, S)
     else:
-        _cholesky_solve(A, b, x, n)
+        _pivoted_solve(A, b, x, n, rank, perm)
+    for i in range(n):
+        x[i] /= d[i]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -506,10 +578,11 @@ def _solve(A, b, x, n, rank, perm, rtol, eigen, S, V):
 @njit(**_JIT)
 def workspace(model):
     """Buffers for one trajectory: (R, omega, s, J, A, B, u0, lam, bias, C, tmp, qn, vec, perm, S,
-    V): rotations and world angular velocities (the world last), joint offsets, the constraint
-    Jacobian, J M^-1 J^T, M^-1 J^T, accelerations, multipliers, bias, error, scratch, the
-    pivot order of ``_pivoted_cholesky``, the scratch of ``_least_squares_solve`` or the
-    eigenvalues of ``_factor``'s eigen-decomposition, its eigenvectors."""
+    V, d, ys): rotations and world angular velocities (the world last), joint offsets, the
+    constraint Jacobian, J M^-1 J^T, M^-1 J^T, accelerations, multipliers, bias, error, scratch,
+    the pivot order of ``_pivoted_cholesky``, the scratch of ``_least_squares_solve`` or the
+    eigenvalues of ``_factor``'s eigen-decomposition, its eigenvectors, the row scales
+    sqrt(diag J M^-1 J^T) of ``_factor``, and the projected stage state of ``rhs`` (13 nb)."""
     mass, nc = model[0], model[13]
     nb = mass.shape[0]
     R = np.zeros((nb + 1, 3, 3))
@@ -519,7 +592,7 @@ def workspace(model):
             np.zeros((max(nc, 1), max(nc, 1))), np.zeros((6 * nb, max(nc, 1))), np.zeros(6 * nb),
             np.zeros(max(nc, 1)), np.zeros(max(nc, 1)), np.zeros(max(nc, 1)), np.zeros(8), np.zeros((nb, 4)),
             np.zeros((16, 3)), np.zeros(max(nc, 1), dtype=np.int64), np.zeros((max(nc, 1), max(nc, 1))),
-            np.zeros((max(nc, 1), max(nc, 1))))
+            np.zeros((max(nc, 1), max(nc, 1))), np.ones(max(nc, 1)), np.zeros(13 * nb))
 
 
 @njit(**_INNER)
@@ -902,8 +975,36 @@ def _minv_jt(mass, Iinv, nc, J, A, B):
 
 @njit(**_KERNEL)
 def rhs(t, y, dy, model, ws):
-    """dy/dt of state y at time t (s) into dy. Returns a status code (OK, SINGULAR, NONFINITE or
-    FLAT_DISK)."""
+    """dy/dt of state y at time t (s) into dy. Returns a status code (OK, SINGULAR, NONFINITE,
+    FLAT_DISK, or NO_PROJECTION from a stage projection).
+
+    A model with loop joints (``stage_tol`` > 0 in the model tuple) evaluates it at y's
+    projection onto the constraint manifold, as the per-state ``projected_stages``
+    (``constraints.project_stage``): y is copied into the workspace (ws ys; y itself is never
+    changed: DOP853 evaluates its candidate solution here), that copy gets unit quaternions,
+    positions by Gauss-Newton re-evaluated after every step until max |C| <= ``stage_tol`` (no
+    ``_QUADRATIC`` shortcut: the stage map must be a smooth function of y, the identity on the
+    manifold) and velocities projected with J at those positions (``_project``), and the
+    derivative is that of the copy, with the factor of the projection's last evaluation (the same
+    positions, the same J and J M^-1 J^T). Every compiled method (``erk`` with or without the
+    Lie-group form, ``erk_rows``, ``dop853``) and the multipliers at the samples
+    (``_multipliers``) go through it."""
+    stage_tol = model[30]
+    if stage_tol > 0.0 and model[13] > 0:
+        ys = ws[17]
+        _copy(y, ys)
+        st, rank, eigen = _project(ys, model, ws, stage_tol, True)
+        if st != OK:
+            return st
+        return _derivative(t, ys, dy, model, ws, True, rank, eigen)
+    return _derivative(t, y, dy, model, ws, False, 0, False)
+
+
+@njit(**_INNER)
+def _derivative(t, y, dy, model, ws, factored, rank, eigen):
+    """``rhs`` at state y itself: dy/dt into dy. With ``factored`` ws A (or S and V when
+    ``eigen``), B and d already hold ``_factor``'s factor of J M^-1 J^T at y's positions
+    (``_project``'s last), of ``rank``: it is not formed again."""
     mass, I_B, Iinv, grav, nc = model[0], model[1], model[2], model[3], model[13]
     nb = mass.shape[0]
     _frames(y, nb, ws[0], ws[11])
@@ -930,21 +1031,20 @@ def rhs(t, y, dy, model, ws):
         st = _constraints(model, y, ws)
         if st != OK:
             return st
-        _minv_jt(mass, model[2], nc, ws[3], ws[4], ws[5])
+        if not factored:
+            _minv_jt(mass, model[2], nc, ws[3], ws[4], ws[5])
         for r in range(nc):  # rhs = -gamma - J u0
             acc = -bias[r]
             for k in range(6 * nb):
                 acc -= J[r, k] * u0[k]
             bias[r] = acc
-        st, rank, eigen = _factor(A, nc, perm, rtol, model[29], mass, model[2], J, B, ws[14], ws[15])
-        if st != OK:
-            return st
-        if eigen:  # near a singular configuration: the per-state pseudo-inverse
-            _eigen_solve(ws[14], ws[15], bias, lam, nc, rtol)
-        elif rank < nc:  # dependent rows: least squares, as the per-state pseudo-inverse
-            _least_squares_solve(A, bias, lam, nc, rank, perm, ws[14])
-        else:
-            _solve(A, bias, lam, nc, rank, perm, rtol, False, ws[14], ws[15])
+        if not factored:
+            st, rank, eigen = _factor(A, nc, perm, rtol, model[29], mass, model[2], J, B, ws[14], ws[15], ws[16])
+            if st != OK:
+                return st
+        # near a singular configuration the per-state pseudo-inverse (eigen); dependent rows:
+        # least squares, as the per-state pseudo-inverse
+        _solve(A, bias, lam, nc, rank, perm, rtol, eigen, True, ws[14], ws[15], ws[16])
         for k in range(6 * nb):
             acc = u0[k]
             for r in range(nc):
@@ -959,14 +1059,32 @@ def rhs(t, y, dy, model, ws):
 def project(y, model, ws, tol):
     """In place: unit quaternions, positions on the constraint manifold (mass-weighted
     Gauss-Newton until max |C| <= tol), velocities in the null space of J (mass-weighted
-    orthogonal projection); as ``constraints.project``. Returns a status code."""
+    orthogonal projection); as ``constraints.project`` (``_project`` after a step: its
+    ``_QUADRATIC`` shortcut). Returns a status code."""
+    return _project(y, model, ws, tol, False)[0]
+
+
+@njit(**_INNER)
+def _project(y, model, ws, tol, stage):
+    """``project``: y in place. Without ``stage`` (as ``constraints.project``, after a step) a
+    Gauss-Newton step from an error at or below ``_QUADRATIC`` is not re-evaluated and the
+    velocities take the Jacobian of its start; with ``stage`` (as ``constraints.project_stage``,
+    a stage of a model with loop joints) the positions are re-evaluated after every step until
+    max |C| <= tol and the velocities take J at the final positions. Both solve the kept rows
+    exactly (``_pivoted_solve``, the dependent rows' multipliers zero) where the per-state
+    pseudo-inverse takes least squares: the same correction wherever the right-hand side is in the
+    range of J M^-1 J^T (always for J u; for C off the manifold, up to second order in the
+    distance: measured, the same projections and stage accelerations to the digits printed on the
+    unit parallelogram 1e-8 and 1e-6 off the manifold within 1e-2 rad of flat). Returns (status,
+    rank, eigen): ws A (or S and V when eigen), B and d hold ``_factor``'s factor of the Jacobian
+    the velocities were projected with, of that rank."""
     mass, nc = model[0], model[13]
     nb = mass.shape[0]
     _unit_quaternions(y, nb, y[3 * nb: 7 * nb].reshape(nb, 4))
     if nc == 0:
-        return OK
+        return OK, 0, False
     J, A, B, lam, C, dq, dth, perm, rtol = ws[3], ws[4], ws[5], ws[7], ws[9], ws[10], ws[12][7], ws[13], model[25]
-    S, V = ws[14], ws[15]
+    S, V, d = ws[14], ws[15], ws[16]
     factored = False  # whether ws A (or S and V) holds the factor of the last Gauss-Newton step
     converged = False
     rank = nc
@@ -976,21 +1094,21 @@ def project(y, model, ws, tol):
         _angular_velocities(y, nb, ws[0], ws[1])  # for the bias _constraints fills
         st = _constraints(model, y, ws)
         if st != OK:
-            return st
+            return st, rank, eigen
         _minv_jt(mass, model[2], nc, ws[3], ws[4], ws[5])
         factored = False
         err = 0.0
         for r in range(nc):
             err = max(err, abs(C[r]))
         if not np.isfinite(err):
-            return NONFINITE
+            return NONFINITE, rank, eigen
         if err <= tol:
             converged = True
             break
-        st, rank, eigen = _factor(A, nc, perm, rtol, model[29], mass, model[2], J, B, S, V)
+        st, rank, eigen = _factor(A, nc, perm, rtol, model[29], mass, model[2], J, B, S, V, d)
         if st != OK:
-            return st
-        _solve(A, C, lam, nc, rank, perm, rtol, eigen, S, V)
+            return st, rank, eigen
+        _solve(A, C, lam, nc, rank, perm, rtol, eigen, False, S, V, d)
         factored = True
         for i in range(nb):  # dx = -M^-1 J^T lam: positions, then q <- q (x) (1, dtheta_B / 2)
             for m in range(3):
@@ -1012,28 +1130,28 @@ def project(y, model, ws, tol):
             n = np.sqrt(n)
             for m in range(4):
                 y[k + m] /= n
-        if err <= _QUADRATIC:
+        if not stage and err <= _QUADRATIC:
             converged = True
             break
     if not converged:
-        return NO_PROJECTION
+        return NO_PROJECTION, rank, eigen
     # velocities: u -= B (A^-1 J u), with J of the last evaluation (as constraints.project)
     if not factored:
-        st, rank, eigen = _factor(A, nc, perm, rtol, model[29], mass, model[2], J, B, S, V)
+        st, rank, eigen = _factor(A, nc, perm, rtol, model[29], mass, model[2], J, B, S, V, d)
         if st != OK:
-            return st
+            return st, rank, eigen
     for r in range(nc):
         acc = 0.0
         for k in range(6 * nb):
             acc += J[r, k] * y[7 * nb + k]
         C[r] = acc
-    _solve(A, C, lam, nc, rank, perm, rtol, eigen, S, V)
+    _solve(A, C, lam, nc, rank, perm, rtol, eigen, False, S, V, d)
     for k in range(6 * nb):
         acc = 0.0
         for r in range(nc):
             acc += B[k, r] * lam[r]
         y[7 * nb + k] -= acc
-    return OK
+    return OK, rank, eigen
 
 
 @njit(**_INNER)

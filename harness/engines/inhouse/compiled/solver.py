@@ -18,7 +18,11 @@ and run through its ``simulate``; this module only drives the kernels:
   stops alone: its row is NaN with its own status, the others are unaffected.
 
 Every method projects onto the joint constraints after each accepted step (and the initial
-state), with no Baumgarte terms, as the per-state engine's fixed-step methods do. State vectors
+state), with no Baumgarte terms, as the per-state engine's fixed-step methods do. A model with
+loop joints also evaluates every stage at its projection onto the constraints (``kernels.rhs``,
+``pack``'s ``stage_tol``), as the per-state fixed-step methods do (``projected_stages``), in
+every compiled method: dop853_compiled too, which without it stalls at a flat position of
+four_bar_chain (step size underflow; the per-state DOP853, with Baumgarte terms, does not project). State vectors
 are the per-state engine's (``harness.engines.inhouse.model``: ``[p_WCm_W | quat_WB (wxyz) |
 v_WCm_W | w_WB_B]``, SI units, body-frame angular velocity); times in s.
 
@@ -52,6 +56,7 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from harness.engines.inhouse.compiled import kernels
+from harness.engines.inhouse import projection_tolerance
 from harness.engines.inhouse.constraints import RANK_RTOL
 from harness.engines.inhouse.integrators import RK4, ButcherTableau, Result
 from harness.engines.inhouse.lie_group import DEXPINV_SERIES
@@ -80,7 +85,9 @@ _DOP853 = tuple(np.ascontiguousarray(a, dtype=float) for a in (_dop.A, _dop.B, _
 
 
 def pack(nem: NEModel) -> tuple:
-    """The model tuple of ``kernels`` (its module docstring lists the entries).
+    """The model tuple of ``kernels`` (its module docstring lists the entries; ``stage_tol``, the
+    last, is ``projection_tolerance(nem)`` for a model with loop joints, whose every stage the
+    kernels evaluate at its projection, and 0 otherwise).
     Raises NotImplementedError for a model outside the compiled solver's scope: a prescribed
     force whose time law is only a Python function."""
     for i, _, law in nem.forces:
@@ -132,6 +139,7 @@ def pack(nem: NEModel) -> tuple:
         float(FLAT),
         *_elements(nem, nc),
         int(nc - 3 * len(nem.contacts)),
+        float(projection_tolerance(nem)) if nem.loops else 0.0,
     )
 
 
