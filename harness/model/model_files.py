@@ -152,7 +152,7 @@ def urdf_text(model: Multibody, name: str) -> str:
                     f'    <child link="{b.name}"/>',
                     f'    <origin xyz="{_vec(b.p_PB_P)}" rpy="0 0 0"/>',
                     f'    <axis xyz="{_vec(b.axis_B)}"/>',
-                    f'    <limit lower="-1000" upper="1000" effort="1000" velocity="1000"/>',
+                    '    <limit lower="-1000" upper="1000" effort="1000" velocity="1000"/>',
                     "  </joint>"]
         out += [f'  <link name="{b.name}">',
                 "    <inertial>",

@@ -62,7 +62,7 @@ import numpy as np
 
 from harness.engines.base import EngineBase, RunSettings, check_settings, first_blowup, reason_of
 from harness.engines.inhouse import algebra
-from harness.engines.inhouse.constraints import DynamicsError, project, violation
+from harness.engines.inhouse.constraints import DynamicsError, project, projection_tolerance, violation
 from harness.engines.inhouse.integrators import COMPILED, COMPILED_TWIN, FIXED_STEP, LIE_GROUP, METHODS, Result, integrate
 from harness.engines.inhouse.model import SPARSE_ROWS, NEModel, build, from_trajectory, initial_state, split, state_at, to_trajectory
 from harness.engines.inhouse.newton_euler import (Baumgarte, contact_force_series, make_dynamics, make_rhs, reaction_series,
@@ -429,13 +429,6 @@ def largest_step(settings: RunSettings) -> float:
     """The largest step (s) of an error-controlled run: ``settings.max_step``, at most the save
     interval."""
     return min(settings.save_every, settings.max_step or settings.save_every)
-
-
-def projection_tolerance(nem: NEModel) -> float:
-    """Tolerance (m) of the projection onto the joint constraints, both forms: 1e-13 of the
-    largest joint-point offset (at least 1 m), far above round-off and far below every scene's
-    constraint check (1e-9)."""
-    return 1e-13 * max(1.0, float(np.max(np.abs(nem.D_end[:, :, 0]), initial=0.0)))
 
 
 def projected_stages(nem: NEModel, gains: Baumgarte):

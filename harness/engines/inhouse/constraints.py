@@ -379,6 +379,13 @@ def violation(nem: NEModel, y: np.ndarray) -> tuple[float, float]:
     return float(np.max(np.abs(C))), float(np.max(np.abs(J @ y[7 * nb :])))
 
 
+def projection_tolerance(nem: NEModel) -> float:
+    """Tolerance (m) of the projection onto the joint constraints, both forms: 1e-13 of the
+    largest joint-point offset (at least 1 m), far above round-off and far below every scene's
+    constraint check (1e-9)."""
+    return 1e-13 * max(1.0, float(np.max(np.abs(nem.D_end[:, :, 0]), initial=0.0)))
+
+
 def project_stage(nem: NEModel, y: np.ndarray, tol: float, max_iter: int = 8) -> tuple[np.ndarray, RowSystem]:
     """A Runge-Kutta stage's state brought onto the constraint manifold (a model with loop
     joints, ``harness.engines.inhouse.projected_stages``): a copy of ``y`` with unit

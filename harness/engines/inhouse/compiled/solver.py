@@ -56,8 +56,7 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from harness.engines.inhouse.compiled import kernels
-from harness.engines.inhouse import projection_tolerance
-from harness.engines.inhouse.constraints import RANK_RTOL
+from harness.engines.inhouse.constraints import RANK_RTOL, projection_tolerance
 from harness.engines.inhouse.integrators import RK4, ButcherTableau, Result
 from harness.engines.inhouse.lie_group import DEXPINV_SERIES
 from harness.engines.inhouse.model import NEModel
