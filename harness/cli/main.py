@@ -123,7 +123,7 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--jobs", type=_int, default=0, metavar="N", help="worker processes (>= 0; default 0: all cores)")
     v.add_argument("--timeout", type=_float, default=300.0, metavar="S",
                    help="seconds allowed per scene x engine case (> 0, default 300; a scene's own [simulation] timeout where "
-                        "larger: four_bar_chain's)")
+                        "larger)")
     add_dask(v)
     add_per_state(v)
     v.add_argument("--quiet", action="store_true",

@@ -37,7 +37,7 @@ import numpy as np
 
 from harness.model.errors import InputError
 from harness.model.forces import FORCES
-from harness.model.joints import JOINTS, keeps_axis
+from harness.model.joints import FREE, HINGE, JOINTS, SLIDE, keeps_axis
 from harness.model.multibody import Multibody
 
 #: The loops' ``solref`` time constant in steps of the scene (MuJoCo's safe minimum is two).
@@ -45,7 +45,7 @@ LOOP_SOLREF_STEPS = 2.0
 #: The loops' ``solimp``: MuJoCo's stiffest impedance (``models/four_bar/four_bar.xml`` says why).
 LOOP_SOLIMP = "0.9999 0.9999 0.001 0.5 2"
 #: The kinds a URDF states as a joint below its root, by their URDF names.
-_URDF_JOINT = {"hinge": "revolute", "slide": "prismatic"}
+_URDF_JOINT = {HINGE.name: "revolute", SLIDE.name: "prismatic"}
 
 
 def _num(x: float) -> str:
@@ -97,7 +97,7 @@ def mjcf_text(model: Multibody, name: str, dt: float) -> str:
     def body(b, depth: int) -> list[str]:
         pad = "  " * depth
         jt = JOINTS[b.joint]
-        if b.joint == "free":
+        if b.joint == FREE.name:
             joint = f'<freejoint name="{b.name}_joint"/>'
         elif jt.axis is None:
             joint = f'<joint name="{b.name}_joint" type="{b.joint}" pos="0 0 0"/>'
