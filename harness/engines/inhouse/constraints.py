@@ -159,9 +159,9 @@ class RowSystem:
             diag = A.diagonal()
             if not np.all(np.isfinite(diag)):
                 raise DynamicsError("non-finite constraint matrix J M^-1 J^T")
-            shift = REGULARIZATION * diag if nem.redundant else 0.0 * diag
+            factored = (A + sparse.diags(REGULARIZATION * diag)).tocsc() if nem.redundant else A
             try:
-                self._lu = splu((A + sparse.diags(shift)).tocsc())
+                self._lu = splu(factored)
             except RuntimeError as err:  # "Factor is exactly singular"
                 raise DynamicsError(f"constraint matrix J M^-1 J^T is singular ({err})") from None
             self._refine = nem.redundant
@@ -400,28 +400,7 @@ def project_stage(nem: NEModel, y: np.ndarray, tol: float, max_iter: int = 8) ->
     rk4 over 20 s: 2.6e-7, 8.4e-7, 2.4e-6 m from the exact motion at dt 2e-3, 1e-3, 5e-4 s), and
     one Gauss-Newton step alone left 1.6e-8, 2.0e-9, 1.5e-9 m (near a flat position a step
     leaves e^2 / theta)."""
-    nb = nem.nb
-    y = np.array(y, dtype=float)
-    Q = algebra.normalized(y[3 * nb : 7 * nb].reshape(nb, 4))
-    y[3 * nb : 7 * nb] = Q.ravel()
-    for _ in range(max_iter):
-        _, R_ext, P_ext, _ = frames(nb, y, with_velocity=False)
-        C, J, _ = evaluate(nem, P_ext, R_ext, None)
-        err = np.max(np.abs(C))
-        if not np.isfinite(err):
-            raise DynamicsError("non-finite constraint error in the projection", Failure.NON_FINITE)
-        rows = RowSystem(nem, J)
-        if err <= tol:
-            break
-        dx = -rows.apply(rows.solve(C))
-        y[: 3 * nb] += dx[: 3 * nb]
-        Q = algebra.normalized(Q + algebra.quat_rate(Q, dx[3 * nb :].reshape(nb, 3)))
-        y[3 * nb : 7 * nb] = Q.ravel()
-    else:
-        raise DynamicsError(f"position projection did not converge (max |C| = {err:.3e})", Failure.PROJECTION)
-    u = y[7 * nb :]
-    u -= rows.apply(rows.solve(J @ u))
-    return y, rows
+    return _project(nem, y, tol, max_iter, stage=True)
 
 
 def project(nem: NEModel, y: np.ndarray, tol: float = 1e-13, max_iter: int = 8) -> np.ndarray:
@@ -435,12 +414,21 @@ def project(nem: NEModel, y: np.ndarray, tol: float = 1e-13, max_iter: int = 8) 
     the Jacobian of the step's start (it differs by O(|C|)). So the usual call after a fixed
     step costs one constraint evaluation and two small Cholesky solves.
     """
+    return _project(nem, y, tol, max_iter, stage=False)[0]
+
+
+def _project(nem: NEModel, y: np.ndarray, tol: float, max_iter: int, stage: bool) -> tuple[np.ndarray, RowSystem | None]:
+    """``project`` (``stage`` False: a Gauss-Newton step from an error at or below ``_QUADRATIC``
+    is not re-evaluated, and the velocities take the Jacobian of its start) and ``project_stage``
+    (``stage`` True: re-evaluated after every step until max |C| <= ``tol``, the velocities with
+    J at the final positions): the projected copy of ``y`` and the rows factored at the last
+    evaluation (None without constraints)."""
     nb = nem.nb
     y = np.array(y, dtype=float)
     Q = algebra.normalized(y[3 * nb : 7 * nb].reshape(nb, 4))
     y[3 * nb : 7 * nb] = Q.ravel()
     if nem.nc == 0:
-        return y
+        return y, None
     for _ in range(max_iter):
         _, R_ext, P_ext, _ = frames(nb, y, with_velocity=False)
         C, J, _ = evaluate(nem, P_ext, R_ext, None)
@@ -456,13 +444,13 @@ def project(nem: NEModel, y: np.ndarray, tol: float = 1e-13, max_iter: int = 8) 
         # exact to O(|dtheta|^3), and Gauss-Newton iterates on any remainder.
         Q = algebra.normalized(Q + algebra.quat_rate(Q, dx[3 * nb :].reshape(nb, 3)))
         y[3 * nb : 7 * nb] = Q.ravel()
-        if err <= _QUADRATIC:
+        if not stage and err <= _QUADRATIC:
             break
     else:
         raise DynamicsError(f"position projection did not converge (max |C| = {err:.3e})", Failure.PROJECTION)
     u = y[7 * nb :]
     u -= rows.apply(rows.solve(J @ u))
-    return y
+    return y, rows
 
 
 _QUADRATIC = 1e-9
