@@ -14,7 +14,18 @@ as ``pin.RigidConstraintModel``s (``LoopConstraints``):
   ``hinge_span`` (m) along the axis (p_A + hinge_span axis_A, p_B + hinge_span axis_B): two
   coinciding points fix the axis and leave the rotation about it free (6 rows for the hinge's 5:
   the one along the axis is always redundant) -- the same statement as the MJCF's two site
-  ``<connect>``s (``harness.engines.mujoco.loops``).
+  ``<connect>``s (``harness.engines.mujoco.loops``);
+* a planar hinge: one ``CONTACT_3D`` model at the joint point (3 rows), when every joint of the
+  tree between its two bodies is a slide or a hinge about an axis parallel to the loop's
+  (``turns_about_axis_only``: the tree itself keeps the axes aligned, so the second point's rows
+  are implied, at every configuration, by the first point's and the tree). Its multipliers are
+  the same in-plane force; the statically indeterminate split of the out-of-plane force and
+  moments between two points does not arise (moment 0). Why: ``constraintDynamics`` factors the
+  constraint block of its KKT matrix densely, in ~nc^3 operations: on four_bar_chain at N = 40
+  (40 planar hinges) 240 rows took 1.0 ms a call and 120 rows take 0.25 ms (one BLAS thread),
+  and a run's step 7 ms before, 2 ms after (the least-squares projection of 120 rows instead of
+  240 is the rest). The motion is unchanged: four_bar, four_bar_near_singular, slider_crank and
+  andrews_squeezer give the same exact errors to 3 digits at dt/2, dt and 2 dt.
 
 The placements are in the body frame of the URDF link, which is the joint frame of the body
 (``load_urdf`` refuses links not at their joint frame), so p_A, p_B (m, body frame of
@@ -36,24 +47,52 @@ Dynamics. ``pin.constraintDynamics(model, data, q, v, tau, models, datas, Proxim
 the KKT system of the tree with the constraint rows by Pinocchio's sparse Cholesky of the
 regularised KKT matrix and proximal iterations ``lambda_{k+1} = (D + mu I)^-1 (rhs + mu lambda_k)``
 (D the Delassus matrix J M^-1 J^T), which converge for rank-deficient D: this is how the redundant
-rows are handled (a planar loop closed by a hinge has 6 rows of rank 2; the in-plane constraint
-force is determined, the rest of the multipliers is the proximal iteration's, which starts from 0,
-so the minimum-norm one up to round-off). Settings (``proximal_settings``): ``mu = MU_RELATIVE``
-(1e-6) x the largest diagonal entry of the Delassus matrix at the initial state
-(``pin.computeDelassusMatrix``; 1/kg for point rows: 3.3e-6 on four_bar, 4.0e-6 on slider_crank);
-relative accuracy ``ACCURACY_RELATIVE`` (1e-9) x ``force_scale`` (the total weight, N: 2.3e-8 N on
-four_bar) on the max change of the multipliers between proximal iterations; at most
+rows are handled (a planar loop closed by a hinge has 3 rows of rank 2, the out-of-plane row zero
+in J and in the right-hand side; a 3-D hinge 6 rows of rank 5 or less; the determinate
+multipliers converge, the rest is the proximal iteration's, which starts from 0, so the
+minimum-norm one up to round-off). Settings (``proximal_settings``), with d the largest diagonal
+entry of the Delassus matrix at the initial state (``pin.computeDelassusMatrix``; 1/kg for point
+rows: 3.3/kg on four_bar, 3.0/kg on four_bar_chain for every N): ``mu = MU_RELATIVE`` (1e-8) x d
+(1/kg); stop when the loops' acceleration residual ``|J a + gamma|`` of the iterate is below
+``CLOSURE_ACCURACY`` (1e-15) x the acceleration scale ``d force_scale`` (``force_scale``: the total
+weight; 7.6e-14 m/s^2 on four_bar), stated to Pinocchio as its relative accuracy (N) on the max
+change of the multipliers between proximal iterations, ``CLOSURE_ACCURACY d force_scale / mu``
+(the change times mu is that residual: ``(D + mu I) lambda_k = rhs + mu lambda_{k-1}``); at most
 ``MAX_PROXIMAL_ITER`` (20) iterations. The absolute accuracy is off (0): the absolute residual that
 4.1's ``constraintDynamics`` reports (a Delassus product of the iterate minus the right-hand side)
 is not the constraint-acceleration error: it stayed at 13 to 18 at converged solves on
-four_bar/slider_crank where J a + gamma, computed apart, was 1e-15 m/s^2. The range part of the
-multipliers converges by a factor ~mu/sigma_min(D) per iteration (at most 3 iterations on those
-scenes); the null-space part only collects round-off (~eps sigma_max/mu |lambda|, which is why mu is
-not smaller: at 1e-8 it kept the relative criterion from being met), and ``J^T`` maps it to zero, so
-the acceleration agrees with the pseudo-inverse KKT solution to round-off (checked: 1e-15 relative)
-whether or not the criterion is met (four_bar_near_singular: 1 solve in 20000 ran to max_iter);
-``stats`` counts the solves that stopped at ``max_iter`` (``prox_unconverged``) and the most
-iterations taken (``prox_iter_max``).
+four_bar/slider_crank where J a + gamma, computed apart, was 1e-15 m/s^2. The determinate
+multipliers converge by a factor ~mu / (mu + sigma) per iteration, sigma the Delassus eigenvalue
+of their direction (2 to 3 iterations on four_bar, slider_crank, andrews_squeezer); round-off in
+null directions is mapped to zero by ``J^T`` (bricard's 3-D hinge: its rank-4 rows stop at
+max_iter in most solves, at mu 1e-6 as at 1e-8, with the same exact errors, 5.9e-11 / 3.8e-12 /
+1.8e-12 m at 2 dt / dt / dt/2); ``stats`` counts the solves that stopped at ``max_iter``
+(``prox_unconverged``) and the most iterations taken (``prox_iter_max``).
+
+Singular positions (four_bar_chain, IFToMM A02: N parallelogram windows through the flat position
+twice a turn). There the windows' in-plane rows lose rank: N eigenvalues of D fall as
+``c theta^2`` (theta the cranks' distance from the flat position; c = 1.5, 0.11, 0.0046 /kg at N = 2,
+8, 40 with one point per hinge, twice that with two; the chain's lowest modes). Where
+``c theta^2 < mu`` the proximal iteration no longer converges in MAX_PROXIMAL_ITER and the windows' in-plane
+forces are missing from the stage accelerations; the run then gains or loses energy at each flat
+crossing, a common-mode error of the cranks' angle (no window folds: the cranks stay parallel to
+1e-10 rad). With the earlier ``mu = 1e-6 d`` (3e-6 /kg; two points per hinge) that band was
+|theta| < 0.018 rad at N = 40 (719 of 80000 solves at max_iter at dt = 1 ms) and the error against
+the exact motion 2.8e-6 / 7.1e-5 / 4.1e-5 m over the 20 s at 2 / 1 / 0.5 ms, not falling with the
+step. ``mu = 1e-8 d`` (3e-8 /kg, one point) narrows it to |theta| < 2.6e-3 rad. Measured over 60
+crossings at random phases (the energy change across one crossing, J, mean at 2 / 1 / 0.5 ms;
+before: mu = 1e-6 d with one point per hinge): N = 2: 4.1e-7 / 4.4e-7 / 6.7e-8 before, 2.0e-10 /
+1.4e-10 / 1.8e-8 after; N = 8: 1.5e-6 / 5.8e-7 / 1.7e-7 before, 9.4e-8 / 1.1e-7 / 2.0e-8 after;
+N = 40: 2.2e-6 / 1.9e-5 / 1.2e-5 before, 8.5e-6 / 1.0e-7 / 1.8e-7 after. What remains is a limit of
+this formulation, not of mu: a Runge-Kutta stage within |theta| < h theta' of the flat position
+solves acceleration-level constraints whose near-singular rows amplify the previous stage's
+velocity error by ~h theta' / (2 theta) (measured at N = 40, 2 ms: a stage at theta = 4e-6 rad
+took a multiplier of 9e4 N against 130 N, the next one 1.6e7 N); rare (1 or 2 crossings in 60 at
+N = 40) but up to 5e-4 J. A larger mu damps that cascade and loses the windows' forces over a wider
+band, a smaller one the reverse (measured from 1e-12 to 4e-6: no value removes both); the
+projections are not involved (their cut-off, RCOND on the singular values of J L^-T, is 1e-20 of
+the largest Delassus eigenvalue, below c theta^2 for |theta| > 4e-9 rad).
+
 The Baumgarte corrector of the models is off (Kp = Kd = 0): drift is controlled by projection.
 
 ``constraintDynamics`` takes no external forces: the scene's prescribed point forces and point
@@ -77,13 +116,13 @@ cut joint, ``Trajectory.reactions[<loop name>] = (force_W, moment_W)``: the forc
 body_b (or the world) exerts on body_a through the cut joint, and its moment (N m, world) about
 the joint point x_A. With ``LOCAL_WORLD_ALIGNED`` rows on x_A - x_B the generalised constraint
 force is ``J^T lambda`` = lambda applied on body_a at the point and -lambda on body_b, so a ball's
-force is its lambda and its moment 0; a hinge's force is lambda_1 + lambda_2 and its moment
-(x_A2 - x_A) x lambda_2 (x_A2: the second point, hinge_span along the axis). Components in
-redundant directions (for a planar loop: the out-of-plane force and the moments about in-plane
-axes) are statically indeterminate: they are the proximal solver's minimum-norm split between the
-two points (in-house: minimum norm over its own 5 hinge rows, so these can differ); the
-determinate ones agree. Reactions of the tree's joints (``[checks.reaction]``) are not computed on
-this path.
+force is its lambda and its moment 0 (so is a planar hinge's, stated by its joint point alone);
+a hinge's force is lambda_1 + lambda_2 and its moment (x_A2 - x_A) x lambda_2 (x_A2: the second
+point, hinge_span along the axis). Components in redundant directions (for a planar loop: the
+out-of-plane force and the moments about in-plane axes) are statically indeterminate: they are the
+proximal solver's minimum-norm choice (in-house: minimum norm over its own 5 hinge rows, so these
+can differ); the determinate ones agree. Reactions of the tree's joints (``[checks.reaction]``)
+are not computed on this path.
 """
 
 from __future__ import annotations
@@ -100,16 +139,51 @@ from harness.engines.pinocchio.forces import (has_dampers, joint_force_function,
 from harness.engines.pinocchio.lie_group_integrators import stepper
 from harness.engines.pinocchio.model import RUN_ERRORS, MaximalReader, advance_function, initial_configuration, load_urdf
 from harness.measure.trajectory import Failure, RunStop, SampleBuffer, Trajectory
-from harness.model.joints import JOINTS, keeps_axis, loop_kinds
-from harness.model.multibody import Multibody
+from harness.model.joints import JOINTS, ROTATIONAL, TRANSLATIONAL, keeps_axis, loop_kinds
+from harness.model.multibody import LoopJoint, Multibody
 from harness.model.rotations import cross
 
-MU_RELATIVE = 1e-6  # proximal regularisation mu, relative to the largest diagonal entry of the Delassus matrix
-ACCURACY_RELATIVE = 1e-9  # stop when the multipliers change by less than this times the force scale
+MU_RELATIVE = 1e-8  # proximal regularisation mu, relative to the largest diagonal entry of the Delassus matrix
+CLOSURE_ACCURACY = 1e-15  # stop at |J a + gamma| <= this x (largest Delassus diagonal x force scale), m/s^2
 MAX_PROXIMAL_ITER = 20
 PROJECTION_TOL = 1e-14  # m per m of length scale (at least 1 m): closure residual left by the projection
 MAX_PROJECTION_ITER = 8
 RCOND = 1e-10  # relative cut-off of the singular values of J L^-T (redundant rows)
+PARALLEL_TOL = 1e-15  # two unit axes are parallel when |a . b| >= 1 - PARALLEL_TOL (within 4.5e-8 rad)
+
+
+def turns_about_axis_only(model: Multibody, loop: LoopJoint) -> bool:
+    """Whether the tree lets ``loop``'s two bodies turn relative to each other only about the
+    loop's hinge axis, so that its axis rows are implied by the tree and the joint point alone
+    states the hinge (the module docstring). True when every joint on the tree path between
+    ``body_a`` and ``body_b`` (the world for None) up to their common ancestor is a slide or a
+    hinge whose axis is parallel to the loop's (``axis_A``, ``axis_B``) -- the body frames are
+    parallel at zero configuration (``Body.p_PB_P``), so an axis stated in a body frame is also
+    its world direction there, and rotations about one direction keep every such axis parallel
+    at any configuration. A planar mechanism (all hinges about one direction) is the case."""
+    n = np.asarray(loop.axis_A, float) / np.linalg.norm(loop.axis_A)
+    if abs(float(np.dot(n, np.asarray(loop.axis_B, float) / np.linalg.norm(loop.axis_B)))) < 1.0 - PARALLEL_TOL:
+        return False
+    bodies = {b.name: b for b in model.bodies}
+
+    def path(name):
+        out = []
+        while name is not None:
+            out.append(name)
+            name = bodies[name].parent
+        return out
+
+    up_a, up_b = path(loop.body_a), path(loop.body_b)
+    common = next((name for name in up_a if name in up_b), None)
+    for name in up_a[: up_a.index(common) if common else None] + up_b[: up_b.index(common) if common else None]:
+        body = bodies[name]
+        kind = JOINTS[body.joint].axis
+        if kind == TRANSLATIONAL:
+            continue
+        axis = np.asarray(body.axis_B, float)
+        if kind != ROTATIONAL or abs(float(np.dot(n, axis / np.linalg.norm(axis)))) < 1.0 - PARALLEL_TOL:
+            return False
+    return True
 
 
 class LoopConstraints:
@@ -117,7 +191,8 @@ class LoopConstraints:
 
     Attributes:
         models, datas: ``StdVec_RigidConstraintModel`` / ``StdVec_RigidConstraintData``, in the
-            order of ``Multibody.loops``, one model per ball and two per hinge.
+            order of ``Multibody.loops``, one model per ball and per planar hinge
+            (``turns_about_axis_only``), two per other hinge.
         items: per cut joint ``(loop, first model index, number of models)``.
         nc: number of constraint rows (3 per model).
     """
@@ -132,7 +207,7 @@ class LoopConstraints:
             j2 = 0 if loop.body_b is None else ids[index[loop.body_b]]
             p_A, p_B = np.asarray(loop.p_A, float), np.asarray(loop.p_B, float)
             points = [(p_A, p_B)]
-            if keeps_axis(loop.kind):
+            if keeps_axis(loop.kind) and not turns_about_axis_only(model, loop):
                 span = float(loop.hinge_span)
                 a_A = np.asarray(loop.axis_A, float) / np.linalg.norm(loop.axis_A)
                 a_B = np.asarray(loop.axis_B, float) / np.linalg.norm(loop.axis_B)
@@ -248,16 +323,20 @@ def force_scale(model: Multibody) -> float:
 
 def proximal_settings(pmodel: pin.Model, data: pin.Data, q: np.ndarray, constraints: LoopConstraints,
                       model: Multibody) -> pin.ProximalSettings:
-    """``ProximalSettings(absolute accuracy 0, relative accuracy ACCURACY_RELATIVE x force_scale
-    (N), mu, MAX_PROXIMAL_ITER)`` with ``mu = MU_RELATIVE x`` the largest diagonal entry of the
-    Delassus matrix at q (1/kg for point rows; ``pin.computeDelassusMatrix``). Also
-    ``initConstraintDynamics``."""
+    """``ProximalSettings(absolute accuracy 0, relative accuracy, mu, MAX_PROXIMAL_ITER)``
+    (module docstring). With ``d`` the largest diagonal entry of the Delassus matrix at q (1/kg
+    for point rows; ``pin.computeDelassusMatrix``): ``mu = MU_RELATIVE d`` (1/kg), and the
+    relative accuracy (N, on the change of the multipliers between proximal iterations) is
+    ``CLOSURE_ACCURACY d force_scale / mu``: the change times mu is the loops' acceleration
+    residual ``|J a + gamma|`` of the iterate (m/s^2), so this stops at ``CLOSURE_ACCURACY`` times
+    the acceleration scale ``d force_scale`` whatever mu is. Also ``initConstraintDynamics``."""
     pin.initConstraintDynamics(pmodel, data, constraints.models, constraints.datas)
     delassus = pin.computeDelassusMatrix(pmodel, data, q, constraints.models, constraints.datas, 0.0)
     scale = float(np.max(np.abs(np.diag(delassus)), initial=0.0))
     if not (np.isfinite(scale) and scale > 0.0):
         raise RunStop(Failure.SINGULAR, "the loop constraints' Delassus matrix is zero or not finite at the initial state")
-    return pin.ProximalSettings(0.0, ACCURACY_RELATIVE * force_scale(model), MU_RELATIVE * scale, MAX_PROXIMAL_ITER)
+    mu = MU_RELATIVE * scale
+    return pin.ProximalSettings(0.0, CLOSURE_ACCURACY * scale * force_scale(model) / mu, mu, MAX_PROXIMAL_ITER)
 
 
 def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Trajectory:
@@ -363,7 +442,8 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
              "projection_iter_max": counters["projection_iter_max"],
              "settings": f"constraintDynamics (proximal KKT) with RigidConstraintModel CONTACT_3D rows in "
                          f"LOCAL_WORLD_ALIGNED (ball: 1 point, hinge: 2 points {spans} m apart on the axis), "
-                         f"mu {mu:.3g} ({MU_RELATIVE:g} of the Delassus diagonal), relative accuracy {acc:.3g} N, "
+                         f"mu {mu:.3g} ({MU_RELATIVE:g} of the Delassus diagonal), relative accuracy {acc:.3g} N "
+                         f"(loop acceleration residual {acc * mu:.2g} m/s^2), "
                          f"max_iter {MAX_PROXIMAL_ITER}, Baumgarte off; {settings.integrator} on the configuration Lie group, "
                          f"step {h:g} s; drift: Gauss-Newton position projection (tol {PROJECTION_TOL:g} m per m, "
                          f"at least 1 m) then "

@@ -121,7 +121,8 @@ def _four_bar_with(loop_kind_or_loop):
 
 def test_planar_four_bar_closed_by_a_ball():
     """A ball closing the planar four-bar (3 rows, 1 redundant) gives the same motion as the
-    hinge (6 rows, 4 redundant) and the same in-plane force; a ball carries no moment."""
+    hinge (stated by its joint point alone, the tree being planar: ``turns_about_axis_only``) and
+    the same in-plane force; a ball carries no moment."""
     scene, ball = _four_bar_with("ball")
     settings = RunSettings(T_END, DT, 0.01, "rkmk4")
     tb = PINOCCHIO.simulate(_stub(scene, ball), settings)
@@ -161,3 +162,37 @@ def test_near_singular_four_bar_stays_closed():
     assert cut["position"] < 1e-13 and cut["velocity"] < 1e-13, cut
     value, unit, _ = four_bar_reference.exact_error(scene, tr)
     assert unit == "rad" and value < 4e-5, value  # measured 1.6e-5 rad at 1 ms (4 times the scene's step)
+
+def test_planar_hinge_is_one_point_and_a_3d_hinge_two():
+    """A cut hinge whose tree path turns only about its axis (four_bar_chain's windows) is one
+    CONTACT_3D point, 3 rows; bricard's (3-D loop) keeps its two points, 6 rows."""
+    import pinocchio as pin
+    from harness.engines.pinocchio.loops import LoopConstraints, turns_about_axis_only
+    from harness.engines.pinocchio.model import load_urdf
+    for name, params, rows in (("four_bar_chain", {"N": 3}, 3), ("bricard", None, 6)):
+        scene = load_scene(name, params) if params else load_scene(name)
+        model = scene.multibody()
+        pmodel, ids = load_urdf(scene.urdf, scene.urdf_root_joint, model)
+        constraints = LoopConstraints(pmodel, ids, model)
+        assert constraints.nc == rows * len(model.loops), name
+        assert all(turns_about_axis_only(model, loop) == (rows == 3) for loop in model.loops), name
+        assert isinstance(constraints.models, pin.StdVec_RigidConstraintModel)
+
+
+@pytest.mark.parametrize("windows", [2, 3])
+def test_four_bar_chain_through_the_flat_position(windows):
+    """IFToMM A02 with N = 2 and 3 windows through the first flat position (t = 0.715 s): every
+    crank's tip against the exact motion falls at RK4's order. The windows' in-plane Delassus
+    eigenvalues fall as c theta^2 there (c = 1.5 /kg at N = 2); with the former mu = 1e-6 of the
+    Delassus diagonal their forces went missing near the flat position (N = 3: 8.5e-11, 5.3e-12,
+    4.1e-11 m at 2, 1, 0.5 ms: rising again), with 1e-8 it falls at order 4 (measured 8.5e-11,
+    5.3e-12, 3.3e-13 m; N = 2: 8.8e-11, 5.5e-12, 3.5e-13 m)."""
+    from harness.references import four_bar_chain as ref
+    scene = dataclasses.replace(load_scene("four_bar_chain", {"N": windows}), not_run={})
+    errors = []
+    for dt in (2e-3, 1e-3, 5e-4):
+        tr = PINOCCHIO.simulate(scene, RunSettings(1.0, dt, 0.01, "rkmk4"))
+        assert tr.ok, tr.message
+        errors.append(float(np.max(ref.exact_error_series(scene, tr))))
+    assert errors[1] < 2e-11, errors  # m
+    assert errors[0] / errors[1] > 8.0 and errors[1] / errors[2] > 8.0, errors  # order >= 3
