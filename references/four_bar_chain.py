@@ -93,6 +93,8 @@ __all__ = [
     "crank_motion",
     "tip_positions",
     "rod_distance",
+    "first_flat_time",
+    "start_before_flat",
     "EXACT_NEEDS_RUNS",
     "exact_error_series",
     "exact_error",
@@ -135,6 +137,35 @@ def tip_positions(params, theta) -> np.ndarray:
     tips[..., 0] = x0 + L * np.cos(theta)[..., None]
     tips[..., 2] = (L * np.sin(theta))[..., None]
     return tips
+
+
+def first_flat_time(params, t_end: float = 100.0) -> float:
+    """The first time (s) in (0, t_end] at which every crank of the exact motion lies flat
+    (sin θ = 0: the windows' singular position), to 1e-15 s (``scipy.optimize.brentq`` on a sign
+    change of sin θ over a grid of 1/400 of the small-oscillation period). Raises ValueError when
+    the motion does not reach it by t_end (a chain swinging below the horizontal)."""
+    from scipy.optimize import brentq
+
+    sin_theta = lambda t: float(np.sin(crank_motion(params, np.array([t]))[0][0]))  # noqa: E731
+    grid = np.arange(0.0, t_end, 2.0 * np.pi / natural_frequency(params) / 400.0)[1:]
+    values = np.sin(crank_motion(params, grid)[0])
+    change = np.flatnonzero(np.sign(values[:-1]) != np.sign(values[1:]))
+    if not len(change):
+        raise ValueError(f"the cranks do not reach the flat position within {t_end:g} s")
+    k = int(change[0])
+    return float(brentq(sin_theta, grid[k], grid[k + 1], xtol=1e-15))
+
+
+def start_before_flat(params, lead: float, past: float = 0.0) -> dict[str, float]:
+    """Scene parameters ``{"theta0", "dtheta0"}`` (rad, rad/s): the exact motion's crank state
+    ``lead`` s before it is ``past`` rad beyond its first flat position (to first order in past:
+    at the flat position's time plus past / |θ̇| there). A run started there with step h puts a
+    stage at that point when lead is a multiple of h / 2 (how the tests place a Runge-Kutta stage
+    at a chosen distance from the singular position)."""
+    t_flat = first_flat_time(params)
+    rate = abs(float(crank_motion(params, np.array([t_flat]))[1][0]))
+    theta, dtheta, _ = crank_motion(params, np.array([t_flat + past / rate - lead]))
+    return {"theta0": float(theta[0]), "dtheta0": float(dtheta[0])}
 
 
 def rod_distance(params, t) -> float:

@@ -37,6 +37,25 @@ from harness.engines.inhouse.model import NEModel, build
 from harness.model.multibody import Multibody
 
 
+#: A projected stage (``stage_tol``) whose rows' acceleration equation is left with a residual
+#: ``max |J du - rhs| / max |rhs|`` above this lies within the band of a singular position: rows
+#: that became dependent there (within about 1e-5 rad of a flat position of a parallelogram
+#: chain) are dropped by the rank decision (``constraints.pseudo_inverse``) or by the sparse
+#: solve's regularisation, and the stage loses their force, which stays O(1) while their
+#: multipliers grow as 1/theta. Its accelerations are then those of ``across_singular_position``.
+#: Where the rows are solved, the residual is round-off: at most 1.7e-11 on the stages of 3 s of
+#: four_bar_near_singular (rk4), 1.3e-12 on bricard, 2.2e-12 on andrews_squeezer, 1.2e-11 on
+#: four_bar_chain (N = 8) 1e-3 rad from flat; the stages 1.3e-5 rad from flat of four_bar_chain
+#: (N = 40): 8.7e-7 and 5.4e-5; at N = 8, 1e-4 to 1e-7 rad from flat: 1.4e-10 to 4.9e-7 (at 1e-10
+#: the mean replaced a stage 1e-4 rad away whose own solve was better: 2.4e-10 m against 1.9e-12 m).
+SINGULAR_RESIDUAL = 1e-9
+#: The first shift of ``across_singular_position``: a move of NEIGHBOUR_SHIFT times the model's
+#: joint-offset length along the stage's velocity (doubled, at most NEIGHBOUR_DOUBLINGS times,
+#: until both neighbours are out of the band).
+NEIGHBOUR_SHIFT = 1e-4
+NEIGHBOUR_DOUBLINGS = 6
+
+
 @dataclass(frozen=True)
 class Baumgarte:
     """Baumgarte gains: natural frequency ``omega`` (rad/s) and damping ratio ``zeta`` of the
@@ -75,10 +94,57 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte(), stage_tol: float
     no_lambda = np.zeros(0)
     cross, quat_matrix, quat_rate = algebra.cross, algebra.quat_matrix, algebra.quat_rate
 
+    length = float(np.max(np.abs(nem.D_end[:, :, 0]), initial=0.0)) or 1.0  # m: the joints' offsets
+
     def dynamics(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        rows = None
-        if stage_tol is not None and nc:
-            y, rows = project_stage(nem, y, stage_tol)
+        if stage_tol is None or not nc:
+            return accelerations(t, y, None)[:2]
+        y, rows = project_stage(nem, y, stage_tol)
+        dy, lam, residual = accelerations(t, y, rows)
+        if residual <= SINGULAR_RESIDUAL:
+            return dy, lam
+        return across_singular_position(t, y, dy, lam)
+
+    def across_singular_position(t: float, y: np.ndarray, dy: np.ndarray, lam: np.ndarray):
+        """(dy/dt, lambda) of a projected stage y within the band of a singular position
+        (``SINGULAR_RESIDUAL``): the mean of those at its two neighbours, y moved by -tau and
+        +tau along its own velocities (positions by tau v, quaternions by tau dq/dt) and
+        projected back (``project_stage``), with tau such that the fastest joint point moves
+        ``NEIGHBOUR_SHIFT`` of the joint-offset length, doubled until both neighbours are out of
+        the band (then y's own result, unchanged, when none is). The mean is the derivative at y
+        to O(tau^2) wherever the motion is smooth through the singular position (a
+        parallelogram chain on its branch); its positions' rates (the projected velocities) are
+        averaged too, since the velocity projection at y misses the same rows.
+
+        Measured on four_bar_chain (N = 40, per-state rk4 at 1 ms over 0.2 s from the exact
+        state at 8.5 s, whose stage at 8.584 s lands 1.3e-5 rad from flat): every crank tip
+        2.6e-5 m from the exact motion without it; 8.6e-11 m with it (NEIGHBOUR_SHIFT 1e-5 to
+        3e-4: 4.3e-11 to 1.7e-10 m; the accelerations alone averaged, the velocities left:
+        2.0e-7 m); the passage at 0.7 s, whose nearest stage is 3.9e-4 rad from flat, 3.4e-11 m."""
+        V = y[n7:n10]
+        W = y[n10:].reshape(nb, 3)
+        Q = y[n3:n7].reshape(nb, 4)
+        speed = float(np.max(np.sqrt(np.sum(V.reshape(nb, 3) ** 2, axis=1)) + length * np.sqrt(np.sum(W**2, axis=1))))
+        if not speed > 0.0:
+            return dy, lam
+        tau = NEIGHBOUR_SHIFT * length / speed
+        dQ = quat_rate(Q, W)
+        for _ in range(NEIGHBOUR_DOUBLINGS):
+            sides = []
+            for sign in (-1.0, 1.0):
+                z = y.copy()
+                z[:n3] += sign * tau * V
+                z[n3:n7] = algebra.normalized(Q + sign * tau * dQ).ravel()
+                z, rows = project_stage(nem, z, stage_tol)
+                sides.append(accelerations(t, z, rows))
+            if max(sides[0][2], sides[1][2]) <= SINGULAR_RESIDUAL:
+                return 0.5 * (sides[0][0] + sides[1][0]), 0.5 * (sides[0][1] + sides[1][1])
+            tau *= 2.0
+        return dy, lam
+
+    def accelerations(t: float, y: np.ndarray, rows) -> tuple[np.ndarray, np.ndarray, float]:
+        """(dy/dt, lambda, residual): residual = max |J du/dt - rhs| / max |rhs| of the rows'
+        acceleration equation (0 without rows; round-off where the rows are solved exactly)."""
         W = y[n10:].reshape(nb, 3)
         tau = -cross(W, (I_B @ W[:, :, None])[:, :, 0])  # gyroscopic moment, body frame
         if nc or torques or point_springs:
@@ -104,6 +170,7 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte(), stage_tol: float
             f = np.concatenate([weight.ravel(), tau.ravel()])
         a = Minv @ f
         lam = no_lambda
+        residual = 0.0
         if nc:
             C, J, gamma = evaluate(nem, P_ext, R_ext, w_ext, linear_velocities(nb, y) if slides else None)
             if rows is None:
@@ -112,8 +179,12 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte(), stage_tol: float
             if kd or kp:
                 rhs -= kd * (J @ y[n7:]) + kp * C
             lam = rows.solve(rhs)
-            a = a + rows.apply(lam)
-        return np.concatenate([y[n7:n10], quat_rate(Q, W).ravel(), a]), lam
+            da = rows.apply(lam)
+            a = a + da
+            if stage_tol is not None:
+                scale = float(np.max(np.abs(rhs), initial=0.0))
+                residual = float(np.max(np.abs(J @ da - rhs), initial=0.0)) / scale if scale > 0.0 else 0.0
+        return np.concatenate([y[n7:n10], quat_rate(Q, W).ravel(), a]), lam, residual
 
     return dynamics
 

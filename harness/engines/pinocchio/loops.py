@@ -83,15 +83,23 @@ step. ``mu = 1e-8 d`` (3e-8 /kg, one point) narrows it to |theta| < 2.6e-3 rad. 
 crossings at random phases (the energy change across one crossing, J, mean at 2 / 1 / 0.5 ms;
 before: mu = 1e-6 d with one point per hinge): N = 2: 4.1e-7 / 4.4e-7 / 6.7e-8 before, 2.0e-10 /
 1.4e-10 / 1.8e-8 after; N = 8: 1.5e-6 / 5.8e-7 / 1.7e-7 before, 9.4e-8 / 1.1e-7 / 2.0e-8 after;
-N = 40: 2.2e-6 / 1.9e-5 / 1.2e-5 before, 8.5e-6 / 1.0e-7 / 1.8e-7 after. What remains is a limit of
-this formulation, not of mu: a Runge-Kutta stage within |theta| < h theta' of the flat position
-solves acceleration-level constraints whose near-singular rows amplify the previous stage's
-velocity error by ~h theta' / (2 theta) (measured at N = 40, 2 ms: a stage at theta = 4e-6 rad
-took a multiplier of 9e4 N against 130 N, the next one 1.6e7 N); rare (1 or 2 crossings in 60 at
-N = 40) but up to 5e-4 J. A larger mu damps that cascade and loses the windows' forces over a wider
-band, a smaller one the reverse (measured from 1e-12 to 4e-6: no value removes both); the
-projections are not involved (their cut-off, RCOND on the singular values of J L^-T, is 1e-20 of
-the largest Delassus eigenvalue, below c theta^2 for |theta| > 4e-9 rad).
+N = 40: 2.2e-6 / 1.9e-5 / 1.2e-5 before, 8.5e-6 / 1.0e-7 / 1.8e-7 after. What remained was not a matter of mu:
+a Runge-Kutta stage within |theta| < h theta' of the flat position solved acceleration-level
+constraints whose near-singular rows amplified the stage's velocity error by ~h theta' / (2 theta)
+(measured at N = 40, 2 ms: a stage at theta = 4e-6 rad took a multiplier of 9e4 N against 130 N,
+the next one 1.6e7 N; up to 5e-4 J in a crossing); no mu from 1e-12 to 4e-6 removed both that
+and the band. So every stage is evaluated at its projection onto the loop constraints (``accel``:
+the Gauss-Newton position and velocity projection of the steps, ``project``), as the in-house
+engine evaluates its stages (``harness.engines.inhouse.projected_stages``, which says why: a
+stage's velocity error c reads as a folding velocity c / theta near flat). Measured on
+four_bar_chain at N = 40 over 20 s, largest error of every crank tip against the exact motion:
+6.5e-6 / 2.0e-5 / 3.7e-6 m at 2 / 1 / 0.5 ms before, 3.2e-9 / 7.7e-10 / {P05} m with it, at 61 /
+105 / {W05} s a run instead of 19 / 36 / 71 s; over 0.2 s from the exact state at 8.5 s (a stage
+1.3e-5 rad from flat at 1 ms) 7.1e-10 m before, 6.9e-13 m with it; N = 2 and 8 at 1 ms, 20 s:
+2.5e-10 and 5.5e-9 m before, 1.7e-10 and 6.3e-9 m with it. The configuration rates of the
+Lie-group stages stay those of the unprojected stage velocities. The projections' cut-off
+(RCOND on the singular values of J L^-T) is 1e-20 of the largest Delassus eigenvalue, below
+c theta^2 for |theta| > 4e-9 rad.
 
 The Baumgarte corrector of the models is off (Kp = Kd = 0): drift is controlled by projection.
 
@@ -385,8 +393,10 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
         return a.copy()
 
     def accel(t, q, v):
+        """The accelerations of a Runge-Kutta stage, evaluated at its projection onto the loop
+        constraints (module docstring: singular positions)."""
         counters["rhs_evals"] += 1
-        return solve(t, q, v)
+        return solve(t, *project(q, v))
 
     def project(q, v):
         for it in range(MAX_PROJECTION_ITER + 1):

@@ -196,3 +196,20 @@ def test_four_bar_chain_through_the_flat_position(windows):
         errors.append(float(np.max(ref.exact_error_series(scene, tr))))
     assert errors[1] < 2e-11, errors  # m
     assert errors[0] / errors[1] > 8.0 and errors[1] / errors[2] > 8.0, errors  # order >= 3
+
+
+@pytest.mark.parametrize("offset", [1e-6, 1e-5])
+def test_a_stage_next_to_the_flat_position_is_evaluated_at_its_projection(offset):
+    """A02 at N = 40, rkmk4 at 1 ms over 0.1 s with a Runge-Kutta stage placed ``offset`` rad
+    from the first flat position (``four_bar_chain.start_before_flat``): every stage is evaluated
+    at its projection onto the loops, so the stage's velocity error is not amplified by the
+    windows' near-singular rows, and every crank tip stays on the exact motion (measured 8.9e-13
+    and 6.7e-13 m; with the stages unprojected 2.0e-9 and 5.5e-9 m)."""
+    from harness.references import four_bar_chain
+
+    params = load_scene("four_bar_chain").params
+    scene = load_scene("four_bar_chain", four_bar_chain.start_before_flat(params, 50.5e-3, offset))
+    scene = dataclasses.replace(scene, not_run={})
+    traj = PINOCCHIO.simulate(scene, RunSettings(0.1, 1e-3, 0.01, "rkmk4"))
+    assert traj.ok, traj.message
+    assert np.max(four_bar_chain.exact_error_series(scene, traj)) < 1e-10

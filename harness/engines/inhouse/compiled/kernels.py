@@ -184,6 +184,11 @@ _PROJECTION_ITERATIONS = 8
 # the band starts 10 times above the eigenvalue the pseudo-inverse drops (``RANK_RTOL``).
 _DEPENDENT = 1e-13
 _WELL_CONDITIONED = 1e-8
+# A projected stage within the band of a singular position (``rhs``, ``_residual``,
+# ``_across_singular_position``): the per-state ``newton_euler`` constants, which say why.
+_SINGULAR_RESIDUAL = 1e-9
+_NEIGHBOUR_SHIFT = 1e-4
+_NEIGHBOUR_DOUBLINGS = 6
 _JACOBI_SWEEPS = 30  # a cap: Jacobi converges quadratically, 5-10 sweeps for these sizes
 _JACOBI_OFF = 1e-32  # stop when the off-diagonal part's squared norm is below this of |S|^2 (eps^2)
 
@@ -582,7 +587,9 @@ def workspace(model):
     constraint Jacobian, J M^-1 J^T, M^-1 J^T, accelerations, multipliers, bias, error, scratch,
     the pivot order of ``_pivoted_cholesky``, the scratch of ``_least_squares_solve`` or the
     eigenvalues of ``_factor``'s eigen-decomposition, its eigenvectors, the row scales
-    sqrt(diag J M^-1 J^T) of ``_factor``, and the projected stage state of ``rhs`` (13 nb)."""
+    sqrt(diag J M^-1 J^T) of ``_factor``, and the projected stage state of ``rhs`` (13 nb) followed
+    by the buffers of ``_across_singular_position`` (3 x 13 nb + nc) and the fixed-step flag
+    (last entry: 0, 1 when a fixed-step driver, ``erk`` or ``erk_rows``, made it)."""
     mass, nc = model[0], model[13]
     nb = mass.shape[0]
     R = np.zeros((nb + 1, 3, 3))
@@ -592,7 +599,7 @@ def workspace(model):
             np.zeros((max(nc, 1), max(nc, 1))), np.zeros((6 * nb, max(nc, 1))), np.zeros(6 * nb),
             np.zeros(max(nc, 1)), np.zeros(max(nc, 1)), np.zeros(max(nc, 1)), np.zeros(8), np.zeros((nb, 4)),
             np.zeros((16, 3)), np.zeros(max(nc, 1), dtype=np.int64), np.zeros((max(nc, 1), max(nc, 1))),
-            np.zeros((max(nc, 1), max(nc, 1))), np.ones(max(nc, 1)), np.zeros(13 * nb))
+            np.zeros((max(nc, 1), max(nc, 1))), np.ones(max(nc, 1)), np.zeros(4 * 13 * nb + max(nc, 1) + 1))
 
 
 @njit(**_INNER)
@@ -986,18 +993,113 @@ def rhs(t, y, dy, model, ws):
     ``_QUADRATIC`` shortcut: the stage map must be a smooth function of y, the identity on the
     manifold) and velocities projected with J at those positions (``_project``), and the
     derivative is that of the copy, with the factor of the projection's last evaluation (the same
-    positions, the same J and J M^-1 J^T). Every compiled method (``erk`` with or without the
+    positions, the same J and J M^-1 J^T). Under a fixed-step driver (``erk``, ``erk_rows``: the workspace's
+    fixed-step flag) a stage within the band of a singular position (``_residual`` above
+    ``_SINGULAR_RESIDUAL``) takes the mean of its neighbours (``_across_singular_position``), as
+    the per-state fixed-step methods do; DOP853 keeps the stage's own, as the per-state DOP853
+    (whose error control steps around the band: the mean, a jump of the right-hand side at the
+    band's edge, made dop853_compiled take 132111 steps over four_bar_chain's first 1.5 s at
+    N = 1, rtol 1e-10, instead of 160). Every compiled method (``erk`` with or without the
     Lie-group form, ``erk_rows``, ``dop853``) and the multipliers at the samples
     (``_multipliers``) go through it."""
     stage_tol = model[30]
     if stage_tol > 0.0 and model[13] > 0:
-        ys = ws[17]
+        ys = ws[17][: y.shape[0]]
         _copy(y, ys)
         st, rank, eigen = _project(ys, model, ws, stage_tol, True)
         if st != OK:
             return st
-        return _derivative(t, ys, dy, model, ws, True, rank, eigen)
+        st = _derivative(t, ys, dy, model, ws, True, rank, eigen)
+        fixed_step = ws[17][ws[17].shape[0] - 1] != 0.0
+        if st != OK or not fixed_step or _residual(model, ws) <= _SINGULAR_RESIDUAL:
+            return st
+        return _across_singular_position(t, ys, dy, model, ws)
     return _derivative(t, y, dy, model, ws, False, 0, False)
+
+
+@njit(**_INNER)
+def _residual(model, ws):
+    """``max |J du - rhs| / max |rhs|`` of the rows' acceleration equation ``_derivative`` has
+    just solved (ws J, B = M^-1 J^T, lam; the right-hand side it saved in ws C; du = B lam):
+    round-off where the rows are solved, large where rows were dropped near a singular position
+    (``newton_euler.SINGULAR_RESIDUAL``). The residual rows are summed into ws bias (scratch by
+    then)."""
+    nc, J, B, lam, rhs_rows, res = model[13], ws[3], ws[5], ws[7], ws[9], ws[8]
+    for r in range(nc):
+        res[r] = -rhs_rows[r]
+    for k in range(J.shape[1]):
+        du = 0.0
+        for r in range(nc):
+            du += B[k, r] * lam[r]
+        for r in range(nc):
+            res[r] += J[r, k] * du
+    worst, scale = 0.0, 0.0
+    for r in range(nc):
+        worst = max(worst, abs(res[r]))
+        scale = max(scale, abs(rhs_rows[r]))
+    return worst / scale if scale > 0.0 else 0.0
+
+
+@njit(**_INNER)
+def _across_singular_position(t, ys, dy, model, ws):
+    """dy/dt (into dy, which holds ys's own) and the multipliers (ws lam) of a projected stage
+    ys within the band of a singular position: the mean of those at its two neighbours, ys moved
+    by -tau and +tau along its own velocities and projected back, tau doubled from the shift of
+    ``_NEIGHBOUR_SHIFT`` joint-offset lengths of the fastest joint point until both are out of
+    the band, as the per-state ``make_dynamics`` (``across_singular_position``, which gives the
+    measurements); ys's own when none is. Buffers: ws ys beyond ys itself (``workspace``)."""
+    mass, nc = model[0], model[13]
+    nb = mass.shape[0]
+    ny = 13 * nb
+    buf = ws[17]
+    z, dz, mean = buf[ny: 2 * ny], buf[2 * ny: 3 * ny], buf[3 * ny: 4 * ny]
+    lam_mean = buf[4 * ny: 4 * ny + nc]
+    length = 0.0
+    for a in (model[6], model[7]):
+        for j in range(a.shape[0]):
+            for m in range(3):
+                length = max(length, abs(a[j, m]))
+    if length == 0.0:
+        length = 1.0
+    speed = 0.0
+    for i in range(nb):
+        v, w = 0.0, 0.0
+        for m in range(3):
+            v += ys[7 * nb + 3 * i + m] ** 2
+            w += ys[10 * nb + 3 * i + m] ** 2
+        speed = max(speed, np.sqrt(v) + length * np.sqrt(w))
+    if not speed > 0.0:
+        return OK
+    tau = _NEIGHBOUR_SHIFT * length / speed
+    for _ in range(_NEIGHBOUR_DOUBLINGS):
+        clean = True
+        for k in range(ny):
+            mean[k] = 0.0
+        for r in range(nc):
+            lam_mean[r] = 0.0
+        for sign in (-1.0, 1.0):
+            _copy(ys, z)
+            for k in range(3 * nb):  # positions by tau v, quaternions by tau dq/dt (dy holds it)
+                z[k] += sign * tau * ys[7 * nb + k]
+            for k in range(3 * nb, 7 * nb):
+                z[k] += sign * tau * dy[k]
+            st, rank, eigen = _project(z, model, ws, model[30], True)
+            if st == OK:
+                st = _derivative(t, z, dz, model, ws, True, rank, eigen)
+            if st != OK or _residual(model, ws) > _SINGULAR_RESIDUAL:
+                clean = False
+                break
+            for k in range(ny):
+                mean[k] += 0.5 * dz[k]
+            for r in range(nc):
+                lam_mean[r] += 0.5 * ws[7][r]
+        if clean:
+            _copy(mean, dy)
+            for r in range(nc):
+                ws[7][r] = lam_mean[r]
+            return OK
+        tau *= 2.0
+    return OK
 
 
 @njit(**_INNER)
@@ -1042,6 +1144,8 @@ def _derivative(t, y, dy, model, ws, factored, rank, eigen):
             st, rank, eigen = _factor(A, nc, perm, rtol, model[29], mass, model[2], J, B, ws[14], ws[15], ws[16])
             if st != OK:
                 return st
+        for r in range(nc):  # the right-hand side, kept for ``_residual`` (_solve overwrites it)
+            ws[9][r] = bias[r]
         # near a singular configuration the per-state pseudo-inverse (eigen); dependent rows:
         # least squares, as the per-state pseudo-inverse
         _solve(A, bias, lam, nc, rank, perm, rtol, eigen, True, ws[14], ws[15], ws[16])
@@ -1295,6 +1399,7 @@ def erk(model, y0, t_save, steps_per_save, proj_tol, out, A, b, c, series, lam_o
     Returns (status, samples, steps)."""
     n = y0.shape[0]
     ws, y, K, tmp = workspace(model), y0.copy(), np.empty((b.shape[0], n)), np.empty(n)
+    ws[17][ws[17].shape[0] - 1] = 1.0  # fixed steps: a stage in a singular band takes its neighbours' mean (rhs)
     KT = np.empty((b.shape[0], n // 13, 3))
     result = _erk(_borrow(model), _borrow(ws), _borrow(y), _borrow(K), _borrow(KT), _borrow(tmp), t_save,
                   steps_per_save, proj_tol, out, A, b, c, series)
@@ -1344,6 +1449,7 @@ def erk_rows(model, Y0, nstep, h, proj_tol, A, b, c, series, Yend, status, first
     trajectory stops alone: the others never see it."""
     n = Y0.shape[1]
     ws, y, K, tmp = workspace(model), np.empty(n), np.empty((b.shape[0], n)), np.empty(n)
+    ws[17][ws[17].shape[0] - 1] = 1.0  # fixed steps: a stage in a singular band takes its neighbours' mean (rhs)
     KT = np.empty((b.shape[0], n // 13, 3))
     _erk_rows(_borrow(model), _borrow(ws), _borrow(y), _borrow(K), _borrow(KT), _borrow(tmp), Y0, nstep, h, proj_tol,
               A, b, c, series, Yend, status, first, last)

@@ -161,7 +161,8 @@ def test_dop853_compiled_passes_the_flat_positions_without_its_step_collapsing()
 # matrix); where both drop it, by the loops' usual round-off (OFF_MANIFOLD_RTOL of
 # test_every_scene).
 RHS_RTOL = 2e-9
-# kernels.workspace: the buffer holding rhs's projection of its state (a loop model's stage)
+# kernels.workspace: the buffer holding rhs's projection of its state (a loop model's stage) in
+# its first 13 nb entries
 STAGE = 17
 
 
@@ -215,7 +216,7 @@ def test_near_the_flat_position_the_kernels_solve_as_the_per_state_pseudo_invers
     for state in (y, y + off_stage * rng.standard_normal(len(y))):
         got = np.empty_like(state)
         assert kernels.rhs(0.0, state, got, model, ws) == kernels.OK
-        stage = ws[STAGE].copy()  # the state whose derivative ``got`` is
+        stage = ws[STAGE][: len(state)].copy()  # the state whose derivative ``got`` is
         same_state(nem, stage, project_stage(nem, state, tol)[0], kappa)
         expected = plain(0.0, stage)
         np.testing.assert_allclose(got, expected, rtol=0,

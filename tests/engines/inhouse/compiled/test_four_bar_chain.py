@@ -78,3 +78,21 @@ def test_a_loop_models_rhs_is_that_of_its_projected_stage_and_leaves_the_state_a
     assert kernels.project(projected, model, ws, model[-1]) == kernels.OK
     assert kernels.rhs(0.0, projected, dy, model, ws) == kernels.OK
     np.testing.assert_allclose(dy_off, dy, rtol=0, atol=1e-9 * np.max(np.abs(dy)))
+
+
+@pytest.mark.parametrize("offset", [1e-7, 1e-6])
+def test_rk4_compiled_takes_the_neighbours_mean_in_the_band_as_the_per_state_rk4(offset):
+    """N = 12 (188 rows, the largest model the compiled form takes), rk4 at 1 ms over 0.1 s with
+    a stage placed ``offset`` rad from the first flat position
+    (``four_bar_chain.start_before_flat``): both forms replace the stage by its neighbours' mean
+    and stay on the exact motion (measured: compiled 3.3e-11 m at both offsets; the per-state
+    rk4 with the stage's own solve 2.3e-10 m). DOP853 is not affected (its own test)."""
+    params = chain(12).params
+    scene = chain(12).with_params(**reference.start_before_flat(params, 50.5 * DT, offset))
+    settings = RunSettings(0.1, DT, 0.01, "rk4_compiled")
+    fast = ENGINE.simulate(scene, settings)
+    assert fast.ok, fast.message
+    assert np.max(reference.exact_error_series(scene, fast)) < 1e-9
+    slow = ENGINE.simulate(scene, replace(settings, integrator="rk4"))
+    assert slow.ok, slow.message
+    np.testing.assert_allclose(fast.p_WCm_W, slow.p_WCm_W, rtol=0, atol=1e-9)
