@@ -23,7 +23,8 @@ def test_the_benchmark_scenes_are_those_whose_reference_states_one():
 def test_a_run_measures_each_engine_and_writes_both_files(tmp_path, capsys):
     """On A01 with two engines: each engine's error at the scene's step is validate's exact check
     (agreement in digits over the 1 m pendulum), its time to the required 1e-3 is measured, the
-    baseline's ratio is 1, and the report and the CSV carry the same numbers."""
+    baseline's ratio is 1 (of the sweep's times and of validate's run at the scene's step), and the
+    report and the CSV carry the same numbers."""
     out = tmp_path / "out"
     code = main(["benchmark", "--scenes", "pendulum", "--engines", "inhouse,mujoco", "--quick", "--quiet",
                  "--out-dir", str(out)])
@@ -36,6 +37,10 @@ def test_a_run_measures_each_engine_and_writes_both_files(tmp_path, capsys):
         assert 0 < err < 1e-6 and float(r["digits"]) == pytest.approx(-math.log10(err), rel=1e-9)  # L = 1 m
     mujoco = next(r for r in rows if r["engine"] == "mujoco")
     assert float(mujoco["ratio_to_baseline"]) == pytest.approx(1.0) and float(mujoco["time_s"]) > 0
+    # validate's own run at the scene's step, timed and set against the baseline's in the same run
+    assert float(mujoco["step_ratio_to_baseline"]) == pytest.approx(1.0)
+    for r in rows:
+        assert float(r["step_wall_s"]) > 0
     text = (out / "benchmarks.md").read_text()
     assert "## IFToMM A01: simple pendulum (`pendulum`)" in text and f"{float(mujoco['exact']):.2e} m" in text
 

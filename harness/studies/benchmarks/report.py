@@ -17,7 +17,8 @@ from harness.studies.benchmarks.run import ProblemResult
 from harness.studies.workprecision.run import BASELINE
 
 FIELDS = ("problem", "scene", "engine", "integrator", "check", "exact", "unit", "digits", "classification", "passed",
-          "detail", "required", "time_s", "curve", "ratio_to_baseline", "published_digits")
+          "detail", "required", "time_s", "curve", "ratio_to_baseline", "step_wall_s", "step_ratio_to_baseline",
+          "published_digits")
 
 
 def _g(x, fmt: str = ".2g") -> str:
@@ -51,7 +52,11 @@ def markdown(results: list[ProblemResult], prov: dict, command: str | None = Non
         "`exact` check), **time** the run time (s, median of "
         "repeated runs on this machine) of the engine's fastest work-precision curve to reach the problem's required "
         f"accuracy (the largest state error over the samples, relative to the scene's scales), and its ratio to "
-        f"{base}'s fastest (`harness workprecision` on the same scenes, in the same run).",
+        f"{base}'s fastest (`harness workprecision` on the same scenes, in the same run; a point of that sweep "
+        "may take at most 60 s, so a problem whose every run is longer, A02, is reached there only by the fast "
+        f"engines), and **run at the step** the wall time (s) of validate's one run at the scene's step, the "
+        f"one the error column judges, with its ratio to {base}'s (the same validate run: two at a time on "
+        "this machine).",
         "",
     ]
     for p in results:
@@ -61,16 +66,17 @@ def markdown(results: list[ProblemResult], prov: dict, command: str | None = Non
                      if p.published_digits is not None else ""),
                   f"Required accuracy: {p.required:g} (state error relative to the scene's scales).", "",
                   "| engine | integrator | error at the scene's step | digits | class | time to required (s) | fastest curve "
-                  f"| vs {base} |",
-                  "|---|---|---|---|---|---|---|---|"]
+                  f"| vs {base} | run at the step (s) | vs {base} |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
         for r in p.engines:
             verdict = r.classification + (f" (`{r.check}`)" if r.check and r.check != "exact" else "") \
                 + ("" if r.passed else " **✗**")
             error = "; ".join(x for x in ((f"{_g(r.exact, '.2e')} {r.unit}" if math.isfinite(r.exact) else ""), r.detail) if x)
             lines.append(f"| {display(r.engine)} | `{r.integrator}` | {error} | {_g(r.digits, '.1f')} "
-                         f"| {verdict} | {_g(r.time_s, '.3g')} | {r.curve or 'not reached'} | {_g(r.ratio, '.2f')} |")
+                         f"| {verdict} | {_g(r.time_s, '.3g')} | {r.curve or 'not reached'} | {_g(r.ratio, '.2f')} "
+                         f"| {_g(r.step_wall_s, '.3g')} | {_g(r.step_ratio, '.2f')} |")
         for engine, why in p.not_run.items():
-            lines.append(f"| {display(engine)} | — | not run: {why} | | | | | |")
+            lines.append(f"| {display(engine)} | — | not run: {why} | | | | | | | |")
         lines.append("")
         if p.eigenvalues:
             lines += [f"Eigenvalues against speed, the published and each engine's own linearisation: "
@@ -120,7 +126,8 @@ def rows(results: list[ProblemResult]) -> list[dict]:
             out.append({"problem": p.problem, "scene": p.scene, "engine": r.engine, "integrator": r.integrator,
                         "check": r.check, "exact": r.exact, "unit": r.unit, "digits": r.digits,
                         "classification": r.classification, "passed": r.passed, "detail": r.detail, "required": p.required, "time_s": r.time_s, "curve": r.curve,
-                        "ratio_to_baseline": r.ratio, "published_digits": p.published_digits})
+                        "ratio_to_baseline": r.ratio, "step_wall_s": r.step_wall_s, "step_ratio_to_baseline": r.step_ratio,
+                        "published_digits": p.published_digits})
     return out
 
 

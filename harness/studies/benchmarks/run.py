@@ -57,6 +57,11 @@ class EngineResult:
         detail: what else the figure says (a linearisation's stability speeds).
         time_s: run time (s) of its fastest curve to reach the problem's required accuracy
             (NaN: not reached); curve: that curve's label; ratio: ``time_s`` over the baseline's.
+        step_wall_s: wall time (s) of validate's run at the scene's step with its default
+            integrator (one run, in the same validate run as the baseline's; NaN where that run
+            did not end ok); step_ratio: over the baseline's. For a problem whose runs are too
+            long for the work-precision sweep's point budget (A02: 20 s of 81 bodies) it is the
+            time of a run that meets the required accuracy where ``exact`` does.
     """
 
     engine: str
@@ -71,6 +76,8 @@ class EngineResult:
     time_s: float = float("nan")
     curve: str = ""
     ratio: float = float("nan")
+    step_wall_s: float = float("nan")
+    step_ratio: float = float("nan")
 
 
 @dataclass
@@ -167,6 +174,9 @@ def benchmark_study(scenes: list[Scene], engines: list[str], options: SweepOptio
                 fastest[engine] = (t, label)
         base = fastest.get(BASELINE, (float("nan"), ""))[0]
         runs = {r.engine: r for r in v.runs}
+        step_wall = {r.engine: r.wall_s for r in v.runs
+                     if r.status == "ok" and math.isclose(r.dt, scene.dt, rel_tol=1e-9)}
+        base_step = step_wall.get(BASELINE, float("nan"))
         for engine in engines:
             if engine in v.not_run:
                 continue
@@ -182,6 +192,8 @@ def benchmark_study(scenes: list[Scene], engines: list[str], options: SweepOptio
                 row.passed = all(c.passed for c in mine)
             if hasattr(module, "linearization_agreement"):
                 _linearized(row, scene, module)
+            row.step_wall_s = step_wall.get(engine, float("nan"))
+            row.step_ratio = row.step_wall_s / base_step if base_step > 0 else float("nan")
             if engine in fastest:
                 row.time_s, row.curve = fastest[engine]
                 row.ratio = row.time_s / base if math.isfinite(base) and base > 0 else float("nan")

@@ -124,7 +124,10 @@ def markdown(study: LoopStudy, prov: dict, pngs: list[Path], command: str) -> st
         "",
         f"Every scene with a cut joint (`Multibody.loops`), over {horizon}, at the scene's step dt times "
         f"{', '.join(f'{f:g}' for f in study.factors)}; each run in its own worker process "
-        f"({study.jobs} at a time, {study.timeout:g} s allowed each), {study.wall_s:.0f} s in all.",
+        f"({study.jobs} at a time, {study.timeout:g} s allowed each"
+        + "".join(f", {s.scene.name} {s.scene.timeout:g} s" for s in study.scenes
+                  if (s.scene.timeout or 0.0) > study.timeout)
+        + f"), {study.wall_s:.0f} s in all.",
         "",
         "Rows: the ideal-constraint engines at the scene's integrator ("
         + "; ".join(f"{display(e)}: {declaration(e).loops_how}" for e in with_loops(IDEAL))

@@ -346,7 +346,8 @@ def loop_study(*, quick: bool = False, models_dir: Path | None = None, jobs: int
                timeout: float = DEFAULT_TIMEOUT, on_done: Callable | None = None,
                scenes: list[Scene] | None = None) -> LoopStudy:
     """Run the study (module docstring); ``quick``: 0.5 s and the steps ``QUICK_FACTORS``.
-    ``jobs``: worker processes (None: every usable CPU); ``timeout``: s per run; ``on_done(key,
+    ``jobs``: worker processes (None: every usable CPU); ``timeout``: s per run (a scene's own
+    ``[simulation] timeout`` where larger: ``Scene.timeout``); ``on_done(key,
     outcome)`` is called as each run ends (a progress bar). ``scenes``: the loop scenes
     (default ``loop_scenes(models_dir)``). InputError when a run reports bad input."""
     from harness.engines import get_engine
@@ -394,7 +395,9 @@ def loop_study(*, quick: bool = False, models_dir: Path | None = None, jobs: int
             if declaration(engine).compiled:
                 prepare(engine, [(m["integrator"], by_scene[k[0]].multibody()) for k, m in meta.items()
                                  if m["engine"] == engine])
-        outcomes = run_cases([c for _, c in cases], jobs, timeout, on_done=on_done)
+        # a scene's own case limit ([simulation] timeout: four_bar_chain's 81 bodies over 20 s) where larger
+        limit = lambda key: max(timeout, by_scene[key[0]].timeout or 0.0)  # noqa: E731
+        outcomes = run_cases([c for _, c in cases], jobs, limit, on_done=on_done)
     bad = [(k, o) for k, o in outcomes.items() if o.status == "input_error"]
     if bad:
         (scene, variant, f), outcome = bad[0]
