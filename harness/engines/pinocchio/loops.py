@@ -446,17 +446,23 @@ def simulate_loops(engine, scene, settings: RunSettings, model: Multibody) -> Tr
     reader.finish(saved)
     mu = prox.mu if prox is not None else float("nan")
     acc = prox.relative_accuracy if prox is not None else float("nan")
-    spans = "/".join(f"{lp.hinge_span:g}" for lp in model.loops if keeps_axis(lp.kind)) or "-"
+    two_point = [lp for lp, _, n in constraints.items if n == 2]
+    one_point = sum(1 for lp, _, n in constraints.items if n == 1 and keeps_axis(lp.kind))
+    hinges = "; ".join(x for x in (
+        f"{one_point} planar hinge{'s' if one_point != 1 else ''} (turning only about the axis): 1 point" if one_point else "",
+        f"other hinges: 2 points {'/'.join(f'{lp.hinge_span:g}' for lp in two_point)} m apart on the axis" if two_point else "",
+    ) if x) or "no hinge"
     stats = {"steps": max(saved - 1, 0) * per, "rhs_evals": counters["rhs_evals"], "wall_s": done.wall_s,
              "prox_iter_max": counters["prox_iter_max"], "prox_unconverged": counters["prox_unconverged"],
              "projection_iter_max": counters["projection_iter_max"],
              "settings": f"constraintDynamics (proximal KKT) with RigidConstraintModel CONTACT_3D rows in "
-                         f"LOCAL_WORLD_ALIGNED (ball: 1 point, hinge: 2 points {spans} m apart on the axis), "
+                         f"LOCAL_WORLD_ALIGNED (ball: 1 point; {hinges}), "
                          f"mu {mu:.3g} ({MU_RELATIVE:g} of the Delassus diagonal), relative accuracy {acc:.3g} N "
                          f"(loop acceleration residual {acc * mu:.2g} m/s^2), "
                          f"max_iter {MAX_PROXIMAL_ITER}, Baumgarte off; {settings.integrator} on the configuration Lie group, "
                          f"step {h:g} s; drift: Gauss-Newton position projection (tol {PROJECTION_TOL:g} m per m, "
                          f"at least 1 m) then "
-                         f"velocity projection after each step, mass-weighted; root joint {scene.urdf_root_joint}"}
+                         f"velocity projection after each step and at each Runge-Kutta stage, mass-weighted; "
+                         f"root joint {scene.urdf_root_joint}"}
     return buf.trajectory(engine.name, settings.integrator, [b.name for b in model.bodies], settings.save_every,
                           saved, stats, done.reason, done.message)
