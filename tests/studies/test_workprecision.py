@@ -228,6 +228,8 @@ def test_batch_benchmark_compares_the_compiled_batch_with_rollout(monkeypatch):
     sized = batch_benchmark(load_scene("heavy_top"), 40, 5, repeats=3, options=replace(SweepOptions(), batch_budget_s=1e-6))
     assert sized["status"] == "ok" and sized["nbatch"] == min(40, sized["threads"])  # a tiny budget: the floor
     assert sized["rounds"] == 1 and sized["calibration_s_per_trajectory"] > 0  # rounds past the first: within budget
+    large = batch_benchmark(load_scene("four_bar_chain", {"N": 14}), 2, 2, repeats=1)  # 215 rows: as its runs
+    assert large["status"].startswith("skipped") and "constraint rows" in large["status"]
     not_modelled(monkeypatch)
     skipped = batch_benchmark(load_scene("rolling_disk"), 4, 2, repeats=1)
     assert skipped["status"].startswith("skipped") and "rolling contacts" in skipped["status"]
