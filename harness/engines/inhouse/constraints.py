@@ -379,11 +379,17 @@ def violation(nem: NEModel, y: np.ndarray) -> tuple[float, float]:
     return float(np.max(np.abs(C))), float(np.max(np.abs(J @ y[7 * nb :])))
 
 
+def joint_offset_length(nem: NEModel) -> float:
+    """The largest joint-point offset of the model (m): the largest component of a joint point
+    from its body's centre of mass (or of a world point), 0 for a model without joints."""
+    return float(np.max(np.abs(nem.D_end[:, :, 0]), initial=0.0))
+
+
 def projection_tolerance(nem: NEModel) -> float:
     """Tolerance (m) of the projection onto the joint constraints, both forms: 1e-13 of the
     largest joint-point offset (at least 1 m), far above round-off and far below every scene's
     constraint check (1e-9)."""
-    return 1e-13 * max(1.0, float(np.max(np.abs(nem.D_end[:, :, 0]), initial=0.0)))
+    return 1e-13 * max(1.0, joint_offset_length(nem))
 
 
 def project_stage(nem: NEModel, y: np.ndarray, tol: float, max_iter: int = 8) -> tuple[np.ndarray, RowSystem]:

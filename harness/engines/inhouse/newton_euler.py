@@ -32,7 +32,8 @@ from typing import Callable
 import numpy as np
 
 from harness.engines.inhouse import algebra, rolling
-from harness.engines.inhouse.constraints import RowSystem, evaluate, frames, linear_velocities, project_stage, slide_reactions
+from harness.engines.inhouse.constraints import (RowSystem, evaluate, frames, joint_offset_length, linear_velocities,
+                                                 project_stage, slide_reactions)
 from harness.engines.inhouse.model import NEModel, build
 from harness.model.multibody import Multibody
 
@@ -94,7 +95,7 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte(), stage_tol: float
     no_lambda = np.zeros(0)
     cross, quat_matrix, quat_rate = algebra.cross, algebra.quat_matrix, algebra.quat_rate
 
-    length = float(np.max(np.abs(nem.D_end[:, :, 0]), initial=0.0)) or 1.0  # m: the joints' offsets
+    length = joint_offset_length(nem) or 1.0  # m
 
     def dynamics(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if stage_tol is None or not nc:
@@ -121,20 +122,16 @@ def make_dynamics(nem: NEModel, gains: Baumgarte = Baumgarte(), stage_tol: float
         2.6e-5 m from the exact motion without it; 8.6e-11 m with it (NEIGHBOUR_SHIFT 1e-5 to
         3e-4: 4.3e-11 to 1.7e-10 m; the accelerations alone averaged, the velocities left:
         2.0e-7 m); the passage at 0.7 s, whose nearest stage is 3.9e-4 rad from flat, 3.4e-11 m."""
-        V = y[n7:n10]
-        W = y[n10:].reshape(nb, 3)
-        Q = y[n3:n7].reshape(nb, 4)
-        speed = float(np.max(np.sqrt(np.sum(V.reshape(nb, 3) ** 2, axis=1)) + length * np.sqrt(np.sum(W**2, axis=1))))
+        V, W = y[n7:n10].reshape(nb, 3), y[n10:].reshape(nb, 3)
+        speed = float(np.max(np.sqrt(np.sum(V**2, axis=1)) + length * np.sqrt(np.sum(W**2, axis=1))))
         if not speed > 0.0:
             return dy, lam
         tau = NEIGHBOUR_SHIFT * length / speed
-        dQ = quat_rate(Q, W)
         for _ in range(NEIGHBOUR_DOUBLINGS):
             sides = []
             for sign in (-1.0, 1.0):
                 z = y.copy()
-                z[:n3] += sign * tau * V
-                z[n3:n7] = algebra.normalized(Q + sign * tau * dQ).ravel()
+                z[:n7] += sign * tau * dy[:n7]  # positions by tau v, quaternions by tau dq/dt (unit again in the projection)
                 z, rows = project_stage(nem, z, stage_tol)
                 sides.append(accelerations(t, z, rows))
             if max(sides[0][2], sides[1][2]) <= SINGULAR_RESIDUAL:

@@ -93,8 +93,8 @@ the Gauss-Newton position and velocity projection of the steps, ``project``), as
 engine evaluates its stages (``harness.engines.inhouse.projected_stages``, which says why: a
 stage's velocity error c reads as a folding velocity c / theta near flat). Measured on
 four_bar_chain at N = 40 over 20 s, largest error of every crank tip against the exact motion:
-6.5e-6 / 2.0e-5 / 3.7e-6 m at 2 / 1 / 0.5 ms before, 3.2e-9 / 7.7e-10 / {P05} m with it, at 61 /
-105 / {W05} s a run instead of 19 / 36 / 71 s; over 0.2 s from the exact state at 8.5 s (a stage
+6.5e-6 / 2.0e-5 / 3.7e-6 m at 2 / 1 / 0.5 ms before, 3.2e-9 / 7.7e-10 / 2.3e-9 m with it, at 61 /
+105 / 213 s a run instead of 19 / 36 / 71 s; over 0.2 s from the exact state at 8.5 s (a stage
 1.3e-5 rad from flat at 1 ms) 7.1e-10 m before, 6.9e-13 m with it; N = 2 and 8 at 1 ms, 20 s:
 2.5e-10 and 5.5e-9 m before, 1.7e-10 and 6.3e-9 m with it. The configuration rates of the
 Lie-group stages stay those of the unprojected stage velocities. The projections' cut-off
